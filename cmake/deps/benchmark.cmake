@@ -1,0 +1,4 @@
+if(TARGET benchmark::benchmark)
+  return()
+endif()
+find_package(benchmark REQUIRED)

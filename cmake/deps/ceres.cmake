@@ -1,0 +1,4 @@
+if(TARGET Ceres::ceres)
+  return()
+endif()
+find_package(Ceres REQUIRED)

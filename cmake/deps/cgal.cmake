@@ -1,0 +1,5 @@
+if(TARGET CGAL::CGAL)
+  return()
+endif()
+set(CGAL_DO_NOT_WARN_ABOUT_CMAKE_BUILD_TYPE TRUE)
+find_package(CGAL REQUIRED)

@@ -1,0 +1,5 @@
+if(TARGET GTest::gtest_main)
+  return()
+endif()
+find_package(GTest REQUIRED)
+include(GoogleTest)

@@ -1,0 +1,4 @@
+if(TARGET spdlog::spdlog)
+  return()
+endif()
+find_package(spdlog REQUIRED)

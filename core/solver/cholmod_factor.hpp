@@ -1,0 +1,62 @@
+#pragma once
+/// @file
+/// @brief CHOLMOD supernodal Cholesky factor A = P L Lᵀ Pᵀ with the analyse / factorise /
+/// solve split (symbolic once per sparsity pattern, numeric per matrix, solve per right-hand side).
+
+#include <memory>
+#include <string>
+
+#include "core/config.hpp"
+
+namespace brainshift::core {
+
+/// Outcome of a numeric factorisation (a status, not an exception: STYLE §28).
+enum class FactorStatus {
+  OK,
+  NOT_POSITIVE_DEFINITE,  ///< CHOLMOD hit a non-positive pivot (singular or indefinite matrix)
+  FAILED,                 ///< any other CHOLMOD failure (out of memory, ...)
+};
+
+/// Owns a CHOLMOD common and factor. Move-only. Not thread-safe for concurrent solves
+/// (CHOLMOD's common workspace is shared); const methods do not modify observable state.
+class CholmodFactor {
+ public:
+  CholmodFactor();
+  ~CholmodFactor();
+  CholmodFactor(CholmodFactor&&) noexcept;
+  CholmodFactor& operator=(CholmodFactor&&) noexcept;
+  CholmodFactor(const CholmodFactor&) = delete;
+  CholmodFactor& operator=(const CholmodFactor&) = delete;
+
+  /// Symbolic analysis (fill-reducing ordering, supernodes) of the pattern of the symmetric A.
+  /// Only the lower triangle of A is read. \throws brainshift::Error if A is not square.
+  void analyze(const SparseMatrix& A);
+  /// Numeric LLᵀ factorisation of A (same pattern as analyze()). Returns the status; on
+  /// NOT_POSITIVE_DEFINITE, message() names the failing column.
+  FactorStatus factorize(const SparseMatrix& A);
+  /// analyze() then factorize().
+  FactorStatus compute(const SparseMatrix& A);
+
+  [[nodiscard]] bool ok() const { return m_status == FactorStatus::OK; }
+  [[nodiscard]] FactorStatus status() const { return m_status; }
+  [[nodiscard]] const std::string& message() const { return m_message; }
+  [[nodiscard]] index_t rows() const { return m_rows; }
+  /// Non-zeros of L (memory indicator).
+  [[nodiscard]] std::size_t factor_nonzeros() const;
+
+  /// x = A⁻¹ b. \pre ok(). \throws brainshift::Error otherwise or on a size mismatch.
+  [[nodiscard]] Eigen::VectorXd solve(ConstRef<Eigen::VectorXd> b) const;
+  /// X = A⁻¹ B for several dense right-hand sides (columns).
+  [[nodiscard]] Eigen::MatrixXd solve(ConstRef<Eigen::MatrixXd> B) const;
+  /// Y = L⁻¹ P B for a sparse B (rows(A)×k), sparse result: then Bᵀ A⁻¹ B = Yᵀ Y.
+  [[nodiscard]] SparseMatrix solve_lower_permuted(const SparseMatrix& B) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+  FactorStatus m_status = FactorStatus::FAILED;
+  std::string m_message = "not factorised";
+  index_t m_rows = 0;
+};
+
+}  // namespace brainshift::core

@@ -1,0 +1,41 @@
+#!/usr/bin/env bash
+# Installs brainshift's build and test dependencies from Debian 12 packages.
+# Idempotent: packages already present are skipped; apt runs only when something is missing.
+# Usage: scripts/install_deps.sh            (as root, or with sudo available)
+set -euo pipefail
+
+PACKAGES=(
+  build-essential cmake pkg-config ninja-build
+  libeigen3-dev          # dense/sparse linear algebra
+  libsuitesparse-dev     # CHOLMOD supernodal Cholesky
+  libcgal-dev            # meshing, spatial queries
+  libopencv-dev          # 2-D image work, overlays
+  libvtk9-dev            # medical image and mesh I/O
+  libceres-dev           # rigid initialisation
+  libgtest-dev libgmock-dev  # tests
+  libbenchmark-dev       # micro-benchmarks
+  libspdlog-dev libfmt-dev   # logging
+  nlohmann-json3-dev     # JSON reports, scenes
+  libcli11-dev           # command line
+  zlib1g-dev
+  calculix-ccx           # independent FEM reference for verification tests
+  gnuplot-nox            # benchmark plots
+)
+
+missing=()
+for p in "${PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install_deps: all ${#PACKAGES[@]} packages present"
+  exit 0
+fi
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+echo "install_deps: installing ${missing[*]}"
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
