@@ -1,0 +1,95 @@
+#include "core/fem/corotational.hpp"
+
+#include <cmath>
+
+#include "core/error.hpp"
+#include "core/fem/rotation.hpp"
+
+namespace brainshift::core {
+
+namespace {
+
+/// The 12-vector (x0, y0, z0, …, z3) of the nodes of tetrahedron t in positions P (#N×3).
+Vector12d gather(ConstRef<MatrixX3d> P, const MatrixX4i& T, index_t t) {
+  Vector12d v;
+  for (int k = 0; k < 4; ++k) v.segment<3>(3 * k) = P.row(T(t, k)).transpose();
+  return v;
+}
+
+}  // namespace
+
+CorotationalModel::CorotationalModel(const TetMesh& mesh) : m_mesh(mesh) {
+  validate(m_mesh, "corotational model mesh");
+  const index_t nt = m_mesh.num_tets();
+  m_shapes.reserve(static_cast<std::size_t>(nt));
+  m_stiffness.reserve(static_cast<std::size_t>(nt));
+  for (index_t t = 0; t < nt; ++t) {
+    try {
+      m_shapes.push_back(tet_shape(m_mesh.tet_nodes(t)));
+      m_stiffness.push_back(linear_tet_stiffness(m_shapes.back(), m_mesh.youngs_modulus()(t),
+                                                 m_mesh.poisson_ratio()(t)));
+    } catch (const Error& e) {
+      BS_THROW("tetrahedron " << t << ": " << e.what());
+    }
+  }
+}
+
+ElementRotations CorotationalModel::element_rotations(ConstRef<MatrixX3d> x) const {
+  const index_t n = m_mesh.num_nodes();
+  BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows, expected " << n << " nodes");
+  for (index_t i = 0; i < n; ++i) {
+    BS_VERIFY(x.row(i).allFinite(), "node " << i << " has a non-finite position ("
+                                            << x(i, 0) << ", " << x(i, 1) << ", " << x(i, 2)
+                                            << ")");
+  }
+  const MatrixX4i& T = m_mesh.tets();
+  ElementRotations out;
+  out.rotation.resize(static_cast<std::size_t>(m_mesh.num_tets()));
+  for (index_t t = 0; t < m_mesh.num_tets(); ++t) {
+    Matrix3d Ds;
+    for (int k = 0; k < 3; ++k) Ds.col(k) = (x.row(T(t, k + 1)) - x.row(T(t, 0))).transpose();
+    const Matrix3d F = Ds * m_shapes[static_cast<std::size_t>(t)].rest_edges_inv;
+    bool inverted = false;
+    out.rotation[static_cast<std::size_t>(t)] = rotation_from_deformation_gradient(F, &inverted);
+    if (inverted) ++out.inverted_count;
+  }
+  return out;
+}
+
+Eigen::VectorXd CorotationalModel::internal_force(ConstRef<MatrixX3d> x,
+                                                  const std::vector<Matrix3d>& rotations) const {
+  const index_t n = m_mesh.num_nodes();
+  const index_t nt = m_mesh.num_tets();
+  BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows, expected " << n << " nodes");
+  BS_VERIFY(static_cast<index_t>(rotations.size()) == nt,
+            "got " << rotations.size() << " element rotations, expected " << nt);
+  const MatrixX4i& T = m_mesh.tets();
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n);
+  for (index_t t = 0; t < nt; ++t) {
+    const Matrix3d& R = rotations[static_cast<std::size_t>(t)];
+    const Vector12d xe = gather(x, T, t);
+    const Vector12d Xe = gather(m_mesh.nodes(), T, t);
+    Vector12d d;  // R̂ᵀ x_e − X_e
+    for (int k = 0; k < 4; ++k) {
+      d.segment<3>(3 * k) = R.transpose() * xe.segment<3>(3 * k) - Xe.segment<3>(3 * k);
+    }
+    const Vector12d g = m_stiffness[static_cast<std::size_t>(t)] * d;
+    for (int k = 0; k < 4; ++k) f.segment<3>(3 * T(t, k)) += R * g.segment<3>(3 * k);
+  }
+  return f;
+}
+
+Eigen::VectorXd CorotationalModel::gravity_force(const Vector3d& gravity, double density) const {
+  BS_VERIFY(gravity.allFinite(), "gravity is not finite: " << gravity.transpose());
+  BS_VERIFY(std::isfinite(density) && density >= 0.0,
+            "density must be finite and non-negative, got " << density << " kg/mm³");
+  const MatrixX4i& T = m_mesh.tets();
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * m_mesh.num_nodes());
+  for (index_t t = 0; t < m_mesh.num_tets(); ++t) {
+    const Vector3d quarter = 0.25 * density * m_shapes[static_cast<std::size_t>(t)].volume * gravity;
+    for (int k = 0; k < 4; ++k) f.segment<3>(3 * T(t, k)) += quarter;
+  }
+  return f;
+}
+
+}  // namespace brainshift::core

@@ -48,6 +48,11 @@ class CholmodFactor {
   [[nodiscard]] Eigen::VectorXd solve(ConstRef<Eigen::VectorXd> b) const;
   /// X = A⁻¹ B for several dense right-hand sides (columns).
   [[nodiscard]] Eigen::MatrixXd solve(ConstRef<Eigen::MatrixXd> B) const;
+  /// Exact-type overloads of the two solves above. They exist because a plain VectorXd (or
+  /// MatrixXd) converts equally well to both Ref parameters, which makes `solve(b)` ambiguous;
+  /// these win overload resolution. Expressions must be evaluated first (`solve(VectorXd(e))`).
+  [[nodiscard]] Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
+  [[nodiscard]] Eigen::MatrixXd solve(const Eigen::MatrixXd& B) const;
   /// Y = L⁻¹ P B for a sparse B (rows(A)×k), sparse result: then Bᵀ A⁻¹ B = Yᵀ Y.
   [[nodiscard]] SparseMatrix solve_lower_permuted(const SparseMatrix& B) const;
 
