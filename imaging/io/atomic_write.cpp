@@ -17,15 +17,18 @@ namespace {
 /// A name in the folder of `target` that no other writer (thread or process) uses.
 std::filesystem::path temporary_name(const std::filesystem::path& target) {
   static std::atomic<unsigned> counter{0};
-  const std::string name = "." + target.filename().string() + ".partial-" +
-                           std::to_string(::getpid()) + "-" + std::to_string(counter++);
+  // Built by appending (GCC 12 warns falsely, -Wrestrict, on "literal" + std::string).
+  std::string name = ".";
+  name += target.filename().string();
+  name += ".partial-";
+  name += std::to_string(::getpid());
+  name += '-';
+  name += std::to_string(counter++);
   return target.parent_path() / name;
 }
 
-}  // namespace
-
-void write_atomically(const std::filesystem::path& target,
-                      const std::function<void(const std::filesystem::path&)>& write) {
+/// Creates the (empty) file `temporary` next to `target`, or throws one line saying why not.
+void create_temporary(const std::filesystem::path& target, const std::filesystem::path& temporary) {
   namespace fs = std::filesystem;
   BS_VERIFY(!target.filename().empty(), "cannot write '" << target.string() << "': not a file name");
   const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
@@ -37,21 +40,34 @@ void write_atomically(const std::filesystem::path& target,
             "cannot write " << target.string() << ": " << folder.string() << " is not a folder");
   BS_VERIFY(!fs::is_directory(target, ec),
             "cannot write " << target.string() << ": it is a folder");
-  const fs::path temporary = temporary_name(target);
-  {
-    // Probe: can a file be created in the folder at all? Gives a plain reason when not.
-    std::ofstream probe(temporary, std::ios::binary);
-    const int error = errno;
-    BS_VERIFY(probe.is_open(), "cannot write " << target.string() << ": cannot create a file in "
-                                               << folder.string() << " ("
-                                               << std::strerror(error) << ")");
-  }
+  std::ofstream file(temporary, std::ios::binary);
+  const int error = errno;
+  BS_VERIFY(file.is_open(), "cannot write " << target.string() << ": cannot create a file in "
+                                            << folder.string() << " (" << std::strerror(error)
+                                            << ")");
+}
+
+}  // namespace
+
+void verify_writable(const std::filesystem::path& target) {
+  const std::filesystem::path probe = temporary_name(target);
+  create_temporary(target, probe);
+  std::error_code ec;
+  std::filesystem::remove(probe, ec);
+}
+
+void write_atomically(const std::filesystem::path& target,
+                      const std::function<void(const std::filesystem::path&)>& write) {
+  const std::filesystem::path temporary = temporary_name(target);
+  create_temporary(target, temporary);
   try {
     write(temporary);
-    fs::rename(temporary, target, ec);
+    std::error_code ec;
+    std::filesystem::rename(temporary, target, ec);
     BS_VERIFY(!ec, "cannot write " << target.string() << ": " << ec.message());
   } catch (...) {
-    fs::remove(temporary, ec);
+    std::error_code ec;
+    std::filesystem::remove(temporary, ec);
     throw;
   }
 }

@@ -8,6 +8,11 @@
 
 namespace brainshift::imaging {
 
+/// Checks, without leaving anything behind, that a file can be created next to `target`: its
+/// folder exists, is a folder, and accepts a new file. Lets a command fail before long work.
+/// \throws brainshift::Error, one line naming `target` and the reason.
+void verify_writable(const std::filesystem::path& target);
+
 /// Calls `write(temporary)` and renames the temporary file to `target`.
 /// @param[in] target  final path; its folder must exist and be writable.
 /// @param[in] write   writes the whole file to the path it is given; throws on failure.
