@@ -1,6 +1,7 @@
 #include "core/fem/rotation.hpp"
 
 #include <Eigen/SVD>
+#include <cmath>
 
 #include "core/error.hpp"
 
@@ -25,7 +26,13 @@ Matrix3d proper_polar_rotation(const Matrix3d& M) {
 
 Matrix3d rotation_from_deformation_gradient(const Matrix3d& F, bool* inverted) {
   BS_VERIFY(F.allFinite(), "deformation gradient is not finite:\n" << F);
-  if (inverted != nullptr) *inverted = F.determinant() <= 0.0;
+  if (inverted != nullptr) {
+    // Scale by a power of two (exact) so det F neither underflows nor overflows: its sign is
+    // then that of the determinant of F itself, at any magnitude (1e-150 I is not inverted).
+    const double largest = F.cwiseAbs().maxCoeff();
+    *inverted = largest == 0.0 ||
+                (F * std::ldexp(1.0, -std::ilogb(largest))).determinant() <= 0.0;
+  }
   return proper_polar_rotation(F);
 }
 

@@ -39,6 +39,37 @@ double relative_residual(const Eigen::VectorXd& r_free, const Eigen::VectorXd& f
   return scale > 0.0 ? num / scale : num;
 }
 
+/// Empty when the Dirichlet nodes contain three non-collinear nodes (no rigid mode survives in
+/// a connected mesh), else the reason.
+std::string rigid_mode_issue(const TetMesh& mesh, const std::vector<index_t>& dirichlet_nodes) {
+  const double size = (mesh.nodes().colwise().maxCoeff() - mesh.nodes().colwise().minCoeff()).norm();
+  // Collinearity threshold: area of the triangle relative to size², far above rounding.
+  const double area_floor = 1e-10 * size * size;
+  const auto describe = [&](const std::string& why) {
+    return "the model is under-constrained (" + std::to_string(dirichlet_nodes.size()) +
+           " Dirichlet nodes, " + why +
+           "): rigid motions are free and K0 is singular; fix at least three non-collinear nodes";
+  };
+  if (dirichlet_nodes.empty()) return describe("none");
+  const Vector3d a = mesh.nodes().row(dirichlet_nodes.front()).transpose();
+  index_t far = -1;
+  double far_dist = 0.0;
+  for (const index_t i : dirichlet_nodes) {
+    const double d = (mesh.nodes().row(i).transpose() - a).norm();
+    if (d > far_dist) {
+      far_dist = d;
+      far = i;
+    }
+  }
+  if (far < 0 || far_dist <= 1e-10 * size) return describe("all at one point");
+  const Vector3d b = mesh.nodes().row(far).transpose();
+  for (const index_t i : dirichlet_nodes) {
+    const Vector3d c = mesh.nodes().row(i).transpose();
+    if ((b - a).cross(c - a).norm() > area_floor) return {};
+  }
+  return describe("all on one line");
+}
+
 }  // namespace
 
 std::string StaticOptions::validate() const {
@@ -69,6 +100,11 @@ std::string to_string(SolveStatus status) {
 StaticSolver::StaticSolver(const TetMesh& mesh, const std::vector<index_t>& dirichlet_nodes)
     : m_model(mesh), m_dofs(mesh.num_nodes(), dirichlet_nodes) {
   if (m_dofs.num_free() == 0) return;  // everything prescribed: nothing to factorise
+  m_underconstrained = rigid_mode_issue(mesh, dirichlet_nodes);
+  if (!m_underconstrained.empty()) {
+    logger().warn("static solver: {}", m_underconstrained);
+    return;
+  }
   const SparseMatrix K0_ff = m_dofs.restrict(assemble_rest_stiffness(m_model));
   const FactorStatus status = m_factor.compute(K0_ff);
   if (status != FactorStatus::OK) {
@@ -100,10 +136,12 @@ StaticResult StaticSolver::solve(const std::vector<PrescribedDisplacement>& pres
   const bool has_free = m_dofs.num_free() > 0;
   if (has_free && !m_factor.ok()) {
     result.status = SolveStatus::FACTOR_FAILED;
-    result.message = "K0 on the free DOFs could not be factorised (is the model under-"
-                     "constrained? it has " +
-                     std::to_string(n - m_dofs.num_free() / 3) +
-                     " Dirichlet nodes): " + m_factor.message();
+    result.message = !m_underconstrained.empty()
+                         ? m_underconstrained
+                         : "K0 on the free DOFs could not be factorised (is the model under-"
+                           "constrained? it has " +
+                               std::to_string(n - m_dofs.num_free() / 3) +
+                               " Dirichlet nodes): " + m_factor.message();
     result.displacement = x - mesh.nodes();
     result.inverted_elements = m_model.element_rotations(x).inverted_count;
     return result;
@@ -118,8 +156,12 @@ StaticResult StaticSolver::solve(const std::vector<PrescribedDisplacement>& pres
   double first_increment = 0.0;
   bool stopped = false;
   for (int it = 1; it <= options.max_iterations && has_free; ++it) {
+    // The first iteration is the linear FEM solve (R = I): it already carries any rigid motion
+    // prescribed on the boundary into the interior (linear elements reproduce affine fields),
+    // whereas the rotations of the starting configuration, with only the boundary moved, are
+    // meaningless and can send the iteration astray under large prescribed rotations.
     std::vector<Matrix3d> rotations = identity;
-    if (options.corotational) {
+    if (options.corotational && it > 1) {
       rotations = m_model.element_rotations(x).rotation;
       compliance.set_rotations(nodal_rotations(mesh, rotations));
     }

@@ -45,7 +45,9 @@ struct StaticResult {
   MatrixX3d displacement;               ///< #N×3, mm
   int iterations = 0;
   double final_increment = 0.0;         ///< max nodal |Δx| of the last iteration, mm
-  double final_residual = 0.0;          ///< ‖f_ext − f_int‖ on free DOFs / ‖f_ext,total‖, dimensionless
+  /// ‖f_ext − f_int‖ on free DOFs / ‖f_ext,total‖, dimensionless; the total load is
+  /// max(‖f_ext‖, ‖f_int‖) over all DOFs, so the reactions of the Dirichlet nodes count.
+  double final_residual = 0.0;
   std::vector<double> increment_history;
   index_t inverted_elements = 0;        ///< in the final configuration
 };
@@ -72,6 +74,10 @@ class StaticSolver {
   CorotationalModel m_model;
   DofMap m_dofs;
   CholmodFactor m_factor;
+  /// Non-empty when the Dirichlet nodes cannot remove the rigid modes (fewer than 3 distinct
+  /// nodes, or all on one line): the model is under-constrained and K0_ff is not factorised,
+  /// because a singular K0_ff may factorise with tiny positive pivots instead of failing.
+  std::string m_underconstrained;
 };
 
 }  // namespace brainshift::core
