@@ -70,6 +70,42 @@ std::string rigid_mode_issue(const TetMesh& mesh, const std::vector<index_t>& di
   return describe("all on one line");
 }
 
+/// Rest positions with the prescribed displacements applied (#N×3, mm).
+MatrixX3d initial_positions(const TetMesh& mesh, const DofMap& dofs,
+                            const std::vector<PrescribedDisplacement>& prescribed) {
+  const index_t n = mesh.num_nodes();
+  MatrixX3d x = mesh.nodes();
+  for (const PrescribedDisplacement& p : prescribed) {
+    BS_VERIFY(p.node >= 0 && p.node < n,
+              "prescribed node " << p.node << " is outside [0, " << n << ")");
+    BS_VERIFY(dofs.is_fixed_node(p.node),
+              "node " << p.node << " has a prescribed displacement but is not a Dirichlet node");
+    BS_VERIFY(p.displacement.allFinite(), "prescribed displacement of node "
+                                              << p.node << " is not finite: "
+                                              << p.displacement.transpose());
+    x.row(p.node) = mesh.nodes().row(p.node) + p.displacement.transpose();
+  }
+  return x;
+}
+
+/// Fills the final-state fields of `result` (displacement, residual, inverted elements) at x.
+void finish(const CorotationalModel& model, const DofMap& dofs, const MatrixX3d& x,
+            const Eigen::VectorXd& f_ext, bool corotational, StaticResult& result) {
+  const ElementRotations final_rotations = model.element_rotations(x);
+  std::vector<Matrix3d> rotations = final_rotations.rotation;
+  if (!corotational) std::fill(rotations.begin(), rotations.end(), Matrix3d::Identity());
+  const Eigen::VectorXd f_int = model.internal_force(x, rotations);
+  result.final_residual = relative_residual(dofs.restrict(f_ext - f_int), f_ext, f_int);
+  result.inverted_elements = final_rotations.inverted_count;
+  result.displacement = x - model.mesh().nodes();
+  if (result.inverted_elements > 0) {
+    result.message += "; " + std::to_string(result.inverted_elements) + " inverted elements";
+  }
+  logger().debug("static solve: {} after {} iterations, residual {:.3e}, {} inverted elements",
+                 to_string(result.status), result.iterations, result.final_residual,
+                 result.inverted_elements);
+}
+
 }  // namespace
 
 std::string StaticOptions::validate() const {
@@ -120,17 +156,7 @@ StaticResult StaticSolver::solve(const std::vector<PrescribedDisplacement>& pres
   BS_VERIFY(invalid.empty(), "invalid static solver options: " << invalid);
   const TetMesh& mesh = m_model.mesh();
   const index_t n = mesh.num_nodes();
-  MatrixX3d x = mesh.nodes();
-  for (const PrescribedDisplacement& p : prescribed) {
-    BS_VERIFY(p.node >= 0 && p.node < n,
-              "prescribed node " << p.node << " is outside [0, " << n << ")");
-    BS_VERIFY(m_dofs.is_fixed_node(p.node),
-              "node " << p.node << " has a prescribed displacement but is not a Dirichlet node");
-    BS_VERIFY(p.displacement.allFinite(), "prescribed displacement of node "
-                                              << p.node << " is not finite: "
-                                              << p.displacement.transpose());
-    x.row(p.node) = mesh.nodes().row(p.node) + p.displacement.transpose();
-  }
+  MatrixX3d x = initial_positions(mesh, m_dofs, prescribed);
 
   StaticResult result;
   const bool has_free = m_dofs.num_free() > 0;
@@ -212,19 +238,7 @@ StaticResult StaticSolver::solve(const std::vector<PrescribedDisplacement>& pres
                      " mm";
   }
 
-  const ElementRotations final_rotations = m_model.element_rotations(x);
-  const std::vector<Matrix3d>& rotations =
-      options.corotational ? final_rotations.rotation : identity;
-  const Eigen::VectorXd f_int = m_model.internal_force(x, rotations);
-  result.final_residual = relative_residual(m_dofs.restrict(f_ext - f_int), f_ext, f_int);
-  result.inverted_elements = final_rotations.inverted_count;
-  result.displacement = x - mesh.nodes();
-  if (result.inverted_elements > 0) {
-    result.message += "; " + std::to_string(result.inverted_elements) + " inverted elements";
-  }
-  logger().debug("static solve: {} after {} iterations, residual {:.3e}, {} inverted elements",
-                 to_string(result.status), result.iterations, result.final_residual,
-                 result.inverted_elements);
+  finish(m_model, m_dofs, x, f_ext, options.corotational, result);
   return result;
 }
 
