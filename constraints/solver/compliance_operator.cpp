@@ -1,0 +1,227 @@
+#include "constraints/solver/compliance_operator.hpp"
+
+#include <algorithm>
+
+#include "core/assembly/stiffness_assembly.hpp"
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
+namespace brainshift::constraints {
+
+std::string to_string(ComplianceStrategy s) {
+  switch (s) {
+    case ComplianceStrategy::AUTO: return "auto";
+    case ComplianceStrategy::DENSE_BLOCK: return "dense_block";
+    case ComplianceStrategy::SPARSE_SOLVE: return "sparse_solve";
+  }
+  BS_UNREACHABLE();
+}
+
+ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,
+                                       std::vector<index_t> block_nodes,
+                                       const ComplianceOptions& options)
+    : m_factor(&factor), m_dofs(&dofs), m_warp(factor, dofs), m_block_nodes(std::move(block_nodes)) {
+  BS_VERIFY(factor.ok(), "compliance operator needs a factorised K0: " << factor.message());
+  std::sort(m_block_nodes.begin(), m_block_nodes.end());
+  m_block_nodes.erase(std::unique(m_block_nodes.begin(), m_block_nodes.end()), m_block_nodes.end());
+  for (index_t n : m_block_nodes)
+    BS_VERIFY(n >= 0 && n < dofs.num_nodes(), "compliance block node " << n << " outside [0, "
+                                                                          << dofs.num_nodes() << ")");
+  const std::size_t nb = 3 * m_block_nodes.size();
+  const std::size_t bytes = nb * nb * sizeof(double);
+  const bool fits = bytes <= options.memory_budget_bytes && !m_block_nodes.empty();
+  switch (options.strategy) {
+    case ComplianceStrategy::DENSE_BLOCK:
+      BS_VERIFY(!m_block_nodes.empty(), "dense compliance block requested but no block nodes given");
+      BS_VERIFY(bytes <= options.memory_budget_bytes,
+                "dense compliance block needs " << bytes / (1 << 20) << " MiB, over the budget of "
+                                                << options.memory_budget_bytes / (1 << 20) << " MiB");
+      m_strategy = ComplianceStrategy::DENSE_BLOCK;
+      break;
+    case ComplianceStrategy::SPARSE_SOLVE: m_strategy = ComplianceStrategy::SPARSE_SOLVE; break;
+    case ComplianceStrategy::AUTO:
+      m_strategy = fits ? ComplianceStrategy::DENSE_BLOCK : ComplianceStrategy::SPARSE_SOLVE;
+      break;
+  }
+  if (m_strategy != ComplianceStrategy::DENSE_BLOCK) return;
+
+  // Precompute C = K0_ff⁻¹ on the block DOFs, in chunks of unit right-hand sides.
+  m_block_pos.assign(static_cast<std::size_t>(dofs.num_nodes()), -1);
+  for (std::size_t b = 0; b < m_block_nodes.size(); ++b)
+    m_block_pos[m_block_nodes[b]] = static_cast<index_t>(b);
+  m_block = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(nb), static_cast<Eigen::Index>(nb));
+  std::vector<index_t> free_of_block(nb);  // free index of each block DOF, −1 if fixed
+  for (std::size_t a = 0; a < nb; ++a)
+    free_of_block[a] = dofs.free_index(3 * m_block_nodes[a / 3] + static_cast<index_t>(a % 3));
+  std::vector<index_t> cols;  // block DOFs that are free
+  for (std::size_t a = 0; a < nb; ++a)
+    if (free_of_block[a] >= 0) cols.push_back(static_cast<index_t>(a));
+  const int chunk = std::max(1, options.precompute_chunk);
+  for (std::size_t c0 = 0; c0 < cols.size(); c0 += static_cast<std::size_t>(chunk)) {
+    const auto nc = static_cast<Eigen::Index>(std::min<std::size_t>(chunk, cols.size() - c0));
+    Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(dofs.num_free(), nc);
+    for (Eigen::Index j = 0; j < nc; ++j) rhs(free_of_block[cols[c0 + j]], j) = 1.0;
+    const Eigen::MatrixXd sol = factor.solve(rhs);
+    for (Eigen::Index j = 0; j < nc; ++j)
+      for (std::size_t a = 0; a < nb; ++a)
+        if (free_of_block[a] >= 0) m_block(static_cast<Eigen::Index>(a), cols[c0 + j]) = sol(free_of_block[a], j);
+  }
+  logger().info("compliance block: {} nodes, {} MiB", m_block_nodes.size(), bytes >> 20);
+}
+
+std::size_t ComplianceOperator::block_bytes() const {
+  return static_cast<std::size_t>(m_block.size()) * sizeof(double);
+}
+
+void ComplianceOperator::set_rotations(std::vector<Matrix3d> nodal_rotations) {
+  m_warp.set_rotations(std::move(nodal_rotations));
+}
+
+Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v) const { return m_warp.apply(v); }
+
+Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) {
+  if (m_strategy == ComplianceStrategy::DENSE_BLOCK) {
+    bool inside = true;
+    for (int k = 0; k < H.outerSize() && inside; ++k)
+      for (SparseMatrix::InnerIterator it(H, k); it; ++it) {
+        const index_t node = static_cast<index_t>(it.col() / 3);
+        if (m_block_pos[node] < 0 && !m_dofs->is_fixed_node(node)) {
+          inside = false;
+          break;
+        }
+      }
+    if (inside) return delassus_dense_block(H);
+    ++m_fallbacks;
+    logger().debug("constraint rows touch nodes outside the compliance block; sparse fallback");
+  }
+  return delassus_sparse(H);
+}
+
+SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H) const {
+  const auto& R = m_warp.rotations();
+  // Row i of H R at node n is h_{i,n}ᵀ R_n, i.e. the column vector R_nᵀ h_{i,n}.
+  const SparseMatrix Ht = H.transpose();  // 3N × m, column i = row i of H
+  std::vector<Triplet> trip;
+  trip.reserve(static_cast<std::size_t>(Ht.nonZeros()) * 3);
+  for (int i = 0; i < Ht.outerSize(); ++i) {
+    // gather the row's per-node 3-vectors
+    Vector3d h = Vector3d::Zero();
+    index_t node = -1;
+    auto flush = [&] {
+      if (node < 0) return;
+      const Vector3d g = R.empty() ? h : Vector3d(R[node].transpose() * h);
+      for (int c = 0; c < 3; ++c) {
+        const index_t f = m_dofs->free_index(3 * node + c);
+        if (f >= 0 && g[c] != 0.0) trip.emplace_back(f, i, g[c]);
+      }
+    };
+    for (SparseMatrix::InnerIterator it(Ht, i); it; ++it) {
+      const index_t n = static_cast<index_t>(it.row() / 3);
+      if (n != node) {
+        flush();
+        node = n;
+        h.setZero();
+      }
+      h[it.row() % 3] = it.value();
+    }
+    flush();
+  }
+  SparseMatrix G(m_dofs->num_free(), H.rows());
+  G.setFromTriplets(trip.begin(), trip.end());
+  return G;
+}
+
+Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H) {
+  BS_VERIFY(H.cols() == m_dofs->num_full(),
+            "constraint Jacobian has " << H.cols() << " columns for " << m_dofs->num_full() << " DOFs");
+  const SparseMatrix G = rotated_transposed_free(H);
+  const SparseMatrix Y = m_factor->solve_lower_permuted(G);
+  m_last_sparse_bytes = static_cast<std::size_t>(Y.nonZeros()) * (sizeof(double) + sizeof(index_t));
+  const SparseMatrix Yt = Y.transpose();
+  return Eigen::MatrixXd(Yt * Y);
+}
+
+Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H) const {
+  BS_VERIFY(m_strategy == ComplianceStrategy::DENSE_BLOCK, "no dense compliance block was precomputed");
+  BS_VERIFY(H.cols() == m_dofs->num_full(),
+            "constraint Jacobian has " << H.cols() << " columns for " << m_dofs->num_full() << " DOFs");
+  const auto m = H.rows();
+  const auto& R = m_warp.rotations();
+  // Per row: list of (block dof, coefficient) of H R restricted to the block.
+  const SparseMatrix Ht = H.transpose();
+  std::vector<std::vector<std::pair<index_t, double>>> g(static_cast<std::size_t>(m));
+  std::vector<char> used(static_cast<std::size_t>(m_block.rows()), 0);
+  for (int i = 0; i < Ht.outerSize(); ++i) {
+    Vector3d h = Vector3d::Zero();
+    index_t node = -1;
+    auto flush = [&] {
+      if (node < 0) return;
+      const index_t b = m_block_pos[node];
+      if (b < 0) {
+        BS_VERIFY(m_dofs->is_fixed_node(node), "constraint row " << i << " touches node " << node
+                                                                  << ", outside the compliance block");
+        return;  // fixed node: zero compliance
+      }
+      const Vector3d v = R.empty() ? h : Vector3d(R[node].transpose() * h);
+      for (int c = 0; c < 3; ++c)
+        if (v[c] != 0.0) {
+          g[i].emplace_back(3 * b + c, v[c]);
+          used[3 * b + c] = 1;
+        }
+    };
+    for (SparseMatrix::InnerIterator it(Ht, i); it; ++it) {
+      const index_t n = static_cast<index_t>(it.row() / 3);
+      if (n != node) {
+        flush();
+        node = n;
+        h.setZero();
+      }
+      h[it.row() % 3] = it.value();
+    }
+    flush();
+  }
+  // Compact the block DOFs the rows use: T = C[U, ·] Gᵀ (|U| × m), then W = G_U T.
+  std::vector<index_t> u_of_block(used.size(), -1);
+  std::vector<index_t> u_dofs;
+  for (std::size_t a = 0; a < used.size(); ++a)
+    if (used[a]) {
+      u_of_block[a] = static_cast<index_t>(u_dofs.size());
+      u_dofs.push_back(static_cast<index_t>(a));
+    }
+  const auto nu = static_cast<Eigen::Index>(u_dofs.size());
+  Eigen::MatrixXd T = Eigen::MatrixXd::Zero(nu, m);
+  for (Eigen::Index i = 0; i < m; ++i) {
+    double* t = T.col(i).data();
+    for (const auto& [dof, coef] : g[i]) {
+      const double* c = m_block.col(dof).data();
+      for (Eigen::Index u = 0; u < nu; ++u) t[u] += coef * c[u_dofs[u]];
+    }
+  }
+  Eigen::MatrixXd W(m, m);
+  for (Eigen::Index j = 0; j < m; ++j)
+    for (Eigen::Index i = j; i < m; ++i) {
+      double s = 0;
+      for (const auto& [dof, coef] : g[i]) s += coef * T(u_of_block[dof], j);
+      W(i, j) = s;
+      W(j, i) = s;
+    }
+  return W;
+}
+
+Eigen::MatrixXd exact_delassus(const core::CorotationalModel& model, const core::DofMap& dofs,
+                               const std::vector<Matrix3d>& element_rotations,
+                               const SparseMatrix& H) {
+  const SparseMatrix K = dofs.restrict(core::assemble_rotated_stiffness(model, element_rotations));
+  core::CholmodFactor f;
+  if (f.compute(K) != core::FactorStatus::OK) return {};
+  Eigen::MatrixXd Hf(dofs.num_free(), H.rows());
+  const SparseMatrix Ht = H.transpose();
+  for (index_t i = 0; i < H.rows(); ++i) {
+    Eigen::VectorXd col = Eigen::VectorXd(Ht.col(i));
+    Hf.col(i) = dofs.restrict(col);
+  }
+  const Eigen::MatrixXd X = f.solve(Hf);
+  return Hf.transpose() * X;
+}
+
+}  // namespace brainshift::constraints

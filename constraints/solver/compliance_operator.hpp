@@ -1,0 +1,89 @@
+#pragma once
+/// @file
+/// @brief The Delassus operator W = H R K0⁻¹ Rᵀ Hᵀ (compliance warping, seed 002 §3.3.3) with two
+/// strategies (ARCHITECTURE.md, "W is the hot spot"):
+///  (a) DENSE_BLOCK: C = K0_ff⁻¹ restricted to the DOFs of the nodes any collision vertex can map
+///      to, precomputed once before surgery (3|S| solves); then W = G C Gᵀ with G = H R restricted
+///      to those nodes, a small dense product per iteration;
+///  (b) SPARSE_SOLVE: per iteration Y = L⁻¹ P (H R)ᵀ with sparse right-hand sides (CHOLMOD), W = Yᵀ Y.
+/// AUTO picks (a) when the block fits the memory budget, else (b); a call whose rows touch a node
+/// outside the block falls back to (b) for that call.
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "core/assembly/dof_map.hpp"
+#include "core/config.hpp"
+#include "core/fem/corotational.hpp"
+#include "core/solver/cholmod_factor.hpp"
+#include "core/solver/warped_compliance.hpp"
+
+namespace brainshift::constraints {
+
+enum class ComplianceStrategy { AUTO, DENSE_BLOCK, SPARSE_SOLVE };
+std::string to_string(ComplianceStrategy s);
+
+struct ComplianceOptions {
+  ComplianceStrategy strategy = ComplianceStrategy::AUTO;
+  std::size_t memory_budget_bytes = std::size_t{512} << 20;  ///< for the dense block (default 512 MiB)
+  int precompute_chunk = 64;  ///< right-hand sides per CHOLMOD solve when precomputing the block
+};
+
+class ComplianceOperator {
+ public:
+  /// @param[in] factor CHOLMOD factor of K0_ff. Not owned; must outlive this object.
+  /// @param[in] dofs   its DOF map. Not owned; must outlive this object.
+  /// @param[in] block_nodes nodes any constraint can touch (for DENSE_BLOCK); may be empty.
+  /// \throws brainshift::Error when DENSE_BLOCK is forced but the block exceeds the budget, or
+  /// the factor is not usable.
+  ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,
+                     std::vector<index_t> block_nodes, const ComplianceOptions& options = {});
+
+  /// The strategy in use (never AUTO).
+  [[nodiscard]] ComplianceStrategy strategy() const { return m_strategy; }
+  /// Bytes held by the dense block (0 for SPARSE_SOLVE).
+  [[nodiscard]] std::size_t block_bytes() const;
+  /// Bytes of Y in the last sparse-strategy call (0 if none).
+  [[nodiscard]] std::size_t last_sparse_bytes() const { return m_last_sparse_bytes; }
+  /// How many delassus() calls fell back from the block to sparse solves.
+  [[nodiscard]] int fallback_count() const { return m_fallbacks; }
+  [[nodiscard]] const std::vector<index_t>& block_nodes() const { return m_block_nodes; }
+
+  /// Sets nodal rotations R (#N, proper). Empty = identity (unwarped K0⁻¹, the ablation).
+  void set_rotations(std::vector<Matrix3d> nodal_rotations);
+  [[nodiscard]] const std::vector<Matrix3d>& rotations() const { return m_warp.rotations(); }
+
+  /// R K0⁻¹ Rᵀ v (full 3N vectors; mN → mm), one solve with the factor.
+  [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v) const;
+
+  /// W = H R K0⁻¹ Rᵀ Hᵀ (#rows², mm/mN) by the chosen strategy. H is #rows × 3N.
+  [[nodiscard]] Eigen::MatrixXd delassus(const SparseMatrix& H);
+  /// Strategy (a) explicitly. \pre every node H touches is a block node (else throws).
+  [[nodiscard]] Eigen::MatrixXd delassus_dense_block(const SparseMatrix& H) const;
+  /// Strategy (b) explicitly.
+  [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H);
+
+ private:
+  /// G = H R restricted to free DOFs, as a (#free × #rows) sparse matrix (= (H R)ᵀ restricted).
+  [[nodiscard]] SparseMatrix rotated_transposed_free(const SparseMatrix& H) const;
+
+  const core::CholmodFactor* m_factor;  // not owned
+  const core::DofMap* m_dofs;           // not owned
+  core::WarpedCompliance m_warp;
+  ComplianceStrategy m_strategy = ComplianceStrategy::SPARSE_SOLVE;
+  std::vector<index_t> m_block_nodes;
+  std::vector<index_t> m_block_pos;  // node → position in the block, −1 outside
+  Eigen::MatrixXd m_block;           // (3|S|)², column-major, zero on fixed DOFs
+  std::size_t m_last_sparse_bytes = 0;
+  int m_fallbacks = 0;
+};
+
+/// Reference W = H K(R)⁻¹ Hᵀ with the exact rotated tangent K(R) = Σ R̂ₑ Kₑ R̂ₑᵀ refactorised
+/// (tests and the benchmark only; not on the fast path). Returns an empty matrix if the
+/// factorisation fails.
+Eigen::MatrixXd exact_delassus(const core::CorotationalModel& model, const core::DofMap& dofs,
+                               const std::vector<Matrix3d>& element_rotations,
+                               const SparseMatrix& H);
+
+}  // namespace brainshift::constraints

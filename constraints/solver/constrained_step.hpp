@@ -1,0 +1,95 @@
+#pragma once
+/// @file
+/// @brief One constrained static step (seed 002 eq. 6 solved by a Schur complement with
+/// compliance warping; Algorithm 1 step 4):
+///   free motion  dx_free = C (f_ext − f_int(x)),        C = R K0⁻¹ Rᵀ,
+///   constraints  δ_free = δ + H dx_free,  W = H C Hᵀ,  λ = PGS(W, δ_free),
+///   correction   dx = dx_free + C Hᵀ λ,                 x ← x + dx.
+/// Repeating the step (re-building the rows at the new x) converges to the corotational
+/// equilibrium that satisfies the constraints.
+
+#include <memory>
+#include <vector>
+
+#include "constraints/rows/constraint_rows.hpp"
+#include "constraints/solver/compliance_operator.hpp"
+#include "constraints/solver/pgs.hpp"
+#include "core/assembly/dof_map.hpp"
+#include "core/fem/corotational.hpp"
+#include "core/mesh/tet_mesh.hpp"
+#include "core/solver/cholmod_factor.hpp"
+
+namespace brainshift::constraints {
+
+/// How the step treats rotations.
+enum class Mechanics {
+  WARPED,         ///< corotational forces, warped compliance R K0⁻¹ Rᵀ (the method)
+  UNWARPED,       ///< corotational forces, unwarped compliance K0⁻¹ (SOFA's regression; ablation)
+  LINEAR,         ///< linear forces K0 (x − X) and K0⁻¹ (small-strain FEM; ablation)
+  EXACT,          ///< corotational forces, exact rotated tangent K(R) = Σ R̂ₑ Kₑ R̂ₑᵀ refactorised
+                  ///< every step (reference for tests and benchmarks; not the fast path)
+};
+std::string to_string(Mechanics m);
+
+struct StepOptions {
+  PgsOptions pgs;
+  Mechanics mechanics = Mechanics::WARPED;
+  Vector3d gravity = Vector3d::Zero();  ///< body acceleration, mm/s²
+  double density = 1040e-9;             ///< kg/mm³
+  /// Relaxation α ∈ (0, 1] of the elastic (free-motion) part of the step: dx_free ← α dx_free,
+  /// constraints still enforced in full. α < 1 damps the quasi-Newton iteration where the
+  /// warped compliance is a poor tangent (rotations varying strongly across the model).
+  double relaxation = 1.0;
+  /// Trust region: when > 0 and the step would move a node by more than this (mm), the whole
+  /// increment is scaled down to it (the constraints are then met over several steps). Large
+  /// rotations reached in one linearised step overshoot the corotational quasi-Newton iteration;
+  /// limiting the step keeps it convergent.
+  double max_increment = 0.0;
+  /// Violations beyond this (mm) are flagged in StepResult::diagnosis (mis-pairing, wrong frame).
+  double plausible_violation = 100.0;
+};
+
+struct StepResult {
+  MatrixX3d x;                   ///< new nodal positions (#N×3, mm)
+  Eigen::VectorXd lambda;        ///< constraint forces (#rows, mN)
+  PgsResult pgs;
+  double max_increment = 0.0;    ///< max nodal |Δx| of this step (after limiting), mm
+  bool limited = false;          ///< the increment was scaled down to StepOptions::max_increment
+  index_t inverted_elements = 0; ///< at the start of the step
+  std::string diagnosis;         ///< empty, or one line on what looks wrong (huge violations,
+                                 ///< inverted elements, rows ignored or inconsistent)
+  double seconds_free_motion = 0.0, seconds_delassus = 0.0, seconds_pgs = 0.0,
+         seconds_correction = 0.0;
+};
+
+/// A mechanical model prepared for constrained steps: K0 assembled and factorised once (CHOLMOD),
+/// compliance block precomputed when the budget allows. Reused across steps and registrations.
+class ConstrainedModel {
+ public:
+  /// @param[in] mesh rest mesh (validated). @param[in] fixed_nodes Dirichlet nodes (displacement 0).
+  /// @param[in] block_nodes nodes constraints may touch (dense compliance block); may be empty.
+  /// \throws brainshift::Error when K0_ff cannot be factorised (e.g. no fixed nodes: the rigid
+  /// modes make it singular), naming the cause.
+  ConstrainedModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
+                   std::vector<index_t> block_nodes, const ComplianceOptions& compliance = {});
+
+  /// One step from positions x (#N×3) with rows built at x.
+  [[nodiscard]] StepResult step(ConstRef<MatrixX3d> x, const ConstraintRows& rows,
+                                const StepOptions& options,
+                                ConstRef<Eigen::VectorXd> warm_start = Eigen::VectorXd()) ;
+
+  [[nodiscard]] const core::CorotationalModel& model() const { return m_model; }
+  [[nodiscard]] const core::DofMap& dofs() const { return m_dofs; }
+  [[nodiscard]] const core::CholmodFactor& factor() const { return *m_factor; }
+  [[nodiscard]] ComplianceOperator& compliance() { return *m_compliance; }
+  [[nodiscard]] const SparseMatrix& rest_stiffness() const { return m_K0; }
+
+ private:
+  core::CorotationalModel m_model;
+  core::DofMap m_dofs;
+  SparseMatrix m_K0;
+  std::unique_ptr<core::CholmodFactor> m_factor;       // stable address for m_compliance
+  std::unique_ptr<ComplianceOperator> m_compliance;
+};
+
+}  // namespace brainshift::constraints

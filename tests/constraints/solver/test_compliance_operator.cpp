@@ -1,0 +1,117 @@
+#include "constraints/solver/compliance_operator.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "constraints/solver/constrained_step.hpp"
+#include "core/error.hpp"
+#include "core/fem/rotation.hpp"
+#include "constraints/fixtures.hpp"
+#include "tolerance.hpp"
+
+namespace brainshift::constraints {
+namespace {
+
+std::vector<Matrix3d> random_rotations(index_t n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g;
+  std::vector<Matrix3d> R(static_cast<std::size_t>(n));
+  for (auto& r : R) {
+    Matrix3d M;
+    for (int i = 0; i < 9; ++i) M(i / 3, i % 3) = g(rng);
+    r = core::nearest_rotation(M);
+  }
+  return R;
+}
+
+/// Random rows: sliding lines and unilateral planes on random interior/top points.
+ConstraintRows random_rows(const core::TetMesh& mesh, int points, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<index_t> pick(0, mesh.num_nodes() - 1);
+  std::uniform_real_distribution<double> u(-1, 1);
+  ConstraintRows rows;
+  for (int p = 0; p < points; ++p) {
+    Stencil a, b;
+    a.add(pick(rng), 0.3);
+    a.add(pick(rng), 0.7);
+    b.add(pick(rng), 1.0);
+    const Stencil s = Stencil::interpolate(a, b, 0.4);
+    const Vector3d target = s.position(mesh.nodes()) + Vector3d(u(rng), u(rng), u(rng));
+    if (p % 2 == 0)
+      rows.add_sliding_line(s, mesh.nodes(), target, Vector3d(u(rng), u(rng), 1), ConstraintSet::VESSELS);
+    else
+      rows.add_unilateral_plane(s, mesh.nodes(), target, Vector3d(0, 0, -1), ConstraintSet::FOOTPRINT);
+  }
+  return rows;
+}
+
+TEST(ComplianceOperator, DenseBlockAndSparseSolvesGiveTheSameWarpedW) {
+  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {3, 3, 6});
+  ComplianceOptions block;
+  block.strategy = ComplianceStrategy::DENSE_BLOCK;
+  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), block);
+  ComplianceOperator& C = model.compliance();
+  ASSERT_EQ(C.strategy(), ComplianceStrategy::DENSE_BLOCK);
+  C.set_rotations(random_rotations(mesh.num_nodes(), 7));
+  const ConstraintRows rows = random_rows(mesh, 30, 8);
+  const SparseMatrix H = rows.jacobian(mesh.num_nodes());
+  const Eigen::MatrixXd Wd = C.delassus_dense_block(H);
+  const Eigen::MatrixXd Ws = C.delassus_sparse(H);
+  // Both are K0⁻¹ to CHOLMOD's accuracy; the issue asks for ≤ 1e-10 relative.
+  EXPECT_LT(tests::relative_difference(Wd, Ws), 1e-10);
+  EXPECT_LT(tests::relative_difference(Wd, Eigen::MatrixXd(Wd.transpose())), 1e-14);  // symmetric
+  // Independent: H R (K0_ff⁻¹ dense, Eigen LLT) Rᵀ Hᵀ.
+  const auto& dofs = model.dofs();
+  const Eigen::MatrixXd Kff = Eigen::MatrixXd(dofs.restrict(model.rest_stiffness()));
+  const Eigen::MatrixXd Kinv = Kff.llt().solve(Eigen::MatrixXd::Identity(Kff.rows(), Kff.cols()));
+  Eigen::MatrixXd Rf = Eigen::MatrixXd::Zero(dofs.num_full(), dofs.num_full());
+  for (index_t n = 0; n < mesh.num_nodes(); ++n) Rf.block<3, 3>(3 * n, 3 * n) = C.rotations()[n];
+  Eigen::MatrixXd E = Eigen::MatrixXd::Zero(dofs.num_full(), dofs.num_free());  // expand
+  for (index_t i = 0; i < dofs.num_free(); ++i) E(dofs.full_index(i), i) = 1;
+  const Eigen::MatrixXd Hd = Eigen::MatrixXd(H);
+  const Eigen::MatrixXd Wref = Hd * Rf * E * Kinv * E.transpose() * Rf.transpose() * Hd.transpose();
+  // Dense LLT vs CHOLMOD on a matrix with cond ≈ 1e4: agreement to ≈ 1e-12, asked 1e-10.
+  EXPECT_LT(tests::relative_difference(Wd, Wref), 1e-10);
+}
+
+TEST(ComplianceOperator, AutoPicksTheSparseSolveWhenTheBlockExceedsTheBudget) {
+  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {2, 2, 4});
+  ComplianceOptions tiny;
+  tiny.memory_budget_bytes = 1024;  // far below (3·45)² doubles
+  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), tiny);
+  EXPECT_EQ(model.compliance().strategy(), ComplianceStrategy::SPARSE_SOLVE);
+  EXPECT_EQ(model.compliance().block_bytes(), 0u);
+  ComplianceOptions forced = tiny;
+  forced.strategy = ComplianceStrategy::DENSE_BLOCK;
+  EXPECT_THROW(ConstrainedModel(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), forced), Error);
+}
+
+TEST(ComplianceOperator, RowsOutsideTheBlockFallBackToSparseSolves) {
+  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {2, 2, 4});
+  const auto top = tests::nodes_above(mesh, 40);
+  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), top);
+  ComplianceOperator& C = model.compliance();
+  ASSERT_EQ(C.strategy(), ComplianceStrategy::DENSE_BLOCK);
+  ConstraintRows rows;
+  rows.add_bilateral_point(tests::node_stencil(top[0]), mesh.nodes(), Vector3d::Zero(), ConstraintSet::LANDMARK);
+  rows.add_bilateral_point(tests::node_stencil(20), mesh.nodes(), Vector3d::Zero(), ConstraintSet::LANDMARK);
+  const SparseMatrix H = rows.jacobian(mesh.num_nodes());
+  const Eigen::MatrixXd W = C.delassus(H);
+  EXPECT_EQ(C.fallback_count(), 1);
+  EXPECT_LT(tests::relative_difference(W, C.delassus_sparse(H)), 1e-14);  // same computation
+}
+
+TEST(ComplianceOperator, ExactComplianceEqualsWarpedAtRest) {
+  // At rest all rotations are I, so H K(R)⁻¹ Hᵀ with the refactorised tangent equals H K0⁻¹ Hᵀ.
+  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {2, 2, 4});
+  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), {});
+  const ConstraintRows rows = random_rows(mesh, 10, 3);
+  const SparseMatrix H = rows.jacobian(mesh.num_nodes());
+  const std::vector<Matrix3d> identity(static_cast<std::size_t>(mesh.num_tets()), Matrix3d::Identity());
+  const Eigen::MatrixXd We = exact_delassus(model.model(), model.dofs(), identity, H);
+  EXPECT_LT(tests::relative_difference(We, model.compliance().delassus_sparse(H)), 1e-10);
+}
+
+}  // namespace
+}  // namespace brainshift::constraints
