@@ -8,6 +8,31 @@
 
 namespace brainshift::constraints {
 
+namespace {
+
+/// Calls fn(row, node, h) for every node a row of H (#rows × 3N) touches, with h the row's
+/// 3-vector on that node's DOFs.
+template <typename Fn>
+void for_each_row_node(const SparseMatrix& H, Fn&& fn) {
+  const SparseMatrix Ht = H.transpose();  // 3N × m: column i = row i of H, sorted by DOF
+  for (int i = 0; i < Ht.outerSize(); ++i) {
+    Vector3d h = Vector3d::Zero();
+    index_t node = -1;
+    for (SparseMatrix::InnerIterator it(Ht, i); it; ++it) {
+      const auto n = static_cast<index_t>(it.row() / 3);
+      if (n != node) {
+        if (node >= 0) fn(static_cast<index_t>(i), node, h);
+        node = n;
+        h.setZero();
+      }
+      h[it.row() % 3] = it.value();
+    }
+    if (node >= 0) fn(static_cast<index_t>(i), node, h);
+  }
+}
+
+}  // namespace
+
 std::string to_string(ComplianceStrategy s) {
   switch (s) {
     case ComplianceStrategy::AUTO: return "auto";
@@ -100,32 +125,15 @@ Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) {
 SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H) const {
   const auto& R = m_warp.rotations();
   // Row i of H R at node n is h_{i,n}ᵀ R_n, i.e. the column vector R_nᵀ h_{i,n}.
-  const SparseMatrix Ht = H.transpose();  // 3N × m, column i = row i of H
   std::vector<Triplet> trip;
-  trip.reserve(static_cast<std::size_t>(Ht.nonZeros()) * 3);
-  for (int i = 0; i < Ht.outerSize(); ++i) {
-    // gather the row's per-node 3-vectors
-    Vector3d h = Vector3d::Zero();
-    index_t node = -1;
-    auto flush = [&] {
-      if (node < 0) return;
-      const Vector3d g = R.empty() ? h : Vector3d(R[node].transpose() * h);
-      for (int c = 0; c < 3; ++c) {
-        const index_t f = m_dofs->free_index(3 * node + c);
-        if (f >= 0 && g[c] != 0.0) trip.emplace_back(f, i, g[c]);
-      }
-    };
-    for (SparseMatrix::InnerIterator it(Ht, i); it; ++it) {
-      const index_t n = static_cast<index_t>(it.row() / 3);
-      if (n != node) {
-        flush();
-        node = n;
-        h.setZero();
-      }
-      h[it.row() % 3] = it.value();
+  trip.reserve(static_cast<std::size_t>(H.nonZeros()) * 3);
+  for_each_row_node(H, [&](index_t i, index_t node, const Vector3d& h) {
+    const Vector3d g = R.empty() ? h : Vector3d(R[node].transpose() * h);
+    for (int c = 0; c < 3; ++c) {
+      const index_t f = m_dofs->free_index(3 * node + c);
+      if (f >= 0 && g[c] != 0.0) trip.emplace_back(f, i, g[c]);
     }
-    flush();
-  }
+  });
   SparseMatrix G(m_dofs->num_free(), H.rows());
   G.setFromTriplets(trip.begin(), trip.end());
   return G;
@@ -148,38 +156,22 @@ Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H) 
   const auto m = H.rows();
   const auto& R = m_warp.rotations();
   // Per row: list of (block dof, coefficient) of H R restricted to the block.
-  const SparseMatrix Ht = H.transpose();
   std::vector<std::vector<std::pair<index_t, double>>> g(static_cast<std::size_t>(m));
   std::vector<char> used(static_cast<std::size_t>(m_block.rows()), 0);
-  for (int i = 0; i < Ht.outerSize(); ++i) {
-    Vector3d h = Vector3d::Zero();
-    index_t node = -1;
-    auto flush = [&] {
-      if (node < 0) return;
-      const index_t b = m_block_pos[node];
-      if (b < 0) {
-        BS_VERIFY(m_dofs->is_fixed_node(node), "constraint row " << i << " touches node " << node
-                                                                  << ", outside the compliance block");
-        return;  // fixed node: zero compliance
-      }
-      const Vector3d v = R.empty() ? h : Vector3d(R[node].transpose() * h);
-      for (int c = 0; c < 3; ++c)
-        if (v[c] != 0.0) {
-          g[i].emplace_back(3 * b + c, v[c]);
-          used[3 * b + c] = 1;
-        }
-    };
-    for (SparseMatrix::InnerIterator it(Ht, i); it; ++it) {
-      const index_t n = static_cast<index_t>(it.row() / 3);
-      if (n != node) {
-        flush();
-        node = n;
-        h.setZero();
-      }
-      h[it.row() % 3] = it.value();
+  for_each_row_node(H, [&](index_t i, index_t node, const Vector3d& h) {
+    const index_t b = m_block_pos[node];
+    if (b < 0) {
+      BS_VERIFY(m_dofs->is_fixed_node(node), "constraint row " << i << " touches node " << node
+                                                                << ", outside the compliance block");
+      return;  // fixed node: zero compliance
     }
-    flush();
-  }
+    const Vector3d v = R.empty() ? h : Vector3d(R[node].transpose() * h);
+    for (int c = 0; c < 3; ++c)
+      if (v[c] != 0.0) {
+        g[i].emplace_back(3 * b + c, v[c]);
+        used[3 * b + c] = 1;
+      }
+  });
   // Compact the block DOFs the rows use: T = C[U, ·] Gᵀ (|U| × m), then W = G_U T.
   std::vector<index_t> u_of_block(used.size(), -1);
   std::vector<index_t> u_dofs;

@@ -6,8 +6,8 @@
 
 #include "constraints/solver/constrained_step.hpp"
 #include "core/error.hpp"
-#include "core/fem/rotation.hpp"
 #include "constraints/fixtures.hpp"
+#include "random_rotation.hpp"
 #include "tolerance.hpp"
 
 namespace brainshift::constraints {
@@ -15,13 +15,8 @@ namespace {
 
 std::vector<Matrix3d> random_rotations(index_t n, unsigned seed) {
   std::mt19937 rng(seed);
-  std::normal_distribution<double> g;
   std::vector<Matrix3d> R(static_cast<std::size_t>(n));
-  for (auto& r : R) {
-    Matrix3d M;
-    for (int i = 0; i < 9; ++i) M(i / 3, i % 3) = g(rng);
-    r = core::nearest_rotation(M);
-  }
+  for (auto& r : R) r = tests::random_rotation(rng);
   return R;
 }
 

@@ -12,16 +12,13 @@
 #include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
+#include "random_rotation.hpp"
 #include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
 
-Matrix3d random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
+using tests::random_rotation;
 
 Matrix3d axis_angle(double degrees, const Vector3d& axis) {
   return Eigen::AngleAxisd(degrees * M_PI / 180.0, axis.normalized()).toRotationMatrix();

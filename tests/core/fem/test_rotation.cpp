@@ -8,16 +8,13 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "random_rotation.hpp"
 #include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
 
-Matrix3d random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
+using tests::random_rotation;
 
 /// Orthonormality and det = +1 of a computed rotation: both are products of a few orthogonal
 /// SVD factors, accurate to a few ulps; 1e-14 leaves a factor ~50 of margin.

@@ -9,16 +9,13 @@
 #include "core/error.hpp"
 #include "core/solver/nodal_rotations.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
+#include "random_rotation.hpp"
 #include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
 
-Matrix3d random_rotation(std::mt19937& rng) {
-  std::normal_distribution<double> normal;
-  Eigen::Quaterniond q(normal(rng), normal(rng), normal(rng), normal(rng));
-  return q.normalized().toRotationMatrix();
-}
+using tests::random_rotation;
 
 Eigen::VectorXd random_vector(Eigen::Index n, std::mt19937& rng) {
   std::normal_distribution<double> normal;
