@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/error.hpp"
+#include "expect_error.hpp"
 #include "temp_folder.hpp"
 
 namespace brainshift::imaging {
@@ -18,17 +19,7 @@ std::filesystem::path write_text(const tests::TempFolder& dir, const std::string
   return path;
 }
 
-template <typename F>
-void expect_error(F&& f, std::initializer_list<std::string> needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no error thrown";
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << "not one line: " << msg;
-    for (const auto& n : needles) EXPECT_NE(msg.find(n), std::string::npos) << msg;
-  }
-}
+using tests::expect_error;
 
 TEST(Csv, NodeListToleratesBlankLinesSpacesAndCrLf) {
   const tests::TempFolder dir;

@@ -10,6 +10,7 @@
 
 #include "core/error.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
+#include "expect_error.hpp"
 #include "temp_folder.hpp"
 
 namespace brainshift::imaging {
@@ -42,18 +43,7 @@ std::string one_cell_vtu(int type, const std::string& cell_data = "") {
 )";
 }
 
-/// Runs `f`, expects a brainshift::Error whose one-line message contains every needle.
-template <typename F>
-void expect_error(F&& f, std::initializer_list<std::string> needles) {
-  try {
-    f();
-    ADD_FAILURE() << "no error thrown";
-  } catch (const Error& e) {
-    const std::string msg = e.what();
-    EXPECT_EQ(msg.find('\n'), std::string::npos) << "not one line: " << msg;
-    for (const auto& n : needles) EXPECT_NE(msg.find(n), std::string::npos) << msg;
-  }
-}
+using tests::expect_error;
 
 TEST(MeshIo, RoundTripIsExact) {
   const tests::TempFolder dir;
