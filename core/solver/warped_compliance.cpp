@@ -15,28 +15,33 @@ void WarpedCompliance::set_rotations(std::vector<Matrix3d> nodal_rotations) {
   m_rotations = std::move(nodal_rotations);
 }
 
+namespace {
+
+/// Applies R_n (or R_nᵀ when `transposed`) to each node's 3-vector of v; identity when R is empty.
+Eigen::VectorXd rotate_nodes(const std::vector<Matrix3d>& R, ConstRef<Eigen::VectorXd> v,
+                             bool transposed) {
+  if (R.empty()) return v;
+  Eigen::VectorXd out(v.size());
+  for (std::size_t n = 0; n < R.size(); ++n) {
+    const auto i = static_cast<Eigen::Index>(3 * n);
+    out.segment<3>(i) = transposed ? Vector3d(R[n].transpose() * v.segment<3>(i))
+                                   : Vector3d(R[n] * v.segment<3>(i));
+  }
+  return out;
+}
+
+}  // namespace
+
 Eigen::VectorXd WarpedCompliance::rotate_transposed(ConstRef<Eigen::VectorXd> v) const {
   BS_VERIFY(v.size() == m_dofs->num_full(),
             "vector has size " << v.size() << ", expected " << m_dofs->num_full());
-  if (m_rotations.empty()) return v;
-  Eigen::VectorXd out(v.size());
-  for (std::size_t n = 0; n < m_rotations.size(); ++n) {
-    const auto i = static_cast<Eigen::Index>(3 * n);
-    out.segment<3>(i) = m_rotations[n].transpose() * v.segment<3>(i);
-  }
-  return out;
+  return rotate_nodes(m_rotations, v, /*transposed=*/true);
 }
 
 Eigen::VectorXd WarpedCompliance::rotate(ConstRef<Eigen::VectorXd> v) const {
   BS_VERIFY(v.size() == m_dofs->num_full(),
             "vector has size " << v.size() << ", expected " << m_dofs->num_full());
-  if (m_rotations.empty()) return v;
-  Eigen::VectorXd out(v.size());
-  for (std::size_t n = 0; n < m_rotations.size(); ++n) {
-    const auto i = static_cast<Eigen::Index>(3 * n);
-    out.segment<3>(i) = m_rotations[n] * v.segment<3>(i);
-  }
-  return out;
+  return rotate_nodes(m_rotations, v, /*transposed=*/false);
 }
 
 Eigen::VectorXd WarpedCompliance::apply(ConstRef<Eigen::VectorXd> v) const {
