@@ -71,5 +71,29 @@ TEST(BrainSag, DefaultPhantomConvergesToACorticalShiftOf5To25MmInsideTheSkull) {
   RecordProperty("iterations", r.iterations);
 }
 
+TEST(BrainSag, ShiftGrowsWithTheDrainedDepthAndFollowsGravity) {
+  // Coarser mesh (6 mm) for speed; the trends do not depend on it.
+  SagLoad shallow;
+  shallow.drain_depth = 25.0;
+  SagLoad lateral;  // patient on the left side, craniotomy over the right hemisphere facing up
+  lateral.gravity_direction = {-1.0, 0.0, 0.0};
+  const SagRun base = run_sag(PhantomGeometry{}, SagLoad{}, /*cell_size=*/6.0);
+  const SagRun less = run_sag(PhantomGeometry{}, shallow, /*cell_size=*/6.0);
+  const SagRun side = run_sag(PhantomGeometry{}, lateral, /*cell_size=*/6.0);
+  for (const SagRun* r : {&base, &less, &side}) {
+    ASSERT_EQ(r->result.status, TledStatus::CONVERGED) << r->result.message;
+    ASSERT_TRUE(r->result.displacement.allFinite());
+  }
+  // Less tissue loses its buoyancy, so the brain sags less (the load is ≈ proportional to the
+  // drained volume; 0.8 leaves room for the contact non-linearity).
+  EXPECT_LT(less.cortical_shift, 0.8 * base.cortical_shift);
+  // Under lateral gravity the mean displacement points along −R.
+  const Vector3d mean = side.result.displacement.colwise().mean().transpose();
+  EXPECT_GT(-mean.x(), 2.0 * std::max(std::abs(mean.y()), std::abs(mean.z())));
+  RecordProperty("shift_default_mm", std::to_string(base.cortical_shift));
+  RecordProperty("shift_shallow_drain_mm", std::to_string(less.cortical_shift));
+  RecordProperty("shift_lateral_gravity_mm", std::to_string(side.cortical_shift));
+}
+
 }  // namespace
 }  // namespace brainshift::data_synth
