@@ -39,10 +39,11 @@ class FeatureIndex {
   [[nodiscard]] std::optional<Pair> nearest(const Vector3d& q, double max_distance) const;
   /// Closest feature of every query point within max_distance (points with none are left out).
   [[nodiscard]] std::vector<Pair> pair(ConstRef<MatrixX3d> queries, double max_distance) const;
+  /// q paired with the given feature f (closest point on it), whatever its distance.
+  [[nodiscard]] Pair closest_on(index_t f, const Vector3d& q) const;
 
  private:
   FeatureIndex(ConstRef<MatrixX3d> vertices, std::vector<std::array<index_t, 3>> features, int arity);
-  [[nodiscard]] Pair closest_on(index_t f, const Vector3d& q) const;
   MatrixX3d m_vertices;
   std::vector<std::array<index_t, 3>> m_features;
   int m_arity = 2;

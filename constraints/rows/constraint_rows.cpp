@@ -54,6 +54,15 @@ Stencil Stencil::interpolate(const Stencil& a, const Stencil& b, double t) {
   return s;
 }
 
+Stencil Stencil::combine(const Stencil& a, const Stencil& b, const Stencil& c, const Vector3d& w) {
+  Stencil s;
+  const Stencil* parts[3] = {&a, &b, &c};
+  for (int p = 0; p < 3; ++p)
+    if (w[p] != 0.0)
+      for (int k = 0; k < parts[p]->size; ++k) s.add(parts[p]->node[k], w[p] * parts[p]->weight[k]);
+  return s;
+}
+
 index_t ConstraintRows::add_row(const Stencil& s, ConstRef<MatrixX3d> x, const Vector3d& n,
                                 const Vector3d& target, ConstraintLaw law, ConstraintKind kind,
                                 ConstraintSet set, std::int64_t feature) {

@@ -34,10 +34,11 @@ std::string to_string(ConstraintKind kind);
 
 enum class ConstraintLaw : std::uint8_t { BILATERAL, UNILATERAL };
 
-/// A point of the model as a weighted sum of nodes: one mapped vertex (≤ 4 nodes) or a point on
-/// a segment between two mapped vertices (≤ 8 nodes). Weights sum to 1.
+/// A point of the model as a weighted sum of nodes: one mapped vertex (≤ 4 nodes), a point on a
+/// segment between two mapped vertices (≤ 8 nodes) or on a triangle of three (≤ 12 nodes).
+/// Weights sum to 1.
 struct Stencil {
-  static constexpr int capacity = 8;
+  static constexpr int capacity = 12;
   std::array<index_t, capacity> node{};
   std::array<double, capacity> weight{};
   int size = 0;
@@ -48,6 +49,8 @@ struct Stencil {
   [[nodiscard]] Vector3d position(ConstRef<MatrixX3d> x) const;
   /// (1 − t)·a + t·b.
   static Stencil interpolate(const Stencil& a, const Stencil& b, double t);
+  /// wa·a + wb·b + wc·c (barycentric weights of a triangle).
+  static Stencil combine(const Stencil& a, const Stencil& b, const Stencil& c, const Vector3d& w);
 };
 
 /// One scalar constraint row.

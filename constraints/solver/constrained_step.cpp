@@ -1,5 +1,6 @@
 #include "constraints/solver/constrained_step.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include "core/assembly/stiffness_assembly.hpp"
@@ -12,6 +13,17 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Wᵢᵢ += compliance_ratio[set of row i] · median(diag W).
+void add_row_compliance(Eigen::MatrixXd& W, const ConstraintRows& rows,
+                        const std::array<double, num_constraint_sets>& ratio) {
+  if (W.rows() == 0 || std::all_of(ratio.begin(), ratio.end(), [](double r) { return r == 0.0; })) return;
+  Eigen::VectorXd d = W.diagonal();
+  std::nth_element(d.data(), d.data() + d.size() / 2, d.data() + d.size());
+  const double median = d[d.size() / 2];
+  for (index_t i = 0; i < rows.size(); ++i)
+    W(i, i) += ratio[static_cast<std::size_t>(rows[i].set)] * median;
 }
 }  // namespace
 
@@ -83,7 +95,8 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     t0 = Clock::now();
     const SparseMatrix H = rows.jacobian(n);
     const Eigen::VectorXd delta_free = rows.violations() + H * dx_free;
-    const Eigen::MatrixXd W = C.delassus(H);
+    Eigen::MatrixXd W = C.delassus(H);
+    add_row_compliance(W, rows, options.compliance_ratio);
     res.seconds_delassus = seconds_since(t0);
 
     t0 = Clock::now();

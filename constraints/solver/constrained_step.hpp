@@ -8,6 +8,7 @@
 /// Repeating the step (re-building the rows at the new x) converges to the corotational
 /// equilibrium that satisfies the constraints.
 
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -45,6 +46,14 @@ struct StepOptions {
   /// rotations reached in one linearised step overshoot the corotational quasi-Newton iteration;
   /// limiting the step keeps it convergent.
   double max_increment = 0.0;
+  /// Compliant (soft) rows, per constraint set (indexed by ConstraintSet): row i of set s gets
+  /// the compliance εᵢ = compliance_ratio[s] · median(diag W) added to Wᵢᵢ, so the law becomes
+  /// gᵢ + εᵢ λᵢ = 0 (a spring of stiffness 1/εᵢ instead of a hard constraint). 0 = hard.
+  /// Relative to W's diagonal so it is independent of the tissue's modulus and the mesh size.
+  /// Noisy targets (0.3 mm Doppler noise, 7 mm elements) make hard rows fit the noise with large
+  /// local strains and antagonistic pulls; a ratio of 0.1–1 averages the noise over neighbours
+  /// while a smooth shift is still met (its compliance is far below a point load's Wᵢᵢ).
+  std::array<double, num_constraint_sets> compliance_ratio{};
   /// Violations beyond this (mm) are flagged in StepResult::diagnosis (mis-pairing, wrong frame).
   double plausible_violation = 100.0;
 };

@@ -1,0 +1,315 @@
+#include "constraints/registration/registration.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <map>
+#include <set>
+#include <utility>
+
+#include "constraints/registration/pairing.hpp"
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
+namespace brainshift::constraints {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+using PairKey = std::array<std::int64_t, 3>;  // (set, point, feature)
+using LambdaKey = std::array<std::int64_t, 3>;  // (set, feature, row within the group)
+
+std::vector<index_t> block_nodes_of(const core::TetMesh& mesh, const core::BarycentricMapping& a,
+                                    const core::BarycentricMapping& b) {
+  std::set<index_t> nodes;
+  for (const auto* m : {&a, &b})
+    for (index_t t : m->tet())
+      for (int k = 0; k < 4; ++k) nodes.insert(mesh.tets()(t, k));
+  return {nodes.begin(), nodes.end()};
+}
+
+MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p) {
+  MatrixX3d out(p.rows(), 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i) out.row(i) = (T * Vector3d(p.row(i).transpose())).transpose();
+  return out;
+}
+
+MatrixX3d rotated(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> n) {
+  return n.rows() == 0 ? MatrixX3d(0, 3) : MatrixX3d(n * T.linear().transpose());
+}
+
+/// The pairs of one kind for this iteration: fresh (pair + filter) or frozen (same features).
+std::vector<Pair> make_pairs(const FeatureIndex& index, ConstRef<MatrixX3d> points,
+                             const std::vector<Pair>* frozen, const std::vector<Vector3d>& directions,
+                             const std::vector<index_t>& tet_of_feature, double max_distance,
+                             const FilterOptions& filter, FilterReport* report) {
+  if (frozen) {
+    std::vector<Pair> pairs;
+    pairs.reserve(frozen->size());
+    for (const Pair& f : *frozen) {
+      Pair p = index.closest_on(f.feature, points.row(f.point).transpose());
+      p.point = f.point;
+      pairs.push_back(p);
+    }
+    return pairs;
+  }
+  std::vector<Pair> pairs = index.pair(points, max_distance);
+  std::vector<index_t> tets;
+  tets.reserve(pairs.size());
+  for (const Pair& p : pairs) tets.push_back(tet_of_feature[static_cast<std::size_t>(p.feature)]);
+  return filter_pairs(std::move(pairs), directions, tets, filter, report);
+}
+
+/// The tetrahedron a feature belongs to for subsampling: that of its first vertex.
+template <typename Features>
+std::vector<index_t> feature_tets(const Features& features, index_t count, const MappedVertices& mapped) {
+  std::vector<index_t> t(static_cast<std::size_t>(count));
+  for (index_t f = 0; f < count; ++f) t[static_cast<std::size_t>(f)] = mapped.tet(features(f));
+  return t;
+}
+
+std::string no_data_reason(const IntraopData& d, const RegistrationModel& m, const RegistrationOptions& o) {
+  std::string why;
+  auto add = [&why](const std::string& s) { why += (why.empty() ? "" : ", ") + s; };
+  if (d.vessel_points.rows() == 0) add("no intra-operative vessel points");
+  else if (!o.use_vessels) add("vessels disabled");
+  else if (m.skeleton().segments.empty()) add("no pre-operative skeleton");
+  if (d.footprint_points.rows() == 0) add("no footprint points");
+  else if (!o.use_footprint) add("footprint disabled");
+  else if (m.surface().triangles.rows() == 0) add("no collision surface");
+  return "nothing to register: " + why + "; the model was not moved";
+}
+
+}  // namespace
+
+std::string RegistrationOptions::validate() const {
+  if (!(pair_max_distance_mm > 0)) return "pair_max_distance_mm must be > 0";
+  if (max_iterations < 1) return "max_iterations must be ≥ 1";
+  if (!(increment_tolerance_mm > 0)) return "increment_tolerance_mm must be > 0";
+  if (!(direction_radius_mm > 0)) return "direction_radius_mm must be > 0";
+  if (auto e = vessel_filter.validate(); !e.empty()) return "vessel filter: " + e;
+  if (auto e = footprint_filter.validate(); !e.empty()) return "footprint filter: " + e;
+  if (auto e = dura.validate(); !e.empty()) return e;
+  if (auto e = step.pgs.validate(); !e.empty()) return e;
+  if (start == RigidStart::RIGID)
+    if (auto e = rigid.validate(); !e.empty()) return "rigid: " + e;
+  for (double r : step.compliance_ratio)
+    if (!(r >= 0)) return "compliance ratios must be ≥ 0";
+  return {};
+}
+
+StepOptions RegistrationOptions::default_step() {
+  StepOptions s;
+  s.pgs.tolerance = 1e-6;
+  s.pgs.max_iterations = 1000;
+  s.max_increment = 5.0;
+  s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] = 0.2;
+  return s;
+}
+
+FilterOptions RegistrationOptions::default_vessel_filter() {
+  FilterOptions f;
+  f.max_per_tet = 2;
+  return f;
+}
+
+std::string to_string(RegistrationStop stop) {
+  switch (stop) {
+    case RegistrationStop::CONVERGED: return "converged";
+    case RegistrationStop::MAX_ITERATIONS: return "max_iterations";
+    case RegistrationStop::NO_DATA: return "no_data";
+  }
+  BS_UNREACHABLE();
+}
+
+RegistrationModel::RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
+                                     Skeleton skeleton, SurfaceMesh surface, const ComplianceOptions& compliance)
+    : m_skeleton(std::move(skeleton)), m_surface(std::move(surface)) {
+  const auto t0 = Clock::now();
+  m_skeleton_map = core::BarycentricMapping(mesh, m_skeleton.points);
+  m_surface_map = core::BarycentricMapping(mesh, m_surface.vertices);
+  if (m_surface.triangles.rows() > 0)
+    m_rest_surface = std::make_unique<FeatureIndex>(FeatureIndex::triangles(m_surface.vertices, m_surface.triangles));
+  m_rest_normals = vertex_normals(m_surface);
+  m_mechanics = std::make_unique<ConstrainedModel>(mesh, fixed_nodes,
+                                                   block_nodes_of(mesh, m_skeleton_map, m_surface_map), compliance);
+  m_seconds_prepare = seconds_since(t0);
+}
+
+RegistrationModel::~RegistrationModel() = default;
+
+Stencil RegistrationModel::skeleton_stencil(index_t i) const { return MappedVertices{&mesh(), &m_skeleton_map}.stencil(i); }
+Stencil RegistrationModel::surface_stencil(index_t i) const { return MappedVertices{&mesh(), &m_surface_map}.stencil(i); }
+
+RegistrationResult register_model(RegistrationModel& model, const IntraopData& data,
+                                  const RegistrationOptions& options, const RegistrationResult* initial) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
+  const auto t_start = Clock::now();
+  const core::TetMesh& mesh = model.mesh();
+  RegistrationResult res;
+  res.positions = initial ? initial->positions : mesh.nodes();
+  BS_VERIFY(res.positions.rows() == mesh.num_nodes() && res.positions.allFinite(),
+            "initial positions must be finite, one row per node (" << mesh.num_nodes() << ")");
+  BS_VERIFY(data.vessel_points.allFinite() && data.footprint_points.allFinite() &&
+                data.footprint_normals.allFinite() && data.landmark_targets.allFinite() &&
+                data.landmark_model_points.allFinite(),
+            "intra-operative points contain NaN or infinity");
+  BS_VERIFY(data.footprint_normals.rows() == 0 || data.footprint_normals.rows() == data.footprint_points.rows(),
+            "footprint normals: " << data.footprint_normals.rows() << " for " << data.footprint_points.rows()
+                                  << " points");
+  BS_VERIFY(data.landmark_targets.rows() == data.landmark_model_points.rows(),
+            "landmarks: " << data.landmark_model_points.rows() << " model points but "
+                          << data.landmark_targets.rows() << " targets");
+
+  const MappedVertices skel{&mesh, &model.skeleton_mapping()};
+  const MappedVertices surf{&mesh, &model.surface_mapping()};
+  const bool vessels = options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
+  const bool footprint =
+      options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
+  const bool landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
+  const bool dura = options.dura.mode != DuraOptions::Mode::NONE && model.rest_surface_index() != nullptr;
+  if (!vessels && !footprint && !landmarks) {
+    res.displacement = res.positions - mesh.nodes();
+    res.stop = RegistrationStop::NO_DATA;
+    res.stop_reason = no_data_reason(data, model, options);
+    res.seconds.total = seconds_since(t_start);
+    return res;
+  }
+
+  // Rigid start: the intra-operative points are mapped into the model frame once.
+  if (initial) {
+    res.rigid = initial->rigid;
+  } else if (options.start == RigidStart::RIGID) {
+    const auto t0 = Clock::now();
+    res.rigid = rigid_init(model.skeleton(), data.vessel_points, footprint ? &model.surface() : nullptr,
+                           footprint ? &data.footprint_points : nullptr, options.rigid);
+    res.seconds.rigid = seconds_since(t0);
+  } else {
+    res.rigid.converged = true;
+    res.rigid.stop_reason = "identity (no rigid initialisation requested)";
+  }
+  const Eigen::Isometry3d& T = res.rigid.transform;
+  const MatrixX3d vessel_pts = transformed(T, data.vessel_points);
+  const MatrixX3d footprint_pts = transformed(T, data.footprint_points);
+  const MatrixX3d footprint_nrm = rotated(T, data.footprint_normals);
+  const MatrixX3d landmark_tgt = transformed(T, data.landmark_targets);
+  const core::BarycentricMapping landmark_map =
+      landmarks ? core::BarycentricMapping(mesh, data.landmark_model_points) : core::BarycentricMapping();
+  const MappedVertices lmk{&mesh, &landmark_map};
+
+  const std::vector<Vector3d> directions =
+      vessels ? local_directions(vessel_pts, options.direction_radius_mm) : std::vector<Vector3d>{};
+  const auto& segs = model.skeleton().segments;
+  const auto& tris = model.surface().triangles;
+  const std::vector<index_t> seg_tets =
+      feature_tets([&](index_t f) { return segs[static_cast<std::size_t>(f)][0]; }, static_cast<index_t>(segs.size()), skel);
+  const std::vector<index_t> tri_tets =
+      feature_tets([&](index_t f) { return tris(f, 0); }, static_cast<index_t>(tris.rows()), surf);
+
+  std::map<LambdaKey, double> warm;
+  if (initial)
+    for (const auto& [k, l] : initial->lambda) warm[k] = l;
+  std::vector<std::set<PairKey>> pair_sets;  // per iteration
+  std::vector<Pair> vessel_pairs, footprint_pairs;
+  bool frozen = false;
+  res.stop = RegistrationStop::MAX_ITERATIONS;
+  for (int it = 1; it <= options.max_iterations; ++it) {
+    const auto t_it = Clock::now();
+    IterationRecord rec;
+    rec.pairing_frozen = frozen;
+    ConstraintRows rows;
+    std::set<PairKey> keys;
+    if (vessels) {
+      const FeatureIndex index = FeatureIndex::segments(model.skeleton_mapping().apply(res.positions), segs);
+      vessel_pairs = make_pairs(index, vessel_pts, frozen ? &vessel_pairs : nullptr, directions, seg_tets,
+                                options.pair_max_distance_mm, options.vessel_filter, &rec.vessel_filter);
+      add_vessel_rows(rows, vessel_pairs, model.skeleton(), skel, res.positions, vessel_pts);
+      for (const Pair& p : vessel_pairs) keys.insert({0, p.point, p.feature});
+      rec.vessel_pairs = static_cast<index_t>(vessel_pairs.size());
+    }
+    std::vector<bool> touched;
+    if (footprint) {
+      const FeatureIndex index = FeatureIndex::triangles(model.surface_mapping().apply(res.positions), tris);
+      footprint_pairs = make_pairs(index, footprint_pts, frozen ? &footprint_pairs : nullptr, {}, tri_tets,
+                                   options.pair_max_distance_mm, options.footprint_filter, &rec.footprint_filter);
+      add_footprint_rows(rows, footprint_pairs, model.surface(), surf, res.positions, footprint_pts, footprint_nrm);
+      touched.assign(static_cast<std::size_t>(model.surface().vertices.rows()), false);
+      for (const Pair& p : footprint_pairs) {
+        keys.insert({1, p.point, p.feature});
+        for (int k = 0; k < 3; ++k) touched[static_cast<std::size_t>(tris(p.feature, k))] = true;
+      }
+      rec.footprint_pairs = static_cast<index_t>(footprint_pairs.size());
+    }
+    if (dura)
+      rec.dura_rows = add_dura_rows(rows, options.dura, model.surface(), *model.rest_surface_index(),
+                                    model.rest_surface_normals(), surf,
+                                    res.positions, touched);
+    if (landmarks) {
+      add_landmark_rows(rows, lmk, res.positions, landmark_tgt);
+      rec.landmark_rows = 3 * static_cast<index_t>(landmark_tgt.rows());
+    }
+    rec.rows = rows.size();
+    res.seconds.pairing += seconds_since(t_it);
+
+    // Warm start keyed by (set, feature, row within the group), not by row index.
+    auto key_of = [&rows](index_t i, index_t k) -> LambdaKey {
+      return {static_cast<std::int64_t>(rows[i].set), rows[i].feature, k};
+    };
+    Eigen::VectorXd lambda0 = Eigen::VectorXd::Zero(rows.size());
+    for (index_t i = 0, k = 0; i < rows.size(); ++i) {
+      k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
+      if (auto f = warm.find(key_of(i, k)); f != warm.end()) lambda0[i] = f->second;
+    }
+    const StepResult step = model.mechanics().step(res.positions, rows, options.step, lambda0);
+    warm.clear();
+    for (index_t i = 0, k = 0; i < rows.size(); ++i) {
+      k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
+      warm[key_of(i, k)] = step.lambda.size() ? step.lambda[i] : 0.0;
+    }
+    res.positions = step.x;
+    res.seconds.free_motion += step.seconds_free_motion;
+    res.seconds.delassus += step.seconds_delassus;
+    res.seconds.pgs += step.seconds_pgs;
+    res.seconds.correction += step.seconds_correction;
+    rec.max_increment_mm = step.max_increment;
+    rec.pgs_iterations = step.pgs.iterations;
+    rec.pgs_residual = step.pgs.residual;
+    rec.pgs_stop = to_string(step.pgs.stop);
+    rec.diagnosis = step.diagnosis;
+    rec.pairing_changed = pair_sets.empty() || keys != pair_sets.back();
+    // A cycle of the pairing set (it changed, to one seen before): freeze it from now on.
+    if (!frozen && rec.pairing_changed && std::find(pair_sets.begin(), pair_sets.end(), keys) != pair_sets.end()) {
+      frozen = true;
+      logger().debug("registration iteration {}: pairing cycles between two sets; frozen", it);
+    }
+    pair_sets.push_back(std::move(keys));
+    rec.seconds = seconds_since(t_it);
+    res.history.push_back(rec);
+    res.rows_by_set = rows.count_by_set();
+    res.iterations = it;
+    logger().debug("registration iteration {}: {} vessel + {} footprint pairs, {} dura rows, {} rows, |dx| {:.4f} mm, "
+                   "PGS {} ({} sweeps){}",
+                   it, rec.vessel_pairs, rec.footprint_pairs, rec.dura_rows, rec.rows, rec.max_increment_mm,
+                   rec.pgs_stop, rec.pgs_iterations, rec.pairing_frozen ? ", pairs frozen" : "");
+    if (rec.max_increment_mm < options.increment_tolerance_mm && (!rec.pairing_changed || rec.pairing_frozen)) {
+      res.converged = true;
+      res.stop = RegistrationStop::CONVERGED;
+      break;
+    }
+  }
+  res.displacement = res.positions - mesh.nodes();
+  for (const auto& [k, l] : warm) res.lambda.emplace_back(k, l);
+  char buf[160];
+  if (res.converged)
+    std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations",
+                  options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations);
+  else
+    std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)", options.max_iterations,
+                  res.history.empty() ? 0.0 : res.history.back().max_increment_mm);
+  res.stop_reason = buf;
+  res.seconds.total = seconds_since(t_start);
+  return res;
+}
+
+}  // namespace brainshift::constraints

@@ -1,0 +1,183 @@
+#pragma once
+/// @file
+/// @brief Constraint-based ICP registration (seed 002 §3.4, Algorithm 1). No file I/O here.
+///
+/// register_model() optionally starts with a robust rigid fit (rigid_init.hpp), then iterates:
+/// pair the intra-operative points with the current model features (vessel skeleton segments,
+/// collision-surface triangles), filter the pairs (filtering.hpp), build the constraint rows
+/// (constraint_builders.hpp: vessels slide on the skeleton's line; the probe footprint is
+/// unilateral; the dura holds the surface outside the craniotomy; landmarks are points), take one
+/// constrained static step (constrained_step.hpp); it stops when the largest nodal increment is
+/// below a tolerance and the pairing set is stable, or at an iteration cap.
+///
+/// Pairing cycles: with noisy points the nearest-feature pairing can cycle through a few sets
+/// forever (a point between two segments, a tetrahedron whose nearest pair alternates). When the
+/// pairing set changes to one already seen in an earlier iteration, the pairs are frozen: later
+/// iterations keep each (point, feature) and only recompute the closest point on that feature,
+/// so the mechanics can settle. The history says when this happened.
+///
+/// Frames: all positions in mm, world (RAS) frame of the pre-operative model. Intra-operative
+/// points come in their own tracked frame; the rigid fit returns `rigid` with
+/// p_model ≈ rigid · p_intra, and the deformation is then computed in the model frame:
+/// a pre-operative point X is at rigid⁻¹ (X + u(X)) in the intra-operative frame.
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "constraints/registration/constraint_builders.hpp"
+#include "constraints/registration/filtering.hpp"
+#include "constraints/registration/rigid_init.hpp"
+#include "constraints/registration/skeleton.hpp"
+#include "constraints/solver/constrained_step.hpp"
+#include "core/mapping/barycentric_mapping.hpp"
+#include "core/mesh/tet_mesh.hpp"
+
+namespace brainshift::constraints {
+
+class FeatureIndex;
+
+/// A model prepared once — K0 factorised, compliance block precomputed, features mapped into the
+/// mesh, the rest surface indexed for dura contact — and reused across registrations (replay).
+class RegistrationModel {
+ public:
+  /// @param[in] mesh rest mesh (validated). @param[in] fixed_nodes Dirichlet nodes (e.g. the
+  /// cerebellum side); at least 3 non-collinear. @param[in] skeleton pre-operative vessel
+  /// skeleton (rest positions, inside or ≤ 2 mm outside the mesh; may be empty).
+  /// @param[in] surface collision surface (footprint and dura contact; may have no triangles).
+  /// \throws brainshift::Error when K0 cannot be factorised or a feature point lies farther than
+  /// 2 mm outside the mesh (naming it).
+  RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes, Skeleton skeleton,
+                    SurfaceMesh surface, const ComplianceOptions& compliance = {});
+  ~RegistrationModel();
+  RegistrationModel(const RegistrationModel&) = delete;
+  RegistrationModel& operator=(const RegistrationModel&) = delete;
+
+  [[nodiscard]] ConstrainedModel& mechanics() { return *m_mechanics; }
+  [[nodiscard]] const core::TetMesh& mesh() const { return m_mechanics->model().mesh(); }
+  [[nodiscard]] const Skeleton& skeleton() const { return m_skeleton; }
+  [[nodiscard]] const SurfaceMesh& surface() const { return m_surface; }
+  [[nodiscard]] const core::BarycentricMapping& skeleton_mapping() const { return m_skeleton_map; }
+  [[nodiscard]] const core::BarycentricMapping& surface_mapping() const { return m_surface_map; }
+  /// Nearest-triangle index of the rest collision surface (the dura). Null without triangles.
+  [[nodiscard]] const FeatureIndex* rest_surface_index() const { return m_rest_surface.get(); }
+  /// Area-weighted unit vertex normals of the rest collision surface (#V×3).
+  [[nodiscard]] const MatrixX3d& rest_surface_normals() const { return m_rest_normals; }
+  /// Stencil (mesh nodes and weights) of skeleton point `i` / surface vertex `i`.
+  [[nodiscard]] Stencil skeleton_stencil(index_t i) const;
+  [[nodiscard]] Stencil surface_stencil(index_t i) const;
+  /// Seconds spent preparing (factorisation, compliance block, mappings).
+  [[nodiscard]] double seconds_prepare() const { return m_seconds_prepare; }
+
+ private:
+  Skeleton m_skeleton;
+  SurfaceMesh m_surface;
+  core::BarycentricMapping m_skeleton_map;
+  core::BarycentricMapping m_surface_map;
+  std::unique_ptr<FeatureIndex> m_rest_surface;
+  MatrixX3d m_rest_normals;
+  std::unique_ptr<ConstrainedModel> m_mechanics;
+  double m_seconds_prepare = 0.0;
+};
+
+/// Intra-operative data, in the tracked intra-operative frame (mm; RAS world when tracking is
+/// registered to the pre-operative images).
+struct IntraopData {
+  MatrixX3d vessel_points;      ///< from power Doppler, #V×3
+  MatrixX3d footprint_points;   ///< probe footprint from B-mode, #P×3
+  MatrixX3d footprint_normals;  ///< #P×3 unit normals pointing into the tissue (empty: from the surface)
+  /// Optional landmarks: pre-operative model points (#L×3, rest frame) and where they are now
+  /// (#L×3, intra-operative frame), e.g. a tracked pointer on a vessel bifurcation.
+  MatrixX3d landmark_model_points;
+  MatrixX3d landmark_targets;
+};
+
+/// How the loop starts.
+enum class RigidStart { IDENTITY, RIGID };
+
+struct RegistrationOptions {
+  RigidStart start = RigidStart::IDENTITY;
+  RigidInitOptions rigid;
+  bool use_vessels = true;
+  bool use_footprint = true;
+  bool use_landmarks = true;
+  DuraOptions dura;                     ///< contact with the dura outside the craniotomy
+  double pair_max_distance_mm = 15.0;   ///< no pair beyond this
+  FilterOptions vessel_filter = default_vessel_filter();
+  FilterOptions footprint_filter;
+  double direction_radius_mm = 5.0;     ///< neighbourhood for the local direction of vessel points
+  StepOptions step = default_step();
+  int max_iterations = 40;
+  double increment_tolerance_mm = 0.01; ///< stop when max nodal |Δx| is below this and the
+                                        ///< pairing set is stable (unchanged or frozen)
+  /// Empty when valid, else what is wrong.
+  [[nodiscard]] std::string validate() const;
+  /// Vessel filter defaults: at most 2 rows per tetrahedron (soft rows tolerate more than one;
+  /// 1 discards half the data on a 7 mm mesh).
+  static FilterOptions default_vessel_filter();
+  /// The step settings the loop is tuned for: vessel rows compliant with ratio 0.2 (see
+  /// StepOptions::compliance_ratio; Doppler points are noisy), footprint, dura and landmark rows
+  /// hard (the probe is rigid, few points), a 5 mm trust region, PGS to 1e-6 or 1000 sweeps.
+  static StepOptions default_step();
+};
+
+/// Seconds per stage, summed over iterations.
+struct StageTimes {
+  double rigid = 0.0;        ///< rigid initialisation
+  double pairing = 0.0;      ///< pairing, filtering, building the rows
+  double free_motion = 0.0;  ///< element rotations, forces, one solve
+  double delassus = 0.0;     ///< W = H C Hᵀ
+  double pgs = 0.0;
+  double correction = 0.0;
+  double total = 0.0;
+};
+
+/// One iteration of the loop.
+struct IterationRecord {
+  index_t vessel_pairs = 0;     ///< kept after filtering
+  index_t footprint_pairs = 0;
+  index_t dura_rows = 0;
+  index_t landmark_rows = 0;
+  index_t rows = 0;
+  double max_increment_mm = 0.0;
+  int pgs_iterations = 0;
+  double pgs_residual = 0.0;
+  std::string pgs_stop;
+  bool pairing_changed = true;
+  bool pairing_frozen = false;
+  double seconds = 0.0;
+  FilterReport vessel_filter;
+  FilterReport footprint_filter;
+  std::string diagnosis;        ///< the step's diagnosis, if any
+};
+
+enum class RegistrationStop { CONVERGED, MAX_ITERATIONS, NO_DATA };
+std::string to_string(RegistrationStop stop);
+
+struct RegistrationResult {
+  MatrixX3d positions;        ///< final nodal positions #N×3, model frame, mm
+  MatrixX3d displacement;     ///< positions − rest, mm
+  RigidInitResult rigid;      ///< the rigid start (identity when options.start is IDENTITY)
+  int iterations = 0;
+  bool converged = false;
+  RegistrationStop stop = RegistrationStop::NO_DATA;
+  std::string stop_reason;
+  std::vector<IterationRecord> history;
+  std::array<index_t, num_constraint_sets> rows_by_set{};  ///< of the last iteration
+  StageTimes seconds;
+  /// Warm-start state: λ per (set, feature, row) of the last iteration, for the next frame.
+  std::vector<std::pair<std::array<std::int64_t, 3>, double>> lambda;
+};
+
+/// Runs the registration.
+/// @param[in] initial warm start: a previous result (its positions, rigid transform and λ are
+/// reused; the rigid fit is then skipped) or nullptr for the rest shape.
+/// \throws brainshift::Error on invalid options or non-finite / mis-sized inputs. A registration
+/// that does not converge is a status (stop, stop_reason), never an exception; positions are
+/// always finite.
+RegistrationResult register_model(RegistrationModel& model, const IntraopData& data,
+                                  const RegistrationOptions& options,
+                                  const RegistrationResult* initial = nullptr);
+
+}  // namespace brainshift::constraints

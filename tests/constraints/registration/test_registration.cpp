@@ -1,0 +1,261 @@
+// Registration loop tests built from an analytic deformation (not from the registration model):
+// the truth is a smooth sag field applied to the skeleton; intra-operative vessel points are
+// sampled from the deformed skeleton with 0.3 mm noise.
+#include "constraints/registration/registration.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "constraints/registration/pairing.hpp"
+#include "core/mesh/boundary.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+#include "tolerance.hpp"
+
+namespace brainshift::constraints {
+namespace {
+
+/// Truth displacement (mm): a sag that grows towards the top of the ellipsoid (10 mm at the
+/// top, 0 below z = −30) and bends sideways.
+Vector3d truth(const Vector3d& X) {
+  const double w = std::pow(std::clamp((X.z() + 30.0) / 60.0, 0.0, 1.0), 2.0);
+  return Vector3d(2.0 * w * std::sin(X.y() / 20.0), 1.0 * w, -10.0 * w);
+}
+
+/// Vessels: curved branches in the upper half of the ellipsoid (semi-axes 40, 35, 30 mm).
+Skeleton make_skeleton() {
+  Skeleton s;
+  std::vector<Vector3d> pts;
+  for (int b = 0; b < 6; ++b) {
+    const double phi = b * std::numbers::pi / 3.0;
+    const int first = static_cast<int>(pts.size());
+    for (int k = 0; k <= 12; ++k) {
+      const double r = 3.0 + 2.2 * k;
+      const Vector3d p(r * std::cos(phi + 0.25 * std::sin(0.6 * k + b)), r * std::sin(phi + 0.25 * std::sin(0.6 * k + b)),
+                       12.0 - 0.012 * r * r + 4.0 * std::sin(0.3 * k + b));
+      pts.push_back(p);
+      if (k > 0) s.segments.push_back({first + k - 1, first + k});
+    }
+  }
+  s.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i) s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+  return s;
+}
+
+/// Intra-operative points every 2.5 mm along the deformed skeleton, with Gaussian noise.
+MatrixX3d sample_deformed(const Skeleton& s, double noise, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, noise);
+  std::vector<Vector3d> out;
+  for (const auto& seg : s.segments) {
+    const Vector3d a = s.points.row(seg[0]).transpose(), b = s.points.row(seg[1]).transpose();
+    const int n = std::max(1, static_cast<int>((b - a).norm() / 2.5));
+    for (int k = 0; k < n; ++k) {
+      const Vector3d X = a + (b - a) * (k + 0.5) / n;
+      out.push_back(X + truth(X) + Vector3d(g(rng), g(rng), g(rng)));
+    }
+  }
+  MatrixX3d m(static_cast<Eigen::Index>(out.size()), 3);
+  for (std::size_t i = 0; i < out.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
+  return m;
+}
+
+struct Scene {
+  core::TetMesh mesh = data_synth::make_ellipsoid_mesh({40, 35, 30}, 10);
+  Skeleton skeleton = make_skeleton();
+  std::unique_ptr<RegistrationModel> model;
+  explicit Scene(Skeleton s = make_skeleton()) : skeleton(std::move(s)) {
+    std::vector<index_t> fixed;
+    for (index_t i = 0; i < mesh.num_nodes(); ++i)
+      if (mesh.nodes()(i, 2) < -22) fixed.push_back(i);
+    const core::BoundarySurface b = core::boundary_surface(mesh);
+    model = std::make_unique<RegistrationModel>(mesh, fixed, skeleton, SurfaceMesh{b.vertices, b.faces});
+  }
+  /// Mean and max error (mm) at the skeleton points (vessel landmarks).
+  std::pair<double, double> landmark_error(const MatrixX3d& x) const {
+    const MatrixX3d p = model->skeleton_mapping().apply(x);
+    double sum = 0, mx = 0;
+    for (Eigen::Index i = 0; i < p.rows(); ++i) {
+      const Vector3d X = skeleton.points.row(i).transpose();
+      const double e = (p.row(i).transpose() - (X + truth(X))).norm();
+      sum += e;
+      mx = std::max(mx, e);
+    }
+    return {sum / static_cast<double>(p.rows()), mx};
+  }
+};
+
+RegistrationOptions options() {
+  RegistrationOptions o;
+  o.max_iterations = 60;
+  return o;
+}
+
+TEST(Registration, NoVesselPointsMeansNoMotionAndAReportThatSaysWhy) {
+  Scene s;
+  const RegistrationResult r = register_model(*s.model, IntraopData{}, options());
+  EXPECT_EQ(r.stop, RegistrationStop::NO_DATA);
+  EXPECT_EQ(r.displacement.cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_NE(r.stop_reason.find("no intra-operative vessel points"), std::string::npos) << r.stop_reason;
+}
+
+TEST(Registration, RecoversASmoothSagFromNoisyVesselPoints) {
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  const auto before = s.landmark_error(s.mesh.nodes());
+  const RegistrationResult r = register_model(*s.model, d, options());
+  ASSERT_TRUE(r.positions.allFinite());
+  const auto after = s.landmark_error(r.positions);
+  std::cout << "[ registration ] landmark error before " << before.first << " mm (max " << before.second
+            << "), after " << after.first << " mm (max " << after.second << "), " << r.iterations
+            << " iterations, " << r.seconds.total << " s, stop: " << r.stop_reason << "\n";
+  EXPECT_TRUE(r.converged) << r.stop_reason;
+  EXPECT_GT(before.first, 3.0);     // the case has a real shift
+  EXPECT_LE(after.first, 0.5);      // issue 4: landmark error ≤ 0.5 mm
+}
+
+TEST(Registration, ThirtyPercentOutliersAreFiltered) {
+  Scene s;
+  IntraopData d;
+  const MatrixX3d clean = sample_deformed(s.skeleton, 0.3, 2);
+  const Eigen::Index n_out = clean.rows() * 3 / 7;  // 30 % of the total
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ux(-35, 35), uz(-5, 25);
+  d.vessel_points.resize(clean.rows() + n_out, 3);
+  d.vessel_points.topRows(clean.rows()) = clean;
+  for (Eigen::Index i = 0; i < n_out; ++i) d.vessel_points.row(clean.rows() + i) << ux(rng), ux(rng), uz(rng);
+  const RegistrationResult r = register_model(*s.model, d, options());
+  ASSERT_TRUE(r.positions.allFinite());
+  const auto after = s.landmark_error(r.positions);
+  std::cout << "[ registration, 30 % outliers ] landmark error " << after.first << " mm (max " << after.second
+            << ")\n";
+  EXPECT_LE(after.first, 1.0);  // issue 4: error stays ≤ 1 mm
+}
+
+TEST(Registration, WarmStartFromAPreviousResultConvergesInFewerIterations) {
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 4);
+  const RegistrationResult cold = register_model(*s.model, d, options());
+  ASSERT_TRUE(cold.converged) << cold.stop_reason;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 5);  // the next frame: same shift, new noise
+  const RegistrationResult warm = register_model(*s.model, d, options(), &cold);
+  EXPECT_TRUE(warm.converged) << warm.stop_reason;
+  EXPECT_LT(warm.iterations, cold.iterations);
+}
+
+/// One straight vessel along x at z = 10 mm, points every 2.5 mm.
+Skeleton straight_vessel() {
+  Skeleton s;
+  const int n = 17;
+  s.points.resize(n, 3);
+  for (int k = 0; k < n; ++k) s.points.row(k) << -20.0 + 2.5 * k, 0.0, 10.0;
+  for (int k = 0; k + 1 < n; ++k) s.segments.push_back({k, k + 1});
+  return s;
+}
+
+TEST(Registration, ASlidingPointMovesAlongItsVesselFreely) {
+  // The vessel is seen 4 mm further along its own axis and 3 mm lower. Sliding constraints act
+  // only normal to the vessel: the model must follow the 3 mm drop and must not be dragged the
+  // 4 mm along the axis (a point-to-point pairing would drag it).
+  Scene s(straight_vessel());
+  IntraopData d;
+  d.vessel_points.resize(s.skeleton.points.rows() - 2, 3);
+  for (Eigen::Index k = 0; k < d.vessel_points.rows(); ++k)
+    d.vessel_points.row(k) = s.skeleton.points.row(k + 1) + Eigen::RowVector3d(4.0, 0.0, -3.0);
+  const RegistrationResult r = register_model(*s.model, d, options());
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  const MatrixX3d p = s.model->skeleton_mapping().apply(r.positions);
+  const Eigen::Index mid = s.skeleton.points.rows() / 2;
+  const Vector3d u = (p.row(mid) - s.skeleton.points.row(mid)).transpose();
+  // Normal part met to within the compliance of the soft rows (ratio 0.2 → ≤ 10 % of 3 mm for
+  // a coherent shift of many rows; measured 2.9 mm).
+  EXPECT_NEAR(u.z(), -3.0, 0.3);
+  // Tangential part: only what the elastic coupling of the drop gives, far below the 4 mm seen.
+  EXPECT_LT(std::abs(u.x()), 0.5) << u.transpose();
+}
+
+TEST(Registration, RigidStartRecoversATrackingOffset) {
+  // No deformation, only a tracking error of 6 mm / 6°: the rigid start must absorb it and the
+  // elastic loop then has (almost) nothing left to do.
+  Scene s;
+  const Eigen::Isometry3d offset = Eigen::Translation3d(3.0, -4.0, 3.0) *
+                                   Eigen::AngleAxisd(6.0 * std::numbers::pi / 180.0, Vector3d(1, 2, 2).normalized());
+  IntraopData d;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 0.3);
+  d.vessel_points.resize(s.skeleton.points.rows(), 3);
+  for (Eigen::Index i = 0; i < d.vessel_points.rows(); ++i)
+    d.vessel_points.row(i) =
+        (offset * Vector3d(s.skeleton.points.row(i).transpose()) + Vector3d(g(rng), g(rng), g(rng))).transpose();
+  RegistrationOptions o = options();
+  o.start = RigidStart::RIGID;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.rigid.converged) << r.rigid.stop_reason;
+  const Eigen::Isometry3d err = r.rigid.transform * offset;  // identity when exact
+  // Issue 4: ≤ 0.5 mm / 0.5° (measured ≈ 0.05 mm / 0.05° on this case).
+  EXPECT_LT(err.translation().norm(), 0.5);
+  EXPECT_LT(Eigen::AngleAxisd(err.linear()).angle() * 180.0 / std::numbers::pi, 0.5);
+  // The residual elastic correction is of the order of the noise.
+  EXPECT_LT(r.displacement.rowwise().norm().maxCoeff(), 1.0);
+  EXPECT_GT(r.seconds.rigid, 0.0);
+}
+
+TEST(Registration, FootprintPushesTheSurfaceAndTheDuraHoldsItElsewhere) {
+  // The probe presses a plane 3 mm into the top of the ellipsoid (top at z = 30 mm). Footprint
+  // rows are unilateral: no surface point may stay above the plane. Outside a 25 mm craniotomy
+  // the dura (bilateral sliding) keeps the surface on its rest shape.
+  Scene s;
+  IntraopData d;
+  std::vector<Vector3d> pts;
+  for (double x = -10; x <= 10; x += 10)  // sampled every 10 mm, as from B-mode
+    for (double y = -10; y <= 10; y += 10) pts.emplace_back(x, y, 27.0);
+  d.footprint_points.resize(static_cast<Eigen::Index>(pts.size()), 3);
+  d.footprint_normals.resize(d.footprint_points.rows(), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    d.footprint_points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+    d.footprint_normals.row(static_cast<Eigen::Index>(i)) << 0, 0, -1;  // into the tissue
+  }
+  RegistrationOptions o = options();
+  o.use_vessels = false;
+  o.footprint_filter.max_per_tet = 0;
+  o.dura.mode = DuraOptions::Mode::SLIDING;
+  o.dura.craniotomy_centre = Vector3d(0, 0, 30);
+  o.dura.craniotomy_radius_mm = 25.0;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  EXPECT_GT(r.rows_by_set[static_cast<std::size_t>(ConstraintSet::FOOTPRINT)], 0);
+  EXPECT_GT(r.rows_by_set[static_cast<std::size_t>(ConstraintSet::DURA)], 0);
+  const MatrixX3d surf = s.model->surface_mapping().apply(r.positions);
+  const auto& rest = s.model->surface().vertices;
+  // The surface point under each footprint point (closest on the deformed surface).
+  const FeatureIndex deformed = FeatureIndex::triangles(surf, s.model->surface().triangles);
+  double highest_under_probe = -1e9, worst_dura = 0;
+  for (Eigen::Index i = 0; i < d.footprint_points.rows(); ++i)
+    highest_under_probe =
+        std::max(highest_under_probe, deformed.nearest(d.footprint_points.row(i).transpose(), 20.0)->closest.z());
+  for (Eigen::Index v = 0; v < rest.rows(); ++v) {
+    const Vector3d X = rest.row(v).transpose();
+    if ((X - o.dura.craniotomy_centre).norm() >= 25.0) {
+      // Distance of the moved vertex to the rest surface: its ellipsoid implicit value, scaled to mm.
+      const Vector3d p = surf.row(v).transpose();
+      const double f = std::sqrt(p.x() * p.x() / 1600 + p.y() * p.y() / 1225 + p.z() * p.z() / 900);
+      worst_dura = std::max(worst_dura, std::abs(f - std::sqrt(X.x() * X.x() / 1600 + X.y() * X.y() / 1225 +
+                                                               X.z() * X.z() / 900)) * 30.0);
+    }
+  }
+  // Unilateral footprint rows are hard: the surface under each probe point is at or below
+  // z = 27 mm, up to the PGS tolerance and the 0.01 mm increment tolerance of the last step
+  // (vertices between the probe points are not constrained and may bulge slightly).
+  EXPECT_LE(highest_under_probe, 27.0 + 0.05);
+  EXPECT_GT(highest_under_probe, 27.0 - 0.5);  // and it is in contact, not pushed away
+  // Dura: vertices outside the craniotomy slide on the rest surface (faceted: its facets lie up
+  // to ≈ 1 mm inside the analytic ellipsoid on this 7 mm mesh, hence the bound).
+  EXPECT_LT(worst_dura, 1.5);
+}
+
+}  // namespace
+}  // namespace brainshift::constraints
