@@ -11,9 +11,7 @@
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkIdList.h>
-#include <vtkLogger.h>
 #include <vtkNew.h>
-#include <vtkOutputWindow.h>
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkSmartPointer.h>
@@ -24,61 +22,10 @@
 #include "core/error.hpp"
 #include "core/units.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/vtk_error_capture.hpp"
 
 namespace brainshift::imaging {
 namespace {
-
-/// The message of a VTK error text: the line after VTK's "ERROR: In file, line N" preamble,
-/// without the "vtkClass (0x…): " prefix.
-std::string vtk_error_message(const char* text) {
-  std::istringstream in(text != nullptr ? text : "");
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line.rfind("ERROR: In ", 0) == 0) continue;
-    if (const auto colon = line.find("): "); colon != std::string::npos) line.erase(0, colon + 3);
-    return line;
-  }
-  return "VTK error";
-}
-
-/// While alive, VTK's errors and warnings go nowhere but here (not to stderr, where they would
-/// be many lines per error); the first error is kept for a one-line exception. Parser errors
-/// come from objects we cannot attach observers to, hence the process-wide output window and
-/// logger settings, restored on destruction. Not for concurrent VTK use on other threads.
-class VtkErrorCapture {
- public:
-  VtkErrorCapture() : m_previous_window(vtkOutputWindow::GetInstance()) {
-    m_previous_cutoff = vtkLogger::GetCurrentVerbosityCutoff();
-    vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
-    m_window = vtkSmartPointer<Window>::New();
-    vtkOutputWindow::SetInstance(m_window);
-  }
-  ~VtkErrorCapture() {
-    vtkOutputWindow::SetInstance(m_previous_window);
-    vtkLogger::SetStderrVerbosity(m_previous_cutoff);
-  }
-  VtkErrorCapture(const VtkErrorCapture&) = delete;
-  VtkErrorCapture& operator=(const VtkErrorCapture&) = delete;
-
-  [[nodiscard]] bool failed() const { return !m_window->first_error.empty(); }
-  [[nodiscard]] const std::string& message() const { return m_window->first_error; }
-
- private:
-  class Window : public vtkOutputWindow {
-   public:
-    static Window* New() { return new Window; }
-    void DisplayText(const char* /*text*/) override {}
-    void DisplayErrorText(const char* text) override {
-      if (first_error.empty()) first_error = vtk_error_message(text);
-    }
-    void DisplayWarningText(const char* /*text*/) override {}
-    void DisplayGenericWarningText(const char* /*text*/) override {}
-    void DisplayDebugText(const char* /*text*/) override {}
-    std::string first_error;
-  };
-  vtkSmartPointer<vtkOutputWindow> m_previous_window;
-  vtkSmartPointer<Window> m_window;
-  vtkLogger::Verbosity m_previous_cutoff;
-};
 
 /// A per-cell material array, or `fallback` for every cell when the file lacks it.
 Eigen::VectorXd read_cell_array(vtkUnstructuredGrid* grid, const char* name, double fallback,

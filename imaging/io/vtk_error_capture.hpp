@@ -1,0 +1,37 @@
+#pragma once
+/// @file
+/// @brief Turns VTK's error output into one-line brainshift errors: while a VtkErrorCapture is
+/// alive, VTK errors and warnings are not printed (VTK prints several lines per error) and the
+/// first error is kept.
+
+#include <string>
+
+#include <vtkOutputWindow.h>
+#include <vtkSmartPointer.h>
+
+namespace brainshift::imaging {
+
+/// While alive, VTK's errors and warnings go nowhere but here; the first error is kept for a
+/// one-line exception. Parser errors come from objects we cannot attach observers to, hence the
+/// process-wide output window and logger settings, restored on destruction. Not for concurrent
+/// VTK use on other threads.
+class VtkErrorCapture {
+ public:
+  VtkErrorCapture();
+  ~VtkErrorCapture();
+  VtkErrorCapture(const VtkErrorCapture&) = delete;
+  VtkErrorCapture& operator=(const VtkErrorCapture&) = delete;
+
+  /// True once VTK reported an error.
+  [[nodiscard]] bool failed() const;
+  /// The first error, without VTK's "ERROR: In file, line N" preamble and class prefix.
+  [[nodiscard]] const std::string& message() const;
+
+ private:
+  class Window;
+  vtkSmartPointer<vtkOutputWindow> m_previous_window;
+  vtkSmartPointer<Window> m_window;
+  int m_previous_cutoff;
+};
+
+}  // namespace brainshift::imaging

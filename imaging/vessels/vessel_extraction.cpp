@@ -1,0 +1,198 @@
+#include "imaging/vessels/vessel_extraction.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+#include <vector>
+
+#include "core/logger.hpp"
+#include "imaging/vessels/distance_transform.hpp"
+#include "imaging/vessels/thinning.hpp"
+
+namespace brainshift::imaging {
+namespace {
+
+using Mask = Volume<std::uint8_t>;
+
+/// The sub-grid [lo, hi] (inclusive voxel indices) of `g`.
+ImageGeometry crop_geometry(const ImageGeometry& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi) {
+  ImageGeometry c = g;
+  c.size = hi - lo + Eigen::Vector3i::Ones();
+  c.origin = g.index_to_world(lo.cast<double>());
+  return c;
+}
+
+/// Labels 26-connected components of `mask` (in place: 0 background, k ≥ 1 the label of
+/// component k − 1); returns their voxel counts.
+std::vector<std::int64_t> label_components(const Mask& mask, std::vector<int>& label) {
+  const Eigen::Vector3i n = mask.geometry.size;
+  label.assign(mask.data.size(), 0);
+  std::vector<std::int64_t> sizes;
+  std::vector<std::int64_t> stack;
+  for (std::int64_t seed = 0; seed < std::int64_t(mask.data.size()); ++seed) {
+    if (mask.data[std::size_t(seed)] == 0 || label[std::size_t(seed)] != 0) continue;
+    const int id = int(sizes.size()) + 1;
+    std::int64_t count = 0;
+    label[std::size_t(seed)] = id;
+    stack.push_back(seed);
+    while (!stack.empty()) {
+      const std::int64_t v = stack.back();
+      stack.pop_back();
+      ++count;
+      const int i = int(v % n[0]), j = int((v / n[0]) % n[1]), k = int(v / (std::int64_t(n[0]) * n[1]));
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            if (!mask.geometry.contains_index(i + dx, j + dy, k + dz)) continue;
+            const std::int64_t w = mask.geometry.linear_index(i + dx, j + dy, k + dz);
+            if (mask.data[std::size_t(w)] != 0 && label[std::size_t(w)] == 0) {
+              label[std::size_t(w)] = id;
+              stack.push_back(w);
+            }
+          }
+    }
+    sizes.push_back(count);
+  }
+  return sizes;
+}
+
+/// The threshold and the name of the rule that gave it, or NaN when no rule applies.
+std::pair<double, std::string> choose_threshold(const VolumeF& image,
+                                                const VesselExtractionOptions& options) {
+  if (std::isfinite(options.threshold)) return {options.threshold, "given"};
+  if (options.threshold_method == ThresholdMethod::TISSUE_PEAK) {
+    if (const auto t = tissue_peak_threshold(image, options.tail_fraction, options.histogram))
+      return {*t, "tissue peak"};
+    if (const auto t = otsu_threshold(image, options.histogram)) return {*t, "Otsu (fallback)"};
+  } else if (const auto t = otsu_threshold(image, options.histogram)) {
+    return {*t, "Otsu"};
+  }
+  return {std::nan(""), ""};
+}
+
+VesselExtractionResult empty_result(VesselExtractionResult result, const std::string& why) {
+  result.status = VesselStatus::EMPTY;
+  result.message = why;
+  logger().warn("vessel extraction: {}", why);
+  return result;
+}
+
+}  // namespace
+
+std::string VesselExtractionOptions::validate() const {
+  std::ostringstream why;
+  if (std::isinf(threshold)) why << "threshold must be finite or NaN (automatic); ";
+  if (!(tail_fraction > 0.0 && tail_fraction < 1.0))
+    why << "tail_fraction must lie in (0, 1), got " << tail_fraction << "; ";
+  if (histogram.bins < 2) why << "histogram.bins must be ≥ 2, got " << histogram.bins << "; ";
+  if (histogram.smoothing_half_width < 0) why << "histogram.smoothing_half_width must be ≥ 0; ";
+  if (!(min_component_mm3 >= 0.0)) why << "min_component_mm3 must be ≥ 0, got " << min_component_mm3 << "; ";
+  if (max_components < 0) why << "max_components must be ≥ 0, got " << max_components << "; ";
+  if (!(spurs.min_length_mm >= 0.0) || !(spurs.radius_factor >= 0.0))
+    why << "spur pruning lengths must be ≥ 0; ";
+  if (smoothing_passes < 0) why << "smoothing_passes must be ≥ 0; ";
+  if (!(resample_step_mm >= 0.0) || std::isinf(resample_step_mm))
+    why << "resample_step_mm must be ≥ 0 and finite, got " << resample_step_mm << "; ";
+  std::string text = why.str();
+  if (!text.empty()) text.resize(text.size() - 2);
+  return text;
+}
+
+VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtractionOptions& options) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), "vessel extraction options: " << invalid);
+  BS_VERIFY(image.components == 1,
+            "vessel extraction needs a one-component volume, got " << image.components);
+  BS_VERIFY(image.data.size() == std::size_t(image.geometry.voxel_count()),
+            "vessel extraction: volume holds " << image.data.size() << " values for "
+                                               << image.geometry.voxel_count() << " voxels");
+  VesselExtractionResult result;
+  if (image.empty()) return empty_result(result, "empty volume (no voxels)");
+  result.non_finite_voxels =
+      std::count_if(image.data.begin(), image.data.end(), [](float v) { return !std::isfinite(v); });
+  if (result.non_finite_voxels > 0)
+    logger().warn("vessel extraction: {} non-finite voxels treated as background",
+                  result.non_finite_voxels);
+
+  std::tie(result.threshold, result.threshold_rule) = choose_threshold(image, options);
+  if (!std::isfinite(result.threshold))
+    return empty_result(result, "no threshold: the image has fewer than two distinct finite values");
+
+  // Foreground and its bounding box.
+  const ImageGeometry& g = image.geometry;
+  Eigen::Vector3i lo = g.size, hi = Eigen::Vector3i::Constant(-1);
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i)
+        if (image.at(i, j, k) >= result.threshold) {  // false for NaN
+          ++result.foreground_voxels;
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+  if (result.foreground_voxels == 0) {
+    std::ostringstream why;
+    why << "no voxel at or above the threshold " << result.threshold << " (" << result.threshold_rule << ")";
+    return empty_result(result, why.str());
+  }
+  Mask mask(crop_geometry(g, lo, hi));
+  for (int k = lo[2]; k <= hi[2]; ++k)
+    for (int j = lo[1]; j <= hi[1]; ++j)
+      for (int i = lo[0]; i <= hi[0]; ++i)
+        mask.at(i - lo[0], j - lo[1], k - lo[2]) = image.at(i, j, k) >= result.threshold ? 1 : 0;
+
+  // Components above the minimum size, at most max_components of the largest.
+  std::vector<int> label;
+  const std::vector<std::int64_t> sizes = label_components(mask, label);
+  result.components_found = int(sizes.size());
+  const double voxel_mm3 = g.spacing.prod();
+  std::vector<int> order(sizes.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) { return sizes[std::size_t(a)] > sizes[std::size_t(b)]; });
+  std::vector<std::uint8_t> keep(sizes.size() + 1, 0);
+  for (const int c : order) {
+    if (double(sizes[std::size_t(c)]) * voxel_mm3 < options.min_component_mm3) break;
+    if (options.max_components > 0 && result.components_kept >= options.max_components) break;
+    keep[std::size_t(c) + 1] = 1;
+    ++result.components_kept;
+    result.kept_volume_mm3 += double(sizes[std::size_t(c)]) * voxel_mm3;
+  }
+  if (result.components_kept == 0) {
+    std::ostringstream why;
+    why << "no component of at least " << options.min_component_mm3 << " mm³ above the threshold "
+        << result.threshold << " (" << result.components_found << " smaller ones)";
+    return empty_result(result, why.str());
+  }
+  for (std::size_t v = 0; v < mask.data.size(); ++v) mask.data[v] = keep[std::size_t(label[v])];
+
+  // Radii from the distance to the background: the wall lies about half a voxel inside the
+  // nearest background voxel centre.
+  VolumeF radius = distance_to_background(mask);
+  const double half_voxel = 0.5 * g.spacing.minCoeff();
+  for (float& r : radius.data) r = float(std::max(double(r) - half_voxel, half_voxel));
+
+  thin_to_curves(mask);
+  result.skeleton_voxels = std::count(mask.data.begin(), mask.data.end(), std::uint8_t(1));
+  result.graph = graph_from_skeleton(mask, radius);
+  result.spurs_pruned = prune_spurs(result.graph, options.spurs);
+  smooth_branches(result.graph, options.smoothing_passes);
+  if (options.resample_step_mm > 0.0) resample_branches(result.graph, options.resample_step_mm);
+
+  result.branch_count = int(result.graph.branches.size());
+  result.junction_count = result.graph.junction_count();
+  result.endpoint_count = result.graph.endpoint_count();
+  result.total_length_mm = result.graph.total_length();
+  if (result.branch_count == 0)
+    return empty_result(result, "the kept components thin to isolated points (no branch)");
+  result.status = VesselStatus::OK;
+  std::ostringstream summary;
+  summary << "threshold " << result.threshold << " (" << result.threshold_rule << "), "
+          << result.components_kept << "/" << result.components_found << " components, "
+          << result.branch_count << " branches, " << result.junction_count << " junctions, "
+          << result.total_length_mm << " mm";
+  result.message = summary.str();
+  logger().info("vessel extraction: {}", result.message);
+  return result;
+}
+
+}  // namespace brainshift::imaging

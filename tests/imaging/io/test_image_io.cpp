@@ -1,0 +1,289 @@
+#include "imaging/io/image_io.hpp"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
+namespace brainshift::imaging {
+namespace {
+
+using tests::expect_error;
+
+/// NIfTI stores its sform in float32: ~1e-7 relative, so 1e-5 mm on coordinates ≲ 100 mm.
+constexpr double header_tolerance = 1e-5;
+
+/// An oblique, anisotropic, off-centre grid (so that no axis or sign mix-up can pass).
+ImageGeometry oblique_geometry(bool left_handed = false) {
+  ImageGeometry g;
+  g.size = {7, 5, 4};
+  g.spacing = {0.8, 1.1, 2.5};
+  g.origin = {-31.5, 12.25, 70.0};
+  g.direction = (Eigen::AngleAxisd(0.3, Vector3d::UnitZ()) *
+                 Eigen::AngleAxisd(-0.2, Vector3d(1, 1, 0).normalized()))
+                    .toRotationMatrix();
+  if (left_handed) g.direction.col(2) *= -1.0;
+  return g;
+}
+
+VolumeF random_volume(const ImageGeometry& g, int components, unsigned seed = 1) {
+  VolumeF v(g, components);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-100.0f, 100.0f);
+  for (float& x : v.data) x = u(rng);
+  return v;
+}
+
+/// World position of voxel (i, j, k) compared between two geometries.
+void expect_same_world(const ImageGeometry& a, const ImageGeometry& b) {
+  ASSERT_EQ(a.size, b.size);
+  for (const Vector3d& ijk : {Vector3d(0, 0, 0), Vector3d(a.size[0] - 1, 0, 0),
+                            Vector3d(0, a.size[1] - 1, 0), Vector3d(0, 0, a.size[2] - 1)})
+    EXPECT_LT((a.index_to_world(ijk) - b.index_to_world(ijk)).norm(), header_tolerance)
+        << "voxel " << ijk.transpose();
+}
+
+/// Value of `volume` at world point `p` of voxel (i, j, k) of `reference` (resolved by world
+/// position, so a reader that reorders axes but keeps the world mapping still passes).
+float value_at_world(const VolumeF& volume, const Vector3d& p, int c) {
+  const Vector3d ijk = volume.geometry.world_to_index(p);
+  const Eigen::Vector3i n = ijk.array().round().cast<int>();
+  EXPECT_TRUE(volume.geometry.contains_index(n[0], n[1], n[2])) << p.transpose();
+  return volume.at(n[0], n[1], n[2], c);
+}
+
+void expect_same_volume(const VolumeF& written, const VolumeF& read) {
+  ASSERT_EQ(read.components, written.components);
+  ASSERT_EQ(read.geometry.voxel_count(), written.geometry.voxel_count());
+  const ImageGeometry& g = written.geometry;
+  if (read.geometry.size == g.size) expect_same_world(g, read.geometry);
+  int mismatches = 0;
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i)
+        for (int c = 0; c < written.components; ++c)
+          if (value_at_world(read, g.index_to_world(Vector3d(i, j, k)), c) !=
+              written.at(i, j, k, c))
+            ++mismatches;
+  EXPECT_EQ(mismatches, 0) << "float32 voxel values must round-trip exactly";
+}
+
+class ImageIoRoundTrip : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(ImageIoRoundTrip, ScalarVolumeKeepsValuesAndWorldGeometry) {
+  SCOPED_TRACE(GetParam());
+  const tests::TempFolder dir;
+  const VolumeF volume = random_volume(oblique_geometry(), 1);
+  write_volume(dir / ("scalar" + GetParam()), volume);
+  EXPECT_EQ(dir.count(), 1u) << "no temporary file may be left behind";
+  expect_same_volume(volume, read_volume(dir / ("scalar" + GetParam())));
+}
+
+TEST_P(ImageIoRoundTrip, LeftHandedGridKeepsItsWorldPositions) {
+  SCOPED_TRACE(GetParam());
+  const tests::TempFolder dir;
+  const VolumeF volume = random_volume(oblique_geometry(/*left_handed=*/true), 1, 2);
+  write_volume(dir / ("left" + GetParam()), volume);
+  expect_same_volume(volume, read_volume(dir / ("left" + GetParam())));
+}
+
+TEST_P(ImageIoRoundTrip, VectorVolumeKeepsRasVectors) {
+  SCOPED_TRACE(GetParam());
+  const tests::TempFolder dir;
+  const VolumeF volume = random_volume(oblique_geometry(), 3, 3);
+  write_volume(dir / ("vector" + GetParam()), volume);
+  expect_same_volume(volume, read_volume(dir / ("vector" + GetParam())));
+}
+
+TEST_P(ImageIoRoundTrip, LabelsRoundTrip) {
+  SCOPED_TRACE(GetParam());
+  const tests::TempFolder dir;
+  LabelVolume labels(oblique_geometry());
+  for (std::size_t v = 0; v < labels.data.size(); ++v) labels.data[v] = std::uint8_t(v % 4);
+  write_labels(dir / ("labels" + GetParam()), labels);
+  const LabelVolume read = read_labels(dir / ("labels" + GetParam()));
+  ASSERT_EQ(read.geometry.size, labels.geometry.size);
+  expect_same_world(labels.geometry, read.geometry);
+  EXPECT_EQ(read.data, labels.data);
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, ImageIoRoundTrip,
+                         ::testing::Values(".nii", ".nii.gz", ".mha", ".nrrd", ".vti"),
+                         [](const auto& param_info) {
+                           std::string name = param_info.param.substr(1);
+                           for (char& c : name)
+                             if (c == '.') c = '_';
+                           return name;
+                         });
+
+void write_text(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+TEST(ImageIo, MetaImageIsReadAsLpsAndConvertedToRas) {
+  // A 2×1×1 float MetaImage, LPS physical frame with flipped i and j axes like the VMTK aorta.
+  const tests::TempFolder dir;
+  const float values[2] = {5.0f, 7.0f};
+  std::string text =
+      "ObjectType = Image\nNDims = 3\nBinaryData = True\nBinaryDataByteOrderMSB = False\n"
+      "CompressedData = False\nTransformMatrix = -1 0 0 0 -1 0 0 0 1\nOffset = -156 -24 3\n"
+      "AnatomicalOrientation = LPI\nElementSpacing = 0.5 0.75 1.5\nDimSize = 2 1 1\n"
+      "ElementType = MET_FLOAT\nElementDataFile = LOCAL\n";
+  text.append(reinterpret_cast<const char*>(values), sizeof(values));
+  write_text(dir / "lps.mha", text);
+  const VolumeF v = read_volume(dir / "lps.mha");
+  // ITK physical (LPS) of voxel i: Offset + D·(0.5 i, 0, 0) = (−156 − 0.5 i, −24, 3);
+  // RAS = (156 + 0.5 i, 24, 3).
+  EXPECT_LT((v.geometry.index_to_world({0, 0, 0}) - Vector3d(156, 24, 3)).norm(), 1e-12);
+  EXPECT_LT((v.geometry.index_to_world({1, 0, 0}) - Vector3d(156.5, 24, 3)).norm(), 1e-12);
+  EXPECT_EQ(v.at(1, 0, 0), 7.0f);
+}
+
+TEST(ImageIo, NrrdInLpsIsConvertedToRasWithItsVectors) {
+  const tests::TempFolder dir;
+  const float values[3] = {1.0f, 2.0f, 3.0f};
+  std::string text =
+      "NRRD0004\ntype: float\ndimension: 4\nspace: left-posterior-superior\nsizes: 3 1 1 1\n"
+      "space directions: none (0,-2,0) (1,0,0) (0,0,3)\nkinds: vector domain domain domain\n"
+      "endian: little\nencoding: raw\nspace origin: (10,20,30)\n\n";
+  text.append(reinterpret_cast<const char*>(values), sizeof(values));
+  write_text(dir / "lps.nrrd", text);
+  const VolumeF v = read_volume(dir / "lps.nrrd");
+  ASSERT_EQ(v.components, 3);
+  EXPECT_LT((v.geometry.origin - Vector3d(-10, -20, 30)).norm(), 1e-12);
+  EXPECT_LT((v.geometry.direction.col(0) - Vector3d(0, 1, 0)).norm(), 1e-12);  // −(0,−1,0)
+  EXPECT_LT((v.geometry.spacing - Vector3d(2, 1, 3)).norm(), 1e-12);
+  EXPECT_EQ(v.at(0, 0, 0, 0), -1.0f);
+  EXPECT_EQ(v.at(0, 0, 0, 1), -2.0f);
+  EXPECT_EQ(v.at(0, 0, 0, 2), 3.0f);
+}
+
+/// The header text of a NRRD file (up to the blank line) and its raw float payload.
+std::pair<std::string, std::vector<float>> split_nrrd(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string header, line;
+  while (std::getline(in, line) && !line.empty()) header += line + "\n";
+  std::vector<float> data;
+  for (float f; in.read(reinterpret_cast<char*>(&f), sizeof f);) data.push_back(f);
+  return {header, data};
+}
+
+TEST(SlicerDisplacement, TranslationIsWrittenInLpsWithFlippedVectorsAndGeometry) {
+  const tests::TempFolder dir;
+  const ImageGeometry g = oblique_geometry();
+  VolumeF u(g, 3);
+  const Vector3d t_ras(1.5, -2.0, 3.25);  // mm, a rigid translation
+  for (std::size_t v = 0; v < u.data.size(); v += 3)
+    for (int c = 0; c < 3; ++c) u.data[v + c] = float(t_ras[c]);
+  write_displacement_for_slicer(dir / "u.nrrd", u);
+
+  const auto [header, data] = split_nrrd(dir / "u.nrrd");
+  EXPECT_NE(header.find("space: left-posterior-superior\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("kinds: vector domain domain domain\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("type: float\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("sizes: 3 7 5 4\n"), std::string::npos) << header;
+  // space origin in LPS: (−x, −y, z) of the RAS origin.
+  std::istringstream origin_line(header.substr(header.find("space origin: (") + 15));
+  double ox = 0, oy = 0, oz = 0;
+  char comma = 0;
+  origin_line >> ox >> comma >> oy >> comma >> oz;
+  EXPECT_DOUBLE_EQ(ox, -g.origin.x());
+  EXPECT_DOUBLE_EQ(oy, -g.origin.y());
+  EXPECT_DOUBLE_EQ(oz, g.origin.z());
+  // First axis direction in LPS: flip of direction·spacing.
+  std::istringstream dir_line(header.substr(header.find("space directions: none (") + 24));
+  double d0 = 0, d1 = 0, d2 = 0;
+  dir_line >> d0 >> comma >> d1 >> comma >> d2;
+  const Vector3d axis0 = g.direction.col(0) * g.spacing[0];
+  EXPECT_DOUBLE_EQ(d0, -axis0.x());
+  EXPECT_DOUBLE_EQ(d1, -axis0.y());
+  EXPECT_DOUBLE_EQ(d2, axis0.z());
+  // Vectors: u_LPS = (−1.5, 2.0, 3.25) at every voxel.
+  ASSERT_EQ(data.size(), u.data.size());
+  int wrong = 0;
+  for (std::size_t v = 0; v < data.size(); v += 3)
+    if (data[v] != -1.5f || data[v + 1] != 2.0f || data[v + 2] != 3.25f) ++wrong;
+  EXPECT_EQ(wrong, 0);
+  // And our reader takes it back to RAS.
+  expect_same_volume(u, read_volume(dir / "u.nrrd"));
+}
+
+TEST(SlicerDisplacement, RefusesOtherFormatsAndScalarVolumes) {
+  const tests::TempFolder dir;
+  expect_error([&] { write_displacement_for_slicer(dir / "u.nii", VolumeF(oblique_geometry(), 3)); },
+               {"u.nii", ".nrrd"});
+  expect_error([&] { write_displacement_for_slicer(dir / "u.nrrd", VolumeF(oblique_geometry())); },
+               {"u.nrrd", "3 components"});
+  EXPECT_EQ(dir.count(), 0u);
+}
+
+TEST(ImageIoErrors, MissingFileUnknownExtensionAndEmptyFile) {
+  const tests::TempFolder dir;
+  expect_error([&] { read_volume(dir / "absent.nii"); }, {"absent.nii", "no such file"});
+  write_text(dir / "image.png", "x");
+  expect_error([&] { read_volume(dir / "image.png"); }, {"image.png", "unknown image file extension"});
+  write_text(dir / "empty.nii.gz", "");
+  expect_error([&] { read_volume(dir / "empty.nii.gz"); }, {"empty.nii.gz", "empty file"});
+  expect_error([&] { write_volume(dir / "no_folder" / "x.nii", VolumeF(oblique_geometry())); },
+               {"x.nii", "does not exist"});
+}
+
+TEST(ImageIoErrors, GarbageAndTruncatedFilesAreOneLineErrors) {
+  for (const std::string ext : {".nii", ".nii.gz", ".mha", ".nrrd", ".vti"}) {
+    SCOPED_TRACE(ext);
+    const tests::TempFolder dir;
+    write_text(dir / ("garbage" + ext), std::string(400, 'g'));
+    expect_error([&] { read_volume(dir / ("garbage" + ext)); }, {"garbage" + ext});
+
+    ImageGeometry big = oblique_geometry();
+    big.size = {40, 30, 20};
+    write_volume(dir / ("whole" + ext), random_volume(big, 1));
+    const auto size = std::filesystem::file_size(dir / ("whole" + ext));
+    std::filesystem::copy_file(dir / ("whole" + ext), dir / ("cut" + ext));
+    std::filesystem::resize_file(dir / ("cut" + ext), size / 2);
+    expect_error([&] { read_volume(dir / ("cut" + ext)); }, {"cut" + ext});
+  }
+}
+
+TEST(ImageIoErrors, NonFiniteSpacingAndZeroSizeAreRefused) {
+  const tests::TempFolder dir;
+  const std::string head = "NRRD0004\ntype: float\ndimension: 3\nspace: RAS\n";
+  write_text(dir / "nan.nrrd", head + "sizes: 1 1 1\nspace directions: (nan,0,0) (0,1,0) (0,0,1)\n"
+                                      "encoding: raw\n\nxxxx");
+  expect_error([&] { read_volume(dir / "nan.nrrd"); }, {"nan.nrrd", "spacing"});
+  write_text(dir / "zero.nrrd", head + "sizes: 0 1 1\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"
+                                       "encoding: raw\n\n");
+  expect_error([&] { read_volume(dir / "zero.nrrd"); }, {"zero.nrrd", "zero-size"});
+  write_text(dir / "shear.nrrd", head + "sizes: 1 1 1\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"
+                                        "encoding: raw\n\nxxxx");
+  expect_error([&] { read_volume(dir / "shear.nrrd"); }, {"shear.nrrd", "orthonormal"});
+  ImageGeometry bad = oblique_geometry();
+  bad.spacing[1] = std::numeric_limits<double>::infinity();
+  expect_error([&] { write_volume(dir / "inf.nii", VolumeF(bad)); }, {"inf.nii", "spacing"});
+}
+
+TEST(ImageIoErrors, LabelOutsideTheFourValuesIsNamed) {
+  const tests::TempFolder dir;
+  VolumeF volume(oblique_geometry());
+  volume.at(2, 1, 3) = 7.0f;
+  write_volume(dir / "bad_labels.nii.gz", volume);
+  expect_error([&] { read_labels(dir / "bad_labels.nii.gz"); },
+               {"bad_labels.nii.gz", "label value 7", "(2, 1, 3)"});
+  LabelVolume labels(oblique_geometry());
+  labels.data[5] = 9;
+  expect_error([&] { write_labels(dir / "l.nrrd", labels); }, {"l.nrrd", "label value 9"});
+}
+
+}  // namespace
+}  // namespace brainshift::imaging
