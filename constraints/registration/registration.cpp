@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <set>
 #include <utility>
@@ -100,10 +102,11 @@ std::string RegistrationOptions::validate() const {
 
 StepOptions RegistrationOptions::default_step() {
   StepOptions s;
-  s.pgs.tolerance = 1e-6;
-  s.pgs.max_iterations = 1000;
+  s.pgs.tolerance = 1e-4;
+  s.pgs.max_iterations = 500;
   s.max_increment = 5.0;
   s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] = 0.2;
+  s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::DURA)] = 0.2;
   return s;
 }
 
@@ -118,6 +121,7 @@ std::string to_string(RegistrationStop stop) {
     case RegistrationStop::CONVERGED: return "converged";
     case RegistrationStop::MAX_ITERATIONS: return "max_iterations";
     case RegistrationStop::NO_DATA: return "no_data";
+    case RegistrationStop::NOT_SETTLING: return "not_settling";
   }
   BS_UNREACHABLE();
 }
@@ -214,6 +218,11 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
   std::vector<Pair> vessel_pairs, footprint_pairs;
   bool frozen = false;
   res.stop = RegistrationStop::MAX_ITERATIONS;
+  const double max_radius =
+      options.step.max_increment > 0 ? options.step.max_increment : std::numeric_limits<double>::infinity();
+  double radius = max_radius;
+  int limited_streak = 0;
+  StepOptions step_options = options.step;
   for (int it = 1; it <= options.max_iterations; ++it) {
     const auto t_it = Clock::now();
     IterationRecord rec;
@@ -261,7 +270,10 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
       k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
       if (auto f = warm.find(key_of(i, k)); f != warm.end()) lambda0[i] = f->second;
     }
-    const StepResult step = model.mechanics().step(res.positions, rows, options.step, lambda0);
+    step_options.max_increment = std::isfinite(radius) ? radius : 0.0;
+    const StepResult step = model.mechanics().step(res.positions, rows, step_options, lambda0);
+    rec.trust_radius_mm = step_options.max_increment;
+    rec.limited = step.limited;
     warm.clear();
     for (index_t i = 0, k = 0; i < rows.size(); ++i) {
       k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
@@ -292,16 +304,30 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
                    "PGS {} ({} sweeps){}",
                    it, rec.vessel_pairs, rec.footprint_pairs, rec.dura_rows, rec.rows, rec.max_increment_mm,
                    rec.pgs_stop, rec.pgs_iterations, rec.pairing_frozen ? ", pairs frozen" : "");
-    if (rec.max_increment_mm < options.increment_tolerance_mm && (!rec.pairing_changed || rec.pairing_frozen)) {
+    if (!step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
+        (!rec.pairing_changed || rec.pairing_frozen)) {
       res.converged = true;
       res.stop = RegistrationStop::CONVERGED;
+      break;
+    }
+    // Trust region: shrink after two limited steps in a row, grow back after a free one.
+    limited_streak = step.limited ? limited_streak + 1 : 0;
+    if (limited_streak >= 2) radius *= 0.5;
+    else if (!step.limited) radius = std::min(max_radius, 1.5 * radius);
+    if (radius < options.increment_tolerance_mm) {
+      res.stop = RegistrationStop::NOT_SETTLING;
       break;
     }
   }
   res.displacement = res.positions - mesh.nodes();
   for (const auto& [k, l] : warm) res.lambda.emplace_back(k, l);
-  char buf[160];
-  if (res.converged)
+  char buf[256];
+  if (res.stop == RegistrationStop::NOT_SETTLING)
+    std::snprintf(buf, sizeof buf,
+                  "not settling: the trust region shrank below %.3g mm after %d iterations; the constraints "
+                  "cannot be met (inconsistent data or too large a shift); last PGS: %s",
+                  options.increment_tolerance_mm, res.iterations, res.history.back().pgs_stop.c_str());
+  else if (res.converged)
     std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations",
                   options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations);
   else

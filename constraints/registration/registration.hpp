@@ -10,6 +10,11 @@
 /// constrained static step (constrained_step.hpp); it stops when the largest nodal increment is
 /// below a tolerance and the pairing set is stable, or at an iteration cap.
 ///
+/// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
+/// that halves after two limited steps in a row and grows back by 1.5× after an unlimited one.
+/// A step that had to be limited never counts as converged; a radius below the increment
+/// tolerance stops the loop with NOT_SETTLING and a diagnosis instead of oscillating.
+///
 /// Pairing cycles: with noisy points the nearest-feature pairing can cycle through a few sets
 /// forever (a point between two segments, a tetrahedron whose nearest pair alternates). When the
 /// pairing set changes to one already seen in an earlier iteration, the pairs are frozen: later
@@ -118,7 +123,8 @@ struct RegistrationOptions {
   static FilterOptions default_vessel_filter();
   /// The step settings the loop is tuned for: vessel rows compliant with ratio 0.2 (see
   /// StepOptions::compliance_ratio; Doppler points are noisy), footprint, dura and landmark rows
-  /// hard (the probe is rigid, few points), a 5 mm trust region, PGS to 1e-6 or 1000 sweeps.
+  /// hard (the probe is rigid, few points), a 5 mm trust region, PGS to 1e-4 or 500 sweeps (each
+  /// iteration re-solves from a warm start; a tighter solve per iteration buys nothing).
   static StepOptions default_step();
 };
 
@@ -147,12 +153,21 @@ struct IterationRecord {
   bool pairing_changed = true;
   bool pairing_frozen = false;
   double seconds = 0.0;
+  double trust_radius_mm = 0.0;  ///< the trust region this iteration's step was limited to
+  bool limited = false;          ///< the step was scaled down to the trust region
   FilterReport vessel_filter;
   FilterReport footprint_filter;
   std::string diagnosis;        ///< the step's diagnosis, if any
 };
 
-enum class RegistrationStop { CONVERGED, MAX_ITERATIONS, NO_DATA };
+enum class RegistrationStop {
+  CONVERGED,       ///< increment below tolerance with a stable (or frozen) pairing set
+  MAX_ITERATIONS,  ///< iteration cap
+  NO_DATA,         ///< nothing to register; the model was not moved
+  NOT_SETTLING,    ///< the trust region shrank below the increment tolerance: the model cannot
+                   ///< meet the constraints (inconsistent data, or beyond the corotational
+                   ///< iteration's reach); positions are the last finite iterate
+};
 std::string to_string(RegistrationStop stop);
 
 struct RegistrationResult {

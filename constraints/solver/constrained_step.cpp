@@ -100,7 +100,7 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     res.seconds_delassus = seconds_since(t0);
 
     t0 = Clock::now();
-    res.pgs = solve_pgs(W, delta_free, rows, warm_start, options.pgs);
+    res.pgs = solve_constraints(W, delta_free, rows, warm_start, options.pgs, options.solver);
     res.lambda = res.pgs.lambda;
     res.seconds_pgs = seconds_since(t0);
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "constraints/rows/constraint_rows.hpp"
+#include "constraints/solver/active_set.hpp"
 #include "constraints/solver/compliance_operator.hpp"
 #include "constraints/solver/pgs.hpp"
 #include "core/assembly/dof_map.hpp"
@@ -34,6 +35,7 @@ std::string to_string(Mechanics m);
 
 struct StepOptions {
   PgsOptions pgs;
+  ConstraintSolver solver = ConstraintSolver::AUTO;  ///< direct active set or PGS (active_set.hpp)
   Mechanics mechanics = Mechanics::WARPED;
   Vector3d gravity = Vector3d::Zero();  ///< body acceleration, mm/s²
   double density = 1040e-9;             ///< kg/mm³
