@@ -14,7 +14,6 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <vector>
@@ -137,16 +136,14 @@ TEST_F(AortaReference, SkeletonMatchesVmtkCenterline) {
   const VolumeF image = read_volume(data_dir() / "aorta.mha");
   const VesselGraph vmtk = read_skeleton_vtp(data_dir() / "aorta-centerline.vtp");
   VesselExtractionOptions options;
-  const auto start = std::chrono::steady_clock::now();
   const VesselExtractionResult r = extract_vessels(image, options);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(r.status, VesselStatus::OK) << r.message;
   const Stats vmtk_to_ours = stats(distances(vmtk, r.graph));
   const std::vector<double> inside = distances_within_lumen(r.graph, vmtk);
   ASSERT_FALSE(inside.empty());
   const Stats ours_to_vmtk = stats(inside);
   constexpr double voxel = 0.878906;  // mm, in-plane spacing
-  logger().warn("aorta: {} ({:.2f} s)", r.message, seconds);
+  logger().warn("aorta: {}", r.message);
   logger().warn("aorta: VMTK→ours mean {:.2f} p95 {:.2f} max {:.2f} mm, within 2 voxels {:.3f}",
                 vmtk_to_ours.mean, vmtk_to_ours.p95, vmtk_to_ours.max,
                 vmtk_to_ours.within_limit_fraction(2 * voxel));
@@ -165,8 +162,6 @@ TEST_F(AortaReference, SkeletonMatchesVmtkCenterline) {
   // inside VMTK's lumen is at least 80 % of VMTK's (two lines sharing their trunk, so VMTK's
   // summed length over-counts the shared part).
   EXPECT_GT(0.25 * double(inside.size()), 0.8 * 0.5 * vmtk.total_length());
-  // Speed: 2.1 M voxels; generous bound for shared machines (measured 0.15 s).
-  EXPECT_LT(seconds, 5.0);
 }
 
 }  // namespace

@@ -2,7 +2,6 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -212,8 +211,8 @@ TEST(VesselExtraction, InvalidOptionsAndVectorVolumesAreErrors) {
                       {"one-component"});
 }
 
-TEST(VesselExtraction, A256CubedVolumeIsProcessedQuickly) {
-  // Speed target: < 2 s in Release for 256³. Eight tubes crossing the volume.
+TEST(VesselExtraction, A256CubedVolumeWithEightCrossingTubesGivesTheirBranches) {
+  // The size of the speed target (256³; timed in bench/, not here). Eight tubes crossing.
   ImageGeometry g = unit_grid({256, 256, 256});
   g.spacing = {0.9, 0.9, 0.9};
   std::vector<AxisSegment> axes;
@@ -222,17 +221,9 @@ TEST(VesselExtraction, A256CubedVolumeIsProcessedQuickly) {
     axes.push_back({{30.0 + 45 * t, 10.0, 100.0}, {50.0 + 40 * t, 220.0, 150.0 - 20 * t}});
   }
   const VolumeF image = draw_tubes(g, axes, 2.5);
-  const auto start = std::chrono::steady_clock::now();
   const VesselExtractionResult r = extract_vessels(image);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(r.status, VesselStatus::OK) << r.message;
-  logger().warn("256³ vessel extraction: {:.2f} s, {} branches", seconds, r.branch_count);
-  RecordProperty("seconds", std::to_string(seconds));
   EXPECT_GE(r.branch_count, 8);  // 8 tubes; crossings add junctions and split branches
-#ifdef NDEBUG
-  // Generous: 2 s is the target on 2 idle cores; shared CI machines run several jobs at once.
-  EXPECT_LT(seconds, 10.0);
-#endif
 }
 
 }  // namespace
