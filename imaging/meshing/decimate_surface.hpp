@@ -1,0 +1,25 @@
+#pragma once
+/// @file
+/// @brief Decimation of a closed triangle surface to a few hundred vertices (the collision
+/// surface of the registration) by CGAL edge collapse with the Lindstrom–Turk cost and placement
+/// (Lindstrom & Turk, "Fast and memory efficient polygonal simplification", IEEE Vis 1998),
+/// guarded against normal flips. Positions in mm, world frame.
+
+#include "constraints/registration/skeleton.hpp"
+#include "core/config.hpp"
+
+namespace brainshift::imaging {
+
+/// Decimates a closed, manifold, consistently oriented triangle surface.
+/// @param[in] surface          e.g. outer_boundary_surface().surface; normals outward.
+/// @param[in] target_vertices  vertex count to reach (≥ 4); the result has this many ± a few
+///                             (edge collapses stop at the matching edge count 3(V − χ)).
+///                             A surface with fewer vertices is returned unchanged.
+/// @return a closed manifold surface with outward normals, vertices near the input surface
+/// (Lindstrom–Turk placement keeps the enclosed volume, so vertices may lie slightly outside).
+/// \throws brainshift::Error when `surface` is not a closed manifold (open edge, an edge shared by
+/// more than two triangles, an index out of range) or target_vertices < 4.
+constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surface,
+                                          index_t target_vertices = 300);
+
+}  // namespace brainshift::imaging

@@ -1,0 +1,282 @@
+#include "imaging/warping/warp_image.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "core/logger.hpp"
+
+namespace brainshift::imaging {
+
+namespace {
+
+/// Affine map p ↦ A p + b (3D).
+struct Affine {
+  Matrix3d A = Matrix3d::Identity();
+  Vector3d b = Vector3d::Zero();
+  [[nodiscard]] Vector3d operator()(const Vector3d& p) const { return A * p + b; }
+};
+
+/// A tetrahedron prepared for rasterisation in the output grid: barycentric coordinates
+/// λ(p) = L p + c of an output index p, and the mapped attribute a(p) = G p + h (an input index
+/// for warping, a displacement for the field), both affine in p.
+struct PreparedTet {
+  Eigen::Matrix<double, 4, 3> L;
+  Vector4d c;
+  Matrix3d G;
+  Vector3d h;
+  Eigen::Vector3i lo, hi;  ///< inclusive voxel bounding box, clipped to the grid
+  bool empty = true;
+};
+
+/// Barycentric tolerance: voxel centres on a face (λ = 0 up to rounding) count as inside.
+constexpr double INSIDE_TOL = 1e-9;
+
+PreparedTet prepare(const std::array<Vector3d, 4>& q, const std::array<Vector3d, 4>& a,
+                    const Eigen::Vector3i& size) {
+  PreparedTet t;
+  Matrix3d E;
+  E << q[1] - q[0], q[2] - q[0], q[3] - q[0];
+  const double scale = std::max({E.col(0).norm(), E.col(1).norm(), E.col(2).norm()});
+  if (!(std::abs(E.determinant()) > 1e-12 * scale * scale * scale)) return t;  // flat: skip
+  const Matrix3d M = E.inverse();
+  t.L.bottomRows<3>() = M;
+  t.L.row(0) = -M.colwise().sum();
+  t.c.tail<3>() = -M * q[0];
+  t.c[0] = 1.0 - t.c.tail<3>().sum();
+  Matrix3d D;
+  D << a[1] - a[0], a[2] - a[0], a[3] - a[0];
+  t.G = D * M;
+  t.h = a[0] - t.G * q[0];
+  Vector3d mn = q[0], mx = q[0];
+  for (int v = 1; v < 4; ++v) {
+    mn = mn.cwiseMin(q[std::size_t(v)]);
+    mx = mx.cwiseMax(q[std::size_t(v)]);
+  }
+  for (int d = 0; d < 3; ++d) {
+    t.lo[d] = std::max(0, int(std::ceil(mn[d] - 1e-6)));
+    t.hi[d] = std::min(size[d] - 1, int(std::floor(mx[d] + 1e-6)));
+  }
+  t.empty = (t.lo.array() > t.hi.array()).any();
+  return t;
+}
+
+/// Calls f(linear voxel index, attribute) for every voxel centre of planes [k0, k1) inside t.
+template <typename F>
+void rasterise(const PreparedTet& t, const Eigen::Vector3i& size, int k0, int k1, F&& f) {
+  const int kb = std::max(k0, t.lo[2]);
+  const int ke = std::min(k1 - 1, t.hi[2]);
+  const Vector4d s = t.L.col(0);  // dλ/di
+  for (int k = kb; k <= ke; ++k) {
+    for (int j = t.lo[1]; j <= t.hi[1]; ++j) {
+      const Vector4d b = t.L.col(1) * j + t.L.col(2) * k + t.c;  // λ at i = 0
+      double ilo = t.lo[0], ihi = t.hi[0];
+      for (int v = 0; v < 4; ++v) {  // λ_v(i) = b_v + s_v i ≥ −tol
+        if (s[v] > 0.0) ilo = std::max(ilo, (-INSIDE_TOL - b[v]) / s[v]);
+        else if (s[v] < 0.0) ihi = std::min(ihi, (-INSIDE_TOL - b[v]) / s[v]);
+        else if (b[v] < -INSIDE_TOL) ihi = -1.0;
+      }
+      if (!(ilo <= ihi)) continue;  // empty span (the bounds may be huge: test before int casts)
+      const int ib = int(std::ceil(ilo));
+      const int ie = int(std::floor(ihi));
+      if (ib > ie) continue;
+      const Vector3d row = t.G.col(1) * j + t.G.col(2) * k + t.h;
+      const std::int64_t base = (std::int64_t(k) * size[1] + j) * size[0];
+      for (int i = ib; i <= ie; ++i) f(base + i, Vector3d(row + t.G.col(0) * i));
+    }
+  }
+}
+
+/// Runs body(k0, k1) on `threads` slabs of planes.
+template <typename F>
+void for_slabs(int nk, int threads, F&& body) {
+  threads = std::max(1, std::min(threads, nk));
+  if (threads == 1) {
+    body(0, nk);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int w = 0; w < threads; ++w) {
+    const int k0 = int(std::int64_t(nk) * w / threads);
+    const int k1 = int(std::int64_t(nk) * (w + 1) / threads);
+    pool.emplace_back([&body, k0, k1] { body(k0, k1); });
+  }
+  for (auto& th : pool) th.join();
+}
+
+void check_mesh_input(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
+                      const Eigen::Matrix4d& rigid, int threads) {
+  BS_VERIFY(displacement.rows() == mesh.num_nodes(),
+            "displacement has " << displacement.rows() << " rows, the mesh has "
+            << mesh.num_nodes() << " nodes");
+  BS_VERIFY(displacement.allFinite(), "displacement has a NaN or infinite value");
+  const Matrix3d R = rigid.topLeftCorner<3, 3>();
+  BS_VERIFY(rigid.allFinite() && (R.transpose() * R - Matrix3d::Identity()).norm() < 1e-6 &&
+                R.determinant() > 0.0 && rigid.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)),
+            "the rigid transform outside the mesh is not a rotation + translation: |RᵀR − I| = "
+            << (R.transpose() * R - Matrix3d::Identity()).norm() << ", det R = " << R.determinant()
+            << ", last row " << rigid.row(3));
+  BS_VERIFY(threads >= 1, "threads must be ≥ 1, got " << threads);
+}
+
+/// world → index of g, as an affine map.
+Affine world_to_index(const ImageGeometry& g) {
+  Affine m;
+  m.A = g.spacing.cwiseInverse().asDiagonal() * g.direction.transpose();
+  m.b = -m.A * g.origin;
+  return m;
+}
+
+/// index → world of g, as an affine map.
+Affine index_to_world(const ImageGeometry& g) {
+  Affine m;
+  m.A = g.direction * g.spacing.asDiagonal();
+  m.b = g.origin;
+  return m;
+}
+
+Affine compose(const Affine& f, const Affine& g) {  // f ∘ g
+  return {f.A * g.A, f.A * g.b + f.b};
+}
+
+/// Prepares every tetrahedron: vertices `q` (output index space) and attributes `a`.
+std::vector<PreparedTet> prepare_all(const core::TetMesh& mesh, const MatrixX3d& q_nodes,
+                                     const MatrixX3d& a_nodes, const Eigen::Vector3i& size) {
+  std::vector<PreparedTet> tets(std::size_t(mesh.num_tets()));
+  for (index_t t = 0; t < mesh.num_tets(); ++t) {
+    std::array<Vector3d, 4> q, a;
+    for (int v = 0; v < 4; ++v) {
+      q[std::size_t(v)] = q_nodes.row(mesh.tets()(t, v)).transpose();
+      a[std::size_t(v)] = a_nodes.row(mesh.tets()(t, v)).transpose();
+    }
+    tets[std::size_t(t)] = prepare(q, a, size);
+  }
+  return tets;
+}
+
+MatrixX3d map_rows(const Affine& m, const MatrixX3d& P) {
+  MatrixX3d out(P.rows(), 3);
+  for (index_t r = 0; r < P.rows(); ++r) out.row(r) = m(P.row(r).transpose()).transpose();
+  return out;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value) {
+  const auto& n = image.geometry.size;
+  std::array<int, 3> i0{};
+  std::array<double, 3> f{};
+  for (int d = 0; d < 3; ++d) {
+    const double x = ijk[d];
+    if (!(x >= -0.5 && x <= n[d] - 0.5)) return outside_value;  // also rejects NaN
+    const double c = std::clamp(x, 0.0, double(n[d] - 1));
+    const int lo = std::min(int(c), std::max(n[d] - 2, 0));
+    i0[std::size_t(d)] = lo;
+    f[std::size_t(d)] = c - lo;
+  }
+  const std::int64_t sx = 1, sy = n[0], sz = std::int64_t(n[0]) * n[1];
+  const std::int64_t dx = n[0] > 1 ? sx : 0, dy = n[1] > 1 ? sy : 0, dz = n[2] > 1 ? sz : 0;
+  const float* p = image.data.data() + (i0[2] * sz + i0[1] * sy + i0[0]) * image.components;
+  const auto at = [&](std::int64_t off) { return double(p[off * image.components]); };
+  const double wx = f[0], wy = f[1], wz = f[2];
+  const double c00 = (1 - wx) * at(0) + wx * at(dx);
+  const double c10 = (1 - wx) * at(dy) + wx * at(dy + dx);
+  const double c01 = (1 - wx) * at(dz) + wx * at(dz + dx);
+  const double c11 = (1 - wx) * at(dz + dy) + wx * at(dz + dy + dx);
+  const double c0 = (1 - wy) * c00 + wy * c10;
+  const double c1 = (1 - wy) * c01 + wy * c11;
+  return float((1 - wz) * c0 + wz * c1);
+}
+
+VolumeF warp_image(const VolumeF& image, const core::TetMesh& mesh,
+                   ConstRef<MatrixX3d> displacement, const WarpOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  BS_VERIFY(!image.empty() && image.geometry.size.minCoeff() > 0,
+            "warp_image: the input image is empty (size " << image.geometry.size.transpose() << ")");
+  BS_VERIFY(image.components == 1,
+            "warp_image: the input image must be scalar, it has " << image.components << " components");
+  check_mesh_input(mesh, displacement, options.rigid, options.threads);
+  const ImageGeometry out_g = options.output_geometry.value_or(image.geometry);
+  BS_VERIFY(out_g.size.minCoeff() > 0, "warp_image: the output grid is empty");
+
+  VolumeF out(out_g, 1, options.outside_value);
+  // Outside the mesh: input index = in.world_to_index(T⁻¹ · out.index_to_world(ijk)).
+  const Matrix3d R = options.rigid.topLeftCorner<3, 3>();
+  const Vector3d t = options.rigid.topRightCorner<3, 1>();
+  const Affine rigid_inverse{R.transpose(), -R.transpose() * t};
+  const Affine outside =
+      compose(world_to_index(image.geometry), compose(rigid_inverse, index_to_world(out_g)));
+  // Inside: deformed nodes in output index space, rest nodes in input index space.
+  const MatrixX3d deformed = mesh.nodes() + displacement;
+  const auto tets = prepare_all(mesh, map_rows(world_to_index(out_g), deformed),
+                                map_rows(world_to_index(image.geometry), mesh.nodes()), out_g.size);
+  const float fill = options.outside_value;
+  for_slabs(out_g.size[2], options.threads, [&](int k0, int k1) {
+    for (int k = k0; k < k1; ++k) {
+      for (int j = 0; j < out_g.size[1]; ++j) {
+        float* row = &out.at(0, j, k);
+        const Vector3d p0 = outside(Vector3d(0, j, k));
+        for (int i = 0; i < out_g.size[0]; ++i) {
+          row[i] = sample_trilinear(image, p0 + outside.A.col(0) * i, fill);
+        }
+      }
+    }
+    float* data = out.data.data();
+    for (const PreparedTet& tet : tets) {
+      if (tet.empty || tet.hi[2] < k0 || tet.lo[2] >= k1) continue;
+      rasterise(tet, out_g.size, k0, k1, [&](std::int64_t v, const Vector3d& ijk) {
+        data[v] = sample_trilinear(image, ijk, fill);
+      });
+    }
+  });
+  logger().debug("warp_image: {}×{}×{} voxels, {} tets, {:.3f} s", out_g.size[0], out_g.size[1],
+                 out_g.size[2], mesh.num_tets(), seconds_since(start));
+  return out;
+}
+
+VolumeF displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
+                           const ImageGeometry& geometry, const DisplacementFieldOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  BS_VERIFY(geometry.size.minCoeff() > 0,
+            "displacement_field: the grid is empty (size " << geometry.size.transpose() << ")");
+  check_mesh_input(mesh, displacement, options.rigid, options.threads);
+  VolumeF out(geometry, 3, 0.0F);
+  // Outside the mesh: u = T X − X = (R − I) X + t with X = index_to_world(ijk).
+  const Affine rigid_displacement{Matrix3d(options.rigid.topLeftCorner<3, 3>() - Matrix3d::Identity()),
+                                  options.rigid.topRightCorner<3, 1>()};
+  const Affine outside = compose(rigid_displacement, index_to_world(geometry));
+  const MatrixX3d u = displacement;
+  const auto tets = prepare_all(mesh, map_rows(world_to_index(geometry), mesh.nodes()), u,
+                                geometry.size);
+  for_slabs(geometry.size[2], options.threads, [&](int k0, int k1) {
+    for (int k = k0; k < k1; ++k) {
+      for (int j = 0; j < geometry.size[1]; ++j) {
+        float* row = &out.at(0, j, k, 0);
+        const Vector3d d0 = outside(Vector3d(0, j, k));
+        for (int i = 0; i < geometry.size[0]; ++i) {
+          const Vector3d d = d0 + outside.A.col(0) * i;
+          for (int c = 0; c < 3; ++c) row[3 * i + c] = float(d[c]);
+        }
+      }
+    }
+    float* data = out.data.data();
+    for (const PreparedTet& tet : tets) {
+      if (tet.empty || tet.hi[2] < k0 || tet.lo[2] >= k1) continue;
+      rasterise(tet, geometry.size, k0, k1, [&](std::int64_t v, const Vector3d& d) {
+        for (int c = 0; c < 3; ++c) data[3 * v + c] = float(d[c]);
+      });
+    }
+  });
+  logger().debug("displacement_field: {}×{}×{} voxels, {} tets, {:.3f} s", geometry.size[0],
+                 geometry.size[1], geometry.size[2], mesh.num_tets(), seconds_since(start));
+  return out;
+}
+
+}  // namespace brainshift::imaging

@@ -1,0 +1,234 @@
+#include "imaging/warping/warp_image.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "core/logger.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+#include "expect_error.hpp"
+#include "tolerance.hpp"
+
+namespace brainshift::imaging {
+namespace {
+
+using tests::expect_error;
+
+constexpr double FLOAT_EPS = std::numeric_limits<float>::epsilon();
+
+/// 40 × 44 × 36 voxels, anisotropic spacing, optionally a rotated (and reflected) direction.
+ImageGeometry test_grid(bool rotated) {
+  ImageGeometry g;
+  g.size = Eigen::Vector3i(40, 44, 36);
+  g.spacing = Vector3d(1.0, 1.1, 1.3);
+  g.origin = Vector3d(-18.0, -25.0, -20.0);
+  if (rotated) {
+    g.direction = Vector3d(-1, -1, 1).asDiagonal() *
+                  Eigen::AngleAxisd(0.4, Vector3d(1, -2, 0.5).normalized()).toRotationMatrix();
+    g.origin = Vector3d(12.0, 20.0, -20.0);
+  }
+  return g;
+}
+
+VolumeF make_image(const ImageGeometry& g, const std::function<double(const Vector3d&)>& f) {
+  VolumeF v(g);
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) v.at(i, j, k) = float(f(g.index_to_world(Vector3d(i, j, k))));
+  return v;
+}
+
+/// A box mesh around the world origin, well inside both test grids (≈ 24 × 24 × 20 mm).
+core::TetMesh test_box() {
+  return data_synth::make_box_mesh(Vector3d(24, 24, 20), Eigen::Vector3i(4, 4, 3), Vector3d(-12, -12, -10));
+}
+
+bool inside_box(const Vector3d& X, double margin) {
+  return (X.array() >= Eigen::Array3d(-12, -12, -10) + margin).all() &&
+         (X.array() <= Eigen::Array3d(12, 12, 10) - margin).all();
+}
+
+/// Pre-image strictly inside the image grid (trilinear interpolation without clamping).
+bool inside_grid(const ImageGeometry& g, const Vector3d& X) {
+  const Vector3d ijk = g.world_to_index(X);
+  return (ijk.array() >= 0.0).all() && (ijk.array() <= (g.size.array() - 1).cast<double>()).all();
+}
+
+TEST(WarpImage, IdentityDisplacementReproducesTheImage) {
+  for (bool rotated : {false, true}) {
+    SCOPED_TRACE(rotated ? "rotated direction" : "identity direction");
+    const ImageGeometry g = test_grid(rotated);
+    const VolumeF in = make_image(g, [](const Vector3d& p) { return 100.0 + 50.0 * std::sin(0.3 * p.x()) * std::cos(0.2 * p.y() + 0.1 * p.z()); });
+    const core::TetMesh mesh = test_box();
+    const VolumeF out = warp_image(in, mesh, MatrixX3d::Zero(mesh.num_nodes(), 3));
+    ASSERT_EQ(out.data.size(), in.data.size());
+    double worst = 0.0;
+    for (std::size_t v = 0; v < in.data.size(); ++v) worst = std::max(worst, double(std::abs(out.data[v] - in.data[v])));
+    // At voxel centres the interpolation weights are 0/1 up to rounding of the index maps
+    // (≈ 1e-13), so the value is exact within a float ulp of the largest value (150).
+    EXPECT_LE(worst, 150.0 * FLOAT_EPS);
+  }
+}
+
+TEST(WarpImage, TranslationMovesASmoothBlob) {
+  const ImageGeometry g = test_grid(/*rotated=*/true);
+  const Vector3d centre(2.0, -1.0, 1.5), d(3.0, -2.0, 5.0);
+  const double sigma = 6.0;  // mm
+  const auto blob = [&](const Vector3d& p) { return std::exp(-(p - centre).squaredNorm() / (2 * sigma * sigma)); };
+  const VolumeF in = make_image(g, blob);
+  const core::TetMesh mesh = test_box();
+  const MatrixX3d u = d.transpose().replicate(mesh.num_nodes(), 1);
+  const VolumeF out = warp_image(in, mesh, u);
+  // Trilinear interpolation error ≤ Σ_d h_d²/8 · max|∂²f/∂x_d²| with max|∂²f/∂x²| = 1/σ² for the
+  // Gaussian (h along each index axis; the rotated axes do not change the bound per axis).
+  const double bound = g.spacing.squaredNorm() / 8.0 / (sigma * sigma) + 10 * FLOAT_EPS;
+  int checked = 0;
+  double worst = 0.0;
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) {
+        const Vector3d y = g.index_to_world(Vector3d(i, j, k));
+        if (!inside_box(y - d, 1e-6) || !inside_grid(g, y - d)) continue;
+        worst = std::max(worst, std::abs(double(out.at(i, j, k)) - blob(y - d)));
+        ++checked;
+      }
+  EXPECT_GT(checked, 5000);
+  EXPECT_LE(worst, bound);
+}
+
+TEST(WarpImage, AffineDeformationOfALinearImageIsExact) {
+  const ImageGeometry g = test_grid(/*rotated=*/true);
+  const Vector3d gradient(0.7, -1.3, 2.1);
+  const auto ramp = [&](const Vector3d& p) { return 50.0 + gradient.dot(p); };
+  const VolumeF in = make_image(g, ramp);
+  const core::TetMesh mesh = test_box();
+  Matrix3d A;
+  A << 0.05, -0.02, 0.03, 0.01, -0.04, 0.02, -0.03, 0.02, 0.06;
+  const Vector3d b(1.0, -0.5, 2.0);
+  MatrixX3d u(mesh.num_nodes(), 3);
+  for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) = (A * mesh.nodes().row(n).transpose() + b).transpose();
+  const VolumeF out = warp_image(in, mesh, u);
+  const Matrix3d F_inv = (Matrix3d::Identity() + A).inverse();
+  int checked = 0;
+  double worst = 0.0;
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) {
+        const Vector3d y = g.index_to_world(Vector3d(i, j, k));
+        const Vector3d X = F_inv * (y - b);
+        if (!inside_box(X, 1e-6) || !inside_grid(g, X)) continue;
+        worst = std::max(worst, std::abs(double(out.at(i, j, k)) - ramp(X)));
+        ++checked;
+      }
+  EXPECT_GT(checked, 5000);
+  // Trilinear interpolation reproduces linear functions; what is left is float storage of values
+  // up to ≈ 120 (a few ulp of the stored voxels).
+  EXPECT_LE(worst, 120.0 * 4 * FLOAT_EPS);
+}
+
+TEST(WarpImage, OutsideTheMeshOnlyTheRigidPartApplies) {
+  const ImageGeometry g = test_grid(/*rotated=*/false);
+  const Vector3d gradient(0.7, -1.3, 2.1);
+  const auto ramp = [&](const Vector3d& p) { return 50.0 + gradient.dot(p); };
+  const VolumeF in = make_image(g, ramp);
+  const core::TetMesh mesh = test_box();
+  Eigen::Affine3d T = Eigen::Translation3d(1.5, -1.0, 0.5) * Eigen::AngleAxisd(0.15, Vector3d::UnitZ());
+  WarpOptions options;
+  options.rigid = T.matrix();
+  // The mesh is translated (a non-rigid-part motion); only voxels outside it see T.
+  const Vector3d d(3.0, -2.0, 5.0);
+  const MatrixX3d u = d.transpose().replicate(mesh.num_nodes(), 1);
+  const VolumeF out = warp_image(in, mesh, u, options);
+  int outside = 0, inside = 0;
+  double worst = 0.0, worst_inside = 0.0;
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) {
+        const Vector3d y = g.index_to_world(Vector3d(i, j, k));
+        if (inside_box(y - d, 1e-6) && inside_grid(g, y - d)) {
+          worst_inside = std::max(worst_inside, std::abs(double(out.at(i, j, k)) - ramp(y - d)));
+          ++inside;
+        }
+        const Vector3d X = T.inverse() * y;
+        if (inside_box(y - d, -1e-6) || !inside_grid(g, X)) continue;
+        worst = std::max(worst, std::abs(double(out.at(i, j, k)) - ramp(X)));
+        ++outside;
+      }
+  EXPECT_GT(inside, 5000);
+  EXPECT_LE(worst_inside, 120.0 * 4 * FLOAT_EPS);
+  EXPECT_GT(outside, 20000);
+  EXPECT_LE(worst, 120.0 * 4 * FLOAT_EPS);  // linear image: exact up to float storage
+  // A voxel far outside: its pre-image is outside the input image, so it gets the fill value.
+  options.outside_value = -7.0F;
+  EXPECT_EQ(warp_image(in, mesh, u, options).at(g.size[0] - 1, 0, 0), -7.0F);
+  // Non-rigid transforms are rejected.
+  options.rigid(0, 0) = 2.0;
+  expect_error([&] { (void)warp_image(in, mesh, u, options); }, {"rigid"});
+}
+
+TEST(DisplacementField, IsTheTranslationInsideTheMeshAndRigidOutside) {
+  const ImageGeometry g = test_grid(/*rotated=*/true);
+  const core::TetMesh mesh = test_box();
+  const Vector3d d(3.0, -2.0, 5.0);
+  const MatrixX3d u = d.transpose().replicate(mesh.num_nodes(), 1);
+  DisplacementFieldOptions options;
+  const Eigen::Affine3d T = Eigen::Translation3d(0.5, 0.0, -1.0) * Eigen::AngleAxisd(0.1, Vector3d::UnitX());
+  options.rigid = T.matrix();
+  const VolumeF field = displacement_field(mesh, u, g, options);
+  ASSERT_EQ(field.components, 3);
+  int inside = 0;
+  double worst_in = 0.0, worst_out = 0.0;
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) {
+        const Vector3d X = g.index_to_world(Vector3d(i, j, k));
+        const Vector3d value(field.at(i, j, k, 0), field.at(i, j, k, 1), field.at(i, j, k, 2));
+        if (inside_box(X, 1e-6)) {
+          worst_in = std::max(worst_in, (value - d).norm());
+          ++inside;
+        } else if (!inside_box(X, -1e-6)) {
+          worst_out = std::max(worst_out, (value - (T * X - X)).norm());
+        }
+      }
+  EXPECT_GT(inside, 5000);
+  EXPECT_LE(worst_in, 5.0 * 4 * FLOAT_EPS);    // float storage of |d| ≈ 6 mm
+  EXPECT_LE(worst_out, 10.0 * 4 * FLOAT_EPS);  // |T X − X| ≤ ≈ 6 mm
+}
+
+TEST(WarpImage, RejectsBadInput) {
+  const core::TetMesh mesh = test_box();
+  const VolumeF in(test_grid(false));
+  expect_error([&] { (void)warp_image(in, mesh, MatrixX3d::Zero(3, 3)); }, {"3 rows", "nodes"});
+  expect_error([&] { (void)warp_image(VolumeF{}, mesh, MatrixX3d::Zero(mesh.num_nodes(), 3)); }, {"empty"});
+  MatrixX3d nan = MatrixX3d::Zero(mesh.num_nodes(), 3);
+  nan(2, 1) = std::nan("");
+  expect_error([&] { (void)displacement_field(mesh, nan, test_grid(false)); }, {"NaN"});
+}
+
+#ifdef NDEBUG
+/// 256³ output voxels, a brain-sized mesh of ≈10k tetrahedra, 2 threads. Target 2 s; the test
+/// allows 3× that since the machine is shared with other builds.
+TEST(WarpImage, Warps256CubedVoxelsInAboutTwoSecondsOnTwoThreads) {
+  ImageGeometry g;
+  g.size = Eigen::Vector3i::Constant(256);
+  g.spacing = Vector3d::Constant(0.8);
+  g.origin = Vector3d::Constant(-0.5 * 255 * 0.8);
+  VolumeF in(g);
+  for (std::size_t v = 0; v < in.data.size(); ++v) in.data[v] = float(v % 1000);
+  const core::TetMesh mesh = data_synth::make_ellipsoid_mesh(Vector3d(70, 85, 60), /*cells=*/12);
+  MatrixX3d u(mesh.num_nodes(), 3);
+  for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) = 0.05 * mesh.nodes().row(n) + Eigen::RowVector3d(1, 2, -1);
+  const auto start = std::chrono::steady_clock::now();
+  const VolumeF out = warp_image(in, mesh, u);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  logger().warn("warp_image 256³, {} tets, 2 threads: {:.3f} s", mesh.num_tets(), seconds);
+  EXPECT_EQ(out.data.size(), in.data.size());
+  EXPECT_LT(seconds, 6.0);
+}
+#endif
+
+}  // namespace
+}  // namespace brainshift::imaging
