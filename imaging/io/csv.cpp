@@ -157,4 +157,39 @@ void write_node_displacements(const std::filesystem::path& path,
   write_text(path, s.str());
 }
 
+Landmarks read_landmarks(const std::filesystem::path& path) {
+  CsvReader csv(path, "id,x,y,z");
+  Landmarks result;
+  std::vector<Vector3d> points;
+  std::unordered_map<std::string, std::string> seen;  // id → where it was first given
+  for (std::string_view line; csv.next(line);) {
+    const auto fields = split_fields(line);
+    BS_VERIFY(fields.size() == 4, csv.where() << ": expected 4 fields (id,x,y,z), got " << fields.size());
+    std::string id(fields[0]);
+    BS_VERIFY(!id.empty(), csv.where() << ": empty id");
+    const auto [it, inserted] = seen.emplace(id, csv.where());
+    BS_VERIFY(inserted, csv.where() << ": id " << id << " is repeated (first at " << it->second << ")");
+    points.emplace_back(csv.parse_number(fields[1], "x"), csv.parse_number(fields[2], "y"),
+                        csv.parse_number(fields[3], "z"));
+    result.ids.push_back(std::move(id));
+  }
+  result.points.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (std::size_t i = 0; i < points.size(); ++i) result.points.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
+  return result;
+}
+
+void write_landmarks(const std::filesystem::path& path, const Landmarks& landmarks) {
+  BS_VERIFY(static_cast<Eigen::Index>(landmarks.ids.size()) == landmarks.points.rows(),
+            path.string() << ": " << landmarks.ids.size() << " ids for " << landmarks.points.rows() << " points");
+  std::ostringstream s;
+  s.precision(std::numeric_limits<double>::max_digits10);
+  s << "id,x,y,z\n";
+  for (std::size_t i = 0; i < landmarks.ids.size(); ++i) {
+    const auto r = static_cast<Eigen::Index>(i);
+    s << landmarks.ids[i] << ',' << landmarks.points(r, 0) << ',' << landmarks.points(r, 1) << ','
+      << landmarks.points(r, 2) << '\n';
+  }
+  write_text(path, s.str());
+}
+
 }  // namespace brainshift::imaging

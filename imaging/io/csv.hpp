@@ -8,6 +8,7 @@
 /// Windows line ends are accepted.
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "core/config.hpp"
@@ -40,5 +41,19 @@ void write_node_list(const std::filesystem::path& path, const std::vector<index_
 /// \throws brainshift::Error naming the path when it cannot be written.
 void write_node_displacements(const std::filesystem::path& path,
                               const std::vector<core::PrescribedDisplacement>& displacements);
+
+/// Landmarks: ids (any text without commas) and world RAS positions, mm.
+struct Landmarks {
+  std::vector<std::string> ids;
+  MatrixX3d points;  ///< #L×3
+};
+
+/// Reads a landmark CSV with the header `id,x,y,z` (mm, world RAS).
+/// \throws brainshift::Error naming the file and line: missing file, wrong header, wrong field
+/// count, a non-numeric or non-finite coordinate, a repeated id.
+Landmarks read_landmarks(const std::filesystem::path& path);
+
+/// Writes a landmark CSV (`id,x,y,z`, full precision) atomically.
+void write_landmarks(const std::filesystem::path& path, const Landmarks& landmarks);
 
 }  // namespace brainshift::imaging

@@ -44,6 +44,22 @@ TEST(Csv, DisplacementsRoundTripExactly) {
   EXPECT_EQ(dir.count(), 2u);
 }
 
+TEST(Csv, LandmarksRoundTripExactlyAndRejectRepeatedIds) {
+  const tests::TempFolder dir;
+  Landmarks l;
+  l.ids = {"bifurcation_1", "7", "deep-tumour"};
+  l.points.resize(3, 3);
+  l.points << 1.0 / 3.0, -2.5, 1e-7, 100.25, 0, -0.1, 3, 4, 5;
+  write_landmarks(dir / "l.csv", l);
+  const Landmarks back = read_landmarks(dir / "l.csv");
+  EXPECT_EQ(back.ids, l.ids);
+  EXPECT_EQ(back.points, l.points);  // max_digits10: exact
+  const auto bad = write_text(dir, "bad.csv", "id,x,y,z\na,1,2,3\na,4,5,6\n");
+  tests::expect_error([&] { read_landmarks(bad); }, {"bad.csv:3", "id a is repeated"});
+  const auto nan = write_text(dir, "nan.csv", "id,x,y,z\na,1,nan,3\n");
+  tests::expect_error([&] { read_landmarks(nan); }, {"nan.csv:2"});
+}
+
 TEST(Csv, HeaderWithSpacesIsAccepted) {
   const tests::TempFolder dir;
   const auto path = write_text(dir, "d.csv", "node, dx, dy, dz\n1, +1.5, 0, -2e-1\n");
