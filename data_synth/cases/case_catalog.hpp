@@ -1,0 +1,69 @@
+#pragma once
+/// @file
+/// @brief The named phantom cases: every parameter of a case (geometry, truth mesh and load,
+/// vessels, images, probe, tracking error), deterministic from the name and a seed.
+///
+/// | name                          | what it stresses                                           |
+/// |-------------------------------|------------------------------------------------------------|
+/// | standard                      | superficial tumour, CSF drained to 60 mm, 5–15 mm shift    |
+/// | large_shift                   | soft brain, fully drained, tilted gravity: ≥ 20 mm shift   |
+/// | deep_tumour_one_side_vessels  | deep tumour, cortical vessels on one side of the opening   |
+/// | noisy_doppler                 | 40 % dropout, strong speckle, many spurious blobs          |
+/// | tracking_error                | probe pose off by 3 mm and 3° in the intra-operative headers|
+/// | sparse_vessels                | one small cortical tree, no deep branches                  |
+/// | resection                     | tumour removed: a soft compressible cavity that collapses  |
+/// | thin_structures               | a thin ventricle horn and a one-voxel sulcus in the labels |
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "data_synth/geometry/brain_phantom.hpp"
+#include "data_synth/geometry/phantom_mesh.hpp"
+#include "data_synth/images/preop_images.hpp"
+#include "data_synth/images/probe.hpp"
+#include "data_synth/images/ultrasound_images.hpp"
+#include "data_synth/truth/brain_sag.hpp"
+#include "data_synth/truth/tled_solver.hpp"
+#include "data_synth/vessels/vessel_tree.hpp"
+
+namespace brainshift::data_synth {
+
+/// Everything that defines a case.
+struct CaseParameters {
+  std::string name;
+  std::uint32_t seed = 1;
+  PhantomGeometry geometry;
+  double preop_spacing = 1.0;  ///< pre-operative voxel size (labels, MRI, MRA, truth field), mm
+  PhantomMeshOptions mesh;     ///< the truth mesh (cell size 5.5 mm by default)
+  SagLoad load;
+  TledOptions tled;
+  /// Resection: tumour elements get cavity_youngs_modulus and cavity_poisson_ratio (a drained,
+  /// compressible cavity) and render as fluid intra-operatively.
+  bool resection = false;
+  double cavity_youngs_modulus = 0.15;  ///< kPa (softer ones invert elements in the TLED solve)
+  double cavity_poisson_ratio = 0.3;
+  /// Thin structures in the pre-operative labels (not in the truth mechanics, whose mesh cannot
+  /// resolve them): a ventricle horn of radius horn_radius and a one-voxel sulcus.
+  bool thin_structures = false;
+  double horn_radius = 1.2;   ///< mm
+  double sulcus_depth = 15.0; ///< mm
+  VesselTreeOptions vessels;
+  MriOptions mri;
+  MraOptions mra;
+  ProbeOptions probe;
+  double probe_indent = 1.0;  ///< the probe face presses this far into the deformed brain, mm
+  DopplerOptions doppler;
+  BmodeOptions bmode;
+  TrackingError tracking;
+  double deep_landmark_offset = 5.0;  ///< deep landmarks lie this far outside the tumour, mm
+};
+
+/// Names of the cases, in the order of the table above.
+std::vector<std::string> case_names();
+
+/// The parameters of a named case for a seed (the seed drives the vessels and all noise).
+/// \throws brainshift::Error "unknown phantom case 'x' (valid: standard, …)" for other names.
+CaseParameters named_case(const std::string& name, std::uint32_t seed);
+
+}  // namespace brainshift::data_synth

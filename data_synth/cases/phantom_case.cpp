@@ -1,0 +1,361 @@
+#include "data_synth/cases/phantom_case.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <fstream>
+#include <iomanip>
+#include <memory>
+#include <random>
+#include <sstream>
+
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "data_synth/cases/case_outputs.hpp"
+#include "data_synth/truth/truth_field.hpp"
+#include "data_synth/vessels/tree_graph.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/skeleton_io.hpp"
+
+namespace brainshift::data_synth {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+json to_json(const Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+void say(const CaseOptions& o, const std::string& message) {
+  logger().info("phantom: {}", message);
+  if (o.progress) o.progress(message);
+}
+
+/// The truth mesh; for a resection the tumour elements become a soft compressible cavity.
+PhantomMesh case_mesh(const CaseParameters& p) {
+  PhantomMesh pm = make_phantom_mesh(p.geometry, p.mesh);
+  if (!p.resection) return pm;
+  Eigen::VectorXd E = pm.mesh.youngs_modulus(), nu = pm.mesh.poisson_ratio();
+  for (index_t t = 0; t < pm.mesh.num_tets(); ++t)
+    if (pm.tet_labels[std::size_t(t)] == imaging::TUMOUR) {
+      E[t] = p.cavity_youngs_modulus;
+      nu[t] = p.cavity_poisson_ratio;
+    }
+  pm.mesh = core::TetMesh(pm.mesh.nodes(), pm.mesh.tets(), E, nu);
+  return pm;
+}
+
+/// One deformed state: the solve and its field.
+struct TruthState {
+  TledResult result;
+  std::unique_ptr<TruthField> field;
+};
+
+TruthState solve_truth(const CaseParameters& p, const PhantomMesh& pm, const TledSolver& solver,
+                       const SagLoad& load) {
+  TruthState s;
+  s.result = solver.solve(make_sag_problem(p.geometry, pm, load), p.tled);
+  BS_VERIFY(s.result.status != TledStatus::DIVERGED,
+            "the truth solve of case '" << p.name << "' diverged: " << s.result.message);
+  if (s.result.status != TledStatus::CONVERGED)
+    logger().warn("phantom {}: truth solve {}", p.name, s.result.message);
+  s.field = std::make_unique<TruthField>(pm.mesh, s.result.displacement);
+  return s;
+}
+
+/// The probe on the deformed cortex under the craniotomy, pressed in by probe_indent, looking
+/// along the inward normal of the rest surface there.
+Probe place_probe(const CaseParameters& p, const TruthField& field) {
+  const Ellipsoid brain = p.geometry.brain_ellipsoid();
+  const Vector3d cc = p.geometry.craniotomy_center_on_brain();
+  const Vector3d n = brain.normal(cc);
+  constexpr double inside = 0.5;  // mm: sample the field just inside the surface
+  const Vector3d surface = field.deform(cc - inside * n) + inside * n;
+  return make_probe(surface - p.probe_indent * n, -n, p.probe);
+}
+
+VesselTree deformed(const VesselTree& tree, const TruthField& field) {
+  VesselTree out = tree;
+  for (Vector3d& x : out.points)
+    if (const auto u = field.try_displacement_at(x)) x += *u;
+  return out;
+}
+
+/// Landmarks (rest positions): tree bifurcations that land in the field of view, then points around the tumour along ±R, ±A, ±S.
+std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const VesselTree& tree,
+                                       const TruthField& field, const Probe& probe,
+                                       index_t& vessel_count) {
+  std::vector<Vector3d> out;
+  for (const index_t b : tree.bifurcations()) {
+    const Vector3d X = tree.points[std::size_t(b)];
+    const auto u = field.try_displacement_at(X);
+    if (u && probe.in_field_of_view(X + *u)) out.push_back(X);
+  }
+  vessel_count = index_t(out.size());
+  const double r = p.geometry.tumour_radius + p.deep_landmark_offset;
+  for (int axis = 0; axis < 3; ++axis)
+    for (const double sign : {-1.0, 1.0}) {
+      const Vector3d X = p.geometry.tumour_center() + sign * r * Vector3d::Unit(axis);
+      if (p.geometry.label_at(X) == imaging::BRAIN && field.try_displacement_at(X)) out.push_back(X);
+    }
+  return out;
+}
+
+std::vector<Vector3d> deform_points(const std::vector<Vector3d>& X, const TruthField& field) {
+  std::vector<Vector3d> x;
+  for (const Vector3d& p : X) x.push_back(field.deform(p));
+  return x;
+}
+
+ShiftStats shift_stats(const CaseParameters& p, const PhantomMesh& pm, const MatrixX3d& u,
+                       const std::vector<Vector3d>& pre, const std::vector<Vector3d>& intra) {
+  ShiftStats s;
+  const Vector3d cc = p.geometry.craniotomy_center_on_brain();
+  double sum = 0.0;
+  int count = 0;
+  for (const index_t i : pm.surface_nodes) {
+    const double d = u.row(i).norm();
+    s.max_cortical_shift = std::max(s.max_cortical_shift, d);
+    if ((pm.mesh.nodes().row(i).transpose() - cc).norm() <= p.geometry.craniotomy_radius) {
+      sum += d;
+      ++count;
+    }
+  }
+  s.mean_cortical_shift = count > 0 ? sum / count : 0.0;
+  for (std::size_t k = 0; k < pre.size(); ++k) {
+    const double d = (intra[k] - pre[k]).norm();
+    s.mean_landmark_shift += d / double(pre.size());
+    s.max_landmark_shift = std::max(s.max_landmark_shift, d);
+  }
+  return s;
+}
+
+json to_json(const ShiftStats& s) {
+  return {{"max_cortical_shift_mm", s.max_cortical_shift},
+          {"mean_cortical_shift_mm", s.mean_cortical_shift},
+          {"mean_landmark_shift_mm", s.mean_landmark_shift},
+          {"max_landmark_shift_mm", s.max_landmark_shift}};
+}
+
+/// Doppler and B-mode of one deformed state into `dir`; the headers carry the tracking error.
+void write_ultrasound(const CaseParameters& p, const VesselTree& tree, const TruthField& field,
+                      const Probe& probe, const fs::path& dir) {
+  const imaging::ImageGeometry grid = probe.grid();
+  const imaging::LabelVolume labels = deformed_labels(field, p.geometry, grid, p.resection);
+  imaging::VolumeF doppler = make_doppler(probe, deformed(tree, field), labels, p.doppler);
+  imaging::VolumeF bmode = make_bmode(probe, labels, p.bmode);
+  if (!p.tracking.is_zero()) {
+    doppler.geometry = with_tracking_error(grid, probe, p.tracking);
+    bmode.geometry = doppler.geometry;
+  }
+  imaging::write_volume(dir / "doppler.nii.gz", doppler);
+  imaging::write_volume(dir / "bmode.nii.gz", bmode);
+}
+
+json parameters_json(const CaseParameters& p) {
+  const PhantomGeometry& g = p.geometry;
+  return {
+      {"geometry",
+       {{"center_mm", to_json(g.center)}, {"semi_axes_mm", to_json(g.semi_axes)},
+        {"base_depth", g.base_depth}, {"tumour_center_mm", to_json(g.tumour_center())},
+        {"tumour_radius_mm", g.tumour_radius}, {"ventricle_scale", g.ventricle_scale},
+        {"craniotomy_center_mm", to_json(g.craniotomy_center_on_brain())},
+        {"craniotomy_radius_mm", g.craniotomy_radius}, {"skull_gap_mm", g.skull_gap}}},
+      {"truth_mesh",
+       {{"cell_size_mm", p.mesh.cell_size}, {"brain_youngs_modulus_kPa", p.mesh.brain_youngs_modulus},
+        {"tumour_youngs_modulus_kPa", p.mesh.tumour_youngs_modulus},
+        {"poisson_ratio", p.mesh.poisson_ratio}, {"resection", p.resection},
+        {"cavity_youngs_modulus_kPa", p.cavity_youngs_modulus}}},
+      {"load",
+       {{"gravity_direction", to_json(p.load.gravity_direction.normalized())},
+        {"drain_depth_mm", p.load.drain_depth}, {"load_scale", p.load.load_scale}}},
+      {"vessels",
+       {{"cortical_trees", p.vessels.cortical_trees}, {"one_side", p.vessels.one_side},
+        {"deep_branches", p.vessels.deep_branches},
+        {"generations", {p.vessels.min_generations, p.vessels.max_generations}}}},
+      {"probe",
+       {{"half_angle_deg", p.probe.half_angle_deg}, {"depth_mm", p.probe.depth},
+        {"footprint_radius_mm", p.probe.footprint_radius}, {"spacing_mm", p.probe.spacing}}},
+      {"doppler",
+       {{"dropout", p.doppler.dropout}, {"speckle_shape", p.doppler.speckle_shape},
+        {"spurious_blobs", p.doppler.spurious_blobs}, {"blur_sigma_mm", p.doppler.blur_sigma}}},
+      {"tracking_error",
+       {{"translation_mm", to_json(p.tracking.translation)},
+        {"rotation_deg", to_json(p.tracking.rotation_deg)}}},
+      {"thin_structures", p.thin_structures},
+      {"preop_spacing_mm", p.preop_spacing}};
+}
+
+fs::path temporary_sibling(const fs::path& dir) {
+  std::random_device rd;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    std::ostringstream name;
+    name << dir.filename().string() << ".tmp-" << std::setw(6) << std::setfill('0') << rd() % 1000000;
+    const fs::path tmp = dir.parent_path() / name.str();
+    if (!fs::exists(tmp)) return tmp;
+  }
+  BS_THROW("cannot find a free temporary folder name next to " << dir.string());
+}
+
+/// Everything of one case into `root` (a fresh folder).
+CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::path& root) {
+  const auto t0 = Clock::now();
+  CaseSummary summary;
+  summary.name = p.name;
+  summary.seed = p.seed;
+  for (const char* sub : {"preop", "intraop", "truth"}) fs::create_directories(root / sub);
+
+  say(o, "vessels");
+  VesselTree tree;
+  if (o.user_vessels) {
+    tree = place_user_tree(from_vessel_graph(imaging::read_skeleton_vtp(*o.user_vessels)), p.geometry);
+  } else {
+    tree = make_vessel_tree(p.geometry, p.vessels);
+  }
+  summary.vessel_points = tree.size();
+
+  say(o, "pre-operative images");
+  const imaging::LabelVolume labels = case_labels(p);
+  imaging::write_labels(root / "preop/labels.nii.gz", labels);
+  imaging::write_volume(root / "preop/mri.nii.gz", make_mri(labels, p.mri));
+  imaging::write_volume(root / "preop/mra.nii.gz", make_mra(labels, tree, p.mra));
+  imaging::write_skeleton_vtp(root / "preop/vessels.vtp", to_vessel_graph(tree));
+
+  say(o, "truth solve");
+  const auto t_solve = Clock::now();
+  const PhantomMesh pm = case_mesh(p);
+  const TledSolver solver(pm.mesh);
+  const TruthState truth = solve_truth(p, pm, solver, p.load);
+  const double solve_seconds = seconds_since(t_solve);
+  summary.solver_status = truth.result.status;
+  summary.solver_message = truth.result.message;
+
+  say(o, "truth field, landmarks, surfaces");
+  imaging::write_volume(root / "truth/displacement.nii.gz",
+                        truth.field->displacement_image(labels.geometry));
+  const Probe probe = place_probe(p, *truth.field);
+  const std::vector<Vector3d> pre =
+      choose_landmarks(p, tree, *truth.field, probe, summary.vessel_landmarks);
+  const std::vector<Vector3d> intra = deform_points(pre, *truth.field);
+  summary.landmarks = index_t(pre.size());
+  write_landmarks_csv(root / "truth/landmarks_preop.csv", pre);
+  write_landmarks_csv(root / "truth/landmarks_intraop.csv", intra);
+  const core::BoundarySurface ventricles = region_surface(pm.mesh, pm.tet_labels, imaging::VENTRICLES);
+  MatrixX3d moved = ventricles.vertices;
+  for (index_t v = 0; v < moved.rows(); ++v)
+    moved.row(v) += truth.result.displacement.row(ventricles.node_of_vertex[std::size_t(v)]);
+  write_surface_vtp(root / "truth/ventricles_preop.vtp", ventricles.vertices, ventricles.faces);
+  write_surface_vtp(root / "truth/ventricles_intraop.vtp", moved, ventricles.faces);
+  summary.stats = shift_stats(p, pm, truth.result.displacement, pre, intra);
+
+  say(o, "intra-operative ultrasound");
+  write_ultrasound(p, tree, *truth.field, probe, root / "intraop");
+
+  json frames = json::array();
+  for (int k = 1; k <= o.frames; ++k) {
+    say(o, "frame " + std::to_string(k) + "/" + std::to_string(o.frames));
+    SagLoad load = p.load;
+    load.drain_depth = p.load.drain_depth * double(k) / double(o.frames);
+    const TruthState state = k == o.frames ? TruthState{} : solve_truth(p, pm, solver, load);
+    const TruthField& field = k == o.frames ? *truth.field : *state.field;
+    std::ostringstream name;
+    name << "frame_" << std::setw(3) << std::setfill('0') << (k - 1);
+    const fs::path dir = root / "intraop" / name.str();
+    fs::create_directories(dir);
+    const Probe frame_probe = place_probe(p, field);
+    write_ultrasound(p, tree, field, frame_probe, dir);
+    const std::vector<Vector3d> x = deform_points(pre, field);
+    write_landmarks_csv(dir / "landmarks_intraop.csv", x);
+    const ShiftStats s = shift_stats(p, pm, field.nodal_displacement(), pre, x);
+    summary.frames.push_back(s);
+    frames.push_back({{"frame", k - 1}, {"drain_depth_mm", load.drain_depth}, {"stats", to_json(s)}});
+  }
+
+  summary.seconds = seconds_since(t0);
+  const json doc = {
+      {"name", p.name},
+      {"seed", p.seed},
+      {"generator", "brainshift data_synth (neo-Hookean TLED truth)"},
+      {"frame", "world RAS, mm"},
+      {"parameters", parameters_json(p)},
+      {"user_vessels", o.user_vessels ? o.user_vessels->string() : ""},
+      {"stats", to_json(summary.stats)},
+      {"frames", frames},
+      {"truth_solver",
+       {{"status", to_string(truth.result.status)}, {"message", truth.result.message},
+        {"iterations", truth.result.iterations}, {"nodes", pm.mesh.num_nodes()},
+        {"tets", pm.mesh.num_tets()}, {"seconds", solve_seconds},
+        {"min_jacobian", truth.result.min_jacobian}}},
+      {"probe",
+       {{"face_center_mm", to_json(probe.face_center)}, {"axis", to_json(probe.frame.col(2))}}},
+      {"counts",
+       {{"landmarks", summary.landmarks}, {"vessel_landmarks", summary.vessel_landmarks},
+        {"vessel_points", summary.vessel_points}, {"bifurcations", tree.bifurcations().size()},
+        {"max_generation", tree.max_generation()}}},
+      {"seconds", summary.seconds}};
+  std::ofstream(root / "case.json") << doc.dump(2) << '\n';
+  return summary;
+}
+
+}  // namespace
+
+imaging::LabelVolume case_labels(const CaseParameters& p) {
+  PhantomImageOptions io;
+  io.spacing = p.preop_spacing;
+  imaging::LabelVolume labels = make_label_volume(p.geometry, io);
+  if (!p.thin_structures) return labels;
+  const imaging::ImageGeometry& g = labels.geometry;
+  const Ellipsoid brain = p.geometry.brain_ellipsoid();
+  // Horn: a thin cylinder forward (+A) from the anterior tip of the left ventricle.
+  const Ellipsoid v = p.geometry.ventricle(0);
+  const Vector3d a = v.center + Vector3d(0.0, 0.9 * v.semi_axes.y(), 0.0);
+  const Vector3d b = a + Vector3d(0.0, 25.0, -5.0);
+  // Sulcus: the one-voxel slab through the voxel column nearest to 30 mm left of the centre.
+  const int sulcus_i = int(std::lround(g.world_to_index(p.geometry.center - Vector3d(30.0, 0, 0)).x()));
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) {
+        std::uint8_t& l = labels.at(i, j, k);
+        if (l != imaging::BRAIN) continue;
+        const Vector3d x = g.index_to_world(Vector3d(i, j, k));
+        const double t = std::clamp((x - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+        if ((x - (a + t * (b - a))).norm() <= p.horn_radius) l = imaging::VENTRICLES;
+        else if (i == sulcus_i && (brain.closest_point(x) - x).norm() <= p.sulcus_depth)
+          l = imaging::BACKGROUND;
+      }
+  return labels;
+}
+
+CaseSummary generate_case(const std::string& name, std::uint32_t seed, const CaseOptions& options) {
+  return generate_case(named_case(name, seed), options);
+}
+
+CaseSummary generate_case(const CaseParameters& parameters, const CaseOptions& options) {
+  BS_VERIFY(!options.out.empty(), "no output folder given");
+  BS_VERIFY(options.frames >= 0, "frames must be >= 0, got " << options.frames);
+  const fs::path dir = fs::absolute(options.out);
+  BS_VERIFY(!fs::exists(dir) || (fs::is_directory(dir) && fs::is_empty(dir)),
+            dir.string() << " exists and is not an empty folder; choose a new output folder");
+  BS_VERIFY(fs::is_directory(dir.parent_path()),
+            "the folder " << dir.parent_path().string() << " of the output does not exist");
+  if (options.user_vessels)
+    BS_VERIFY(fs::is_regular_file(*options.user_vessels),
+              "vessel file " << options.user_vessels->string() << " does not exist");
+  const fs::path tmp = temporary_sibling(dir);
+  try {
+    CaseSummary summary = write_case(parameters, options, tmp);
+    if (fs::exists(dir)) fs::remove(dir);  // empty, checked above
+    fs::rename(tmp, dir);
+    return summary;
+  } catch (...) {
+    std::error_code ignored;
+    fs::remove_all(tmp, ignored);
+    throw;
+  }
+}
+
+}  // namespace brainshift::data_synth
