@@ -4,6 +4,9 @@
 //   brainshift demo [--out DIR]
 //       Self-contained forward simulation (no data needed): writes DIR/mesh.vtu, fixed.csv,
 //       displace.csv and result.vtu (default DIR = brainshift_demo_out).
+//   brainshift phantom --case NAME [--seed N] [--vessels FILE.vtp] [--frames K] --out DIR
+//       Synthetic phantom case with known truth (pre-op MRI/labels/MRA, intra-op Doppler/B-mode,
+//       truth displacement and landmarks); an unknown NAME lists the valid ones.
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv
 //                       [--gravity 0,0,-9810] [--linear] [--max-iterations 200]
 //                       [--tolerance 1e-6] [--write-unconverged] --out result.vtu
@@ -22,6 +25,7 @@
 #include <iostream>
 
 #include "cmd_demo.hpp"
+#include "cmd_phantom.hpp"
 #include "cmd_simulate.hpp"
 #include "core/error.hpp"
 
@@ -34,6 +38,8 @@ int main(int argc, char** argv) {
   apps::DemoArgs demo_args;
   const CLI::App* simulate = apps::add_simulate_command(app, simulate_args);
   const CLI::App* demo = apps::add_demo_command(app, demo_args);
+  apps::PhantomArgs phantom_args;
+  const CLI::App* phantom = apps::add_phantom_command(app, phantom_args);
 
   try {
     app.parse(argc, argv);
@@ -49,6 +55,7 @@ int main(int argc, char** argv) {
   try {
     if (simulate->parsed()) return apps::run_simulate(simulate_args, std::cout);
     if (demo->parsed()) return apps::run_demo(demo_args, std::cout);
+    if (phantom->parsed()) return apps::run_phantom(phantom_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;
