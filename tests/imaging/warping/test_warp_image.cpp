@@ -2,12 +2,10 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <functional>
 #include <limits>
 
-#include "core/logger.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 #include "expect_error.hpp"
 #include "tolerance.hpp"
@@ -209,9 +207,10 @@ TEST(WarpImage, RejectsBadInput) {
 }
 
 #ifdef NDEBUG
-/// 256³ output voxels, a brain-sized mesh of ≈10k tetrahedra, 2 threads. Target 2 s; the test
-/// allows 3× that since the machine is shared with other builds.
-TEST(WarpImage, Warps256CubedVoxelsInAboutTwoSecondsOnTwoThreads) {
+/// 256³ output voxels through a brain-sized mesh of ≈10k tetrahedra, 2 threads: the output has the
+/// input's grid, and voxels far outside the mesh (the corners; the rigid part is the identity)
+/// keep their values. Speed is measured by bench/bench_imaging.cpp, not here.
+TEST(WarpImage, Warps256CubedVoxels) {
   ImageGeometry g;
   g.size = Eigen::Vector3i::Constant(256);
   g.spacing = Vector3d::Constant(0.8);
@@ -221,12 +220,16 @@ TEST(WarpImage, Warps256CubedVoxelsInAboutTwoSecondsOnTwoThreads) {
   const core::TetMesh mesh = data_synth::make_ellipsoid_mesh(Vector3d(70, 85, 60), /*cells=*/12);
   MatrixX3d u(mesh.num_nodes(), 3);
   for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) = 0.05 * mesh.nodes().row(n) + Eigen::RowVector3d(1, 2, -1);
-  const auto start = std::chrono::steady_clock::now();
   const VolumeF out = warp_image(in, mesh, u);
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  logger().warn("warp_image 256³, {} tets, 2 threads: {:.3f} s", mesh.num_tets(), seconds);
-  EXPECT_EQ(out.data.size(), in.data.size());
-  EXPECT_LT(seconds, 6.0);
+  ASSERT_EQ(out.data.size(), in.data.size());
+  EXPECT_EQ(out.geometry.size, g.size);
+  for (const int c : {0, 255})
+    for (const int b : {0, 255})
+      for (const int a : {0, 255}) EXPECT_EQ(out.at(a, b, c), in.at(a, b, c));  // ≥ 60 mm outside the mesh
+  // Inside the mesh the image moves: some voxel near the centre changes.
+  int changed = 0;
+  for (int i = 118; i < 138; ++i) changed += out.at(i, 128, 128) != in.at(i, 128, 128);
+  EXPECT_GT(changed, 10);
 }
 #endif
 
