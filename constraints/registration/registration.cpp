@@ -89,6 +89,7 @@ std::string RegistrationOptions::validate() const {
   if (max_iterations < 1) return "max_iterations must be ≥ 1";
   if (!(increment_tolerance_mm > 0)) return "increment_tolerance_mm must be > 0";
   if (!(direction_radius_mm > 0)) return "direction_radius_mm must be > 0";
+  if (!(rigid_max_motion_mm >= 0)) return "rigid_max_motion_mm must be ≥ 0";
   if (auto e = vessel_filter.validate(); !e.empty()) return "vessel filter: " + e;
   if (auto e = footprint_filter.validate(); !e.empty()) return "footprint filter: " + e;
   if (auto e = dura.validate(); !e.empty()) return e;
@@ -189,6 +190,19 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.rigid = rigid_init(model.skeleton(), data.vessel_points, footprint ? &model.surface() : nullptr,
                            footprint ? &data.footprint_points : nullptr, options.rigid);
     res.seconds.rigid = seconds_since(t0);
+    double motion = 0;
+    for (Eigen::Index i = 0; i < data.vessel_points.rows(); ++i) {
+      const Vector3d p = data.vessel_points.row(i).transpose();
+      motion = std::max(motion, (res.rigid.transform * p - p).norm());
+    }
+    if (options.rigid_max_motion_mm > 0 && motion > options.rigid_max_motion_mm) {
+      res.rigid.stop_reason = "rejected: the fit moved the points by up to " + std::to_string(motion) +
+                              " mm, beyond the plausible " + std::to_string(options.rigid_max_motion_mm) +
+                              " mm (" + res.rigid.stop_reason + "); starting from the identity";
+      res.rigid.transform = Eigen::Isometry3d::Identity();
+      res.rigid.converged = false;
+      logger().warn("rigid initialisation {}", res.rigid.stop_reason);
+    }
   } else {
     res.rigid.converged = true;
     res.rigid.stop_reason = "identity (no rigid initialisation requested)";
@@ -221,7 +235,7 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
   const double max_radius =
       options.step.max_increment > 0 ? options.step.max_increment : std::numeric_limits<double>::infinity();
   double radius = max_radius;
-  int limited_streak = 0;
+  MatrixX3d previous_dx;  // the last step's increment, for the oscillation test
   StepOptions step_options = options.step;
   for (int it = 1; it <= options.max_iterations; ++it) {
     const auto t_it = Clock::now();
@@ -279,6 +293,7 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
       k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
       warm[key_of(i, k)] = step.lambda.size() ? step.lambda[i] : 0.0;
     }
+    const MatrixX3d dx = step.x - res.positions;
     res.positions = step.x;
     res.seconds.free_motion += step.seconds_free_motion;
     res.seconds.delassus += step.seconds_delassus;
@@ -310,10 +325,16 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
       res.stop = RegistrationStop::CONVERGED;
       break;
     }
-    // Trust region: shrink after two limited steps in a row, grow back after a free one.
-    limited_streak = step.limited ? limited_streak + 1 : 0;
-    if (limited_streak >= 2) radius *= 0.5;
-    else if (!step.limited) radius = std::min(max_radius, 1.5 * radius);
+    // Trust region: halve it when the step turns back on the previous one (oscillation: the
+    // cosine of successive increments is negative), grow it back otherwise. A long shift reached
+    // by several limited steps in the same direction keeps its radius.
+    if (previous_dx.size() > 0) {
+      const double denom = dx.norm() * previous_dx.norm();
+      const double cosine = denom > 0 ? (dx.array() * previous_dx.array()).sum() / denom : 1.0;
+      if (cosine < 0.0) radius *= 0.5;
+      else radius = std::min(max_radius, 1.5 * radius);
+    }
+    previous_dx = dx;
     if (radius < options.increment_tolerance_mm) {
       res.stop = RegistrationStop::NOT_SETTLING;
       break;

@@ -11,7 +11,8 @@
 /// below a tolerance and the pairing set is stable, or at an iteration cap.
 ///
 /// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
-/// that halves after two limited steps in a row and grows back by 1.5× after an unlimited one.
+/// that halves when a step turns back on the previous one (negative cosine between successive
+/// nodal increments: oscillation) and grows back by 1.5× otherwise.
 /// A step that had to be limited never counts as converged; a radius below the increment
 /// tolerance stops the loop with NOT_SETTLING and a diagnosis instead of oscillating.
 ///
@@ -104,6 +105,10 @@ enum class RigidStart { IDENTITY, RIGID };
 struct RegistrationOptions {
   RigidStart start = RigidStart::IDENTITY;
   RigidInitOptions rigid;
+  /// A rigid fit that moves the intra-operative points by more than this (max over the points,
+  /// mm) is implausible for a tracking error (the ICP slid onto other vessels): it is rejected,
+  /// the loop starts from the identity and `rigid.stop_reason` says why. 0 disables the check.
+  double rigid_max_motion_mm = 15.0;
   bool use_vessels = true;
   bool use_footprint = true;
   bool use_landmarks = true;
@@ -113,7 +118,7 @@ struct RegistrationOptions {
   FilterOptions footprint_filter;
   double direction_radius_mm = 5.0;     ///< neighbourhood for the local direction of vessel points
   StepOptions step = default_step();
-  int max_iterations = 40;
+  int max_iterations = 80;
   double increment_tolerance_mm = 0.01; ///< stop when max nodal |Δx| is below this and the
                                         ///< pairing set is stable (unchanged or frozen)
   /// Empty when valid, else what is wrong.
