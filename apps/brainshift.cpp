@@ -1,9 +1,21 @@
 // brainshift: brain-shift compensation from the command line.
 //
 // Subcommands (each has --help):
-//   brainshift demo [--out DIR]
-//       Self-contained forward simulation (no data needed): writes DIR/mesh.vtu, fixed.csv,
-//       displace.csv and result.vtu (default DIR = brainshift_demo_out).
+//   brainshift demo [--out DIR] [--seed N]
+//       The whole workflow on a built-in phantom (no data needed): phantom 'standard', prepare,
+//       register, evaluate; prints time per stage, TRE before -> after and shift corrected.
+//   brainshift prepare --labels L.nii.gz --mra A.nii.gz [--mri M.nii.gz]
+//                      [--scene-options O.json] --out MODEL
+//       Pre-operative model: mesh, collision surface, fixed region, vessel skeleton, scene.
+//   brainshift register --model MODEL --doppler D.nii.gz [--bmode B.nii.gz] [--mri M.nii.gz]
+//                       [--init rigid|identity] --out RES
+//       One intra-operative registration: RES/{report.json, deformed.vtu, displacement.nii.gz,
+//       displacement.nrrd, warped_mri.nii.gz, overlay.png}.
+//   brainshift replay --model MODEL --sequence DIR --out RES
+//       Every DIR/frame_*/ in order, warm-started; latency summary in RES/replay.json.
+//   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv
+//                       [--surface-pre S.vtp --surface-intra T.vtp]
+//       TRE before/after, shift corrected, Hausdorff percentiles; RES/evaluation.json.
 //   brainshift phantom --case NAME [--seed N] [--vessels FILE.vtp] [--frames K] --out DIR
 //       Synthetic phantom case with known truth (pre-op MRI/labels/MRA, intra-op Doppler/B-mode,
 //       truth displacement and landmarks); an unknown NAME lists the valid ones.
@@ -14,7 +26,8 @@
 //       (mm/s^2); writes the rest mesh with the point array 'displacement' (mm).
 //
 // Exit codes: 0 success; 1 bad input or any error (one line on stderr:
-// "brainshift: error: <message>"); 2 the solve did not converge (see simulate --help);
+// "brainshift: error: <message>"); 2 the solve or registration did not converge (outputs are
+// still written and say so; replay: some frames failed);
 // command-line syntax errors use CLI11's codes (non-zero).
 //
 // Units: mm, kg, s (force mN, stress kPa); world frame RAS, mm.
@@ -25,7 +38,11 @@
 #include <iostream>
 
 #include "cmd_demo.hpp"
+#include "cmd_evaluate.hpp"
 #include "cmd_phantom.hpp"
+#include "cmd_prepare.hpp"
+#include "cmd_register.hpp"
+#include "cmd_replay.hpp"
 #include "cmd_simulate.hpp"
 #include "core/error.hpp"
 
@@ -40,6 +57,14 @@ int main(int argc, char** argv) {
   const CLI::App* demo = apps::add_demo_command(app, demo_args);
   apps::PhantomArgs phantom_args;
   const CLI::App* phantom = apps::add_phantom_command(app, phantom_args);
+  apps::PrepareArgs prepare_args;
+  const CLI::App* prepare = apps::add_prepare_command(app, prepare_args);
+  apps::RegisterArgs register_args;
+  const CLI::App* reg = apps::add_register_command(app, register_args);
+  apps::ReplayArgs replay_args;
+  const CLI::App* replay = apps::add_replay_command(app, replay_args);
+  apps::EvaluateArgs evaluate_args;
+  const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
 
   try {
     app.parse(argc, argv);
@@ -56,6 +81,10 @@ int main(int argc, char** argv) {
     if (simulate->parsed()) return apps::run_simulate(simulate_args, std::cout);
     if (demo->parsed()) return apps::run_demo(demo_args, std::cout);
     if (phantom->parsed()) return apps::run_phantom(phantom_args, std::cout);
+    if (prepare->parsed()) return apps::run_prepare(prepare_args, std::cout);
+    if (reg->parsed()) return apps::run_register(register_args, std::cout);
+    if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
+    if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;

@@ -10,7 +10,10 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/solver/static_solver.hpp"
+#include "cli_helpers.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/mesh_io.hpp"
@@ -20,55 +23,8 @@
 namespace brainshift {
 namespace {
 
-struct CliRun {
-  int exit_code = -1;
-  std::string out;
-  std::string err;
-};
-
-std::string read_all(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-/// Runs `brainshift <args>` with stdout and stderr captured in files of `dir`.
-CliRun run_brainshift(const tests::TempFolder& dir, const std::string& args) {
-  const auto out = dir.path().parent_path() / (dir.path().filename().string() + ".stdout");
-  const auto err = dir.path().parent_path() / (dir.path().filename().string() + ".stderr");
-  const std::string command = std::string("'") + tests::brainshift_exe + "' " + args + " >'" +
-                              out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(command.c_str());
-  CliRun r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_all(out);
-  r.err = read_all(err);
-  std::filesystem::remove(out);
-  std::filesystem::remove(err);
-  return r;
-}
-
 /// Prescribed values may pass through x = X + u and back: a few ulps of 80 mm coordinates.
 constexpr double dirichlet_tol = 1e-12;
-
-/// `p` in single quotes for the shell (built by appending: GCC 12 warns falsely, -Wrestrict,
-/// on "literal" + std::string).
-std::string q(const std::filesystem::path& p) {
-  std::string s = "'";
-  s += p.string();
-  s += '\'';
-  return s;
-}
-
-/// The error contract: non-zero exit, exactly one line on stderr, prefixed, containing `needle`.
-void expect_one_line_error(const CliRun& r, const std::string& needle) {
-  EXPECT_NE(r.exit_code, 0);
-  EXPECT_EQ(r.err.rfind("brainshift: error: ", 0), 0u) << r.err;
-  ASSERT_FALSE(r.err.empty());
-  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line:\n" << r.err;
-  EXPECT_NE(r.err.find(needle), std::string::npos) << r.err;
-}
 
 /// A 20×20×40 mm box (3×3×6 cells) with its bottom fixed and its top moved by `top` (mm).
 class SimulateBox : public ::testing::Test {
@@ -207,23 +163,22 @@ TEST(Cli, SyntaxErrorsAreOneLine) {
   expect_one_line_error(run_brainshift(dir, "frobnicate"), "subcommand");
 }
 
-TEST(Cli, DemoWritesItsInputsAndAResultWithTheTopMoved) {
+TEST(Cli, DemoRunsTheWholeWorkflowAndCorrectsMostOfTheShift) {
   const tests::TempFolder dir;
   const auto out = dir / "demo";
   const CliRun r = run_brainshift(dir, "demo --out " + q(out));
-  for (const char* f : {"mesh.vtu", "fixed.csv", "displace.csv"})
-    EXPECT_TRUE(std::filesystem::exists(out / f)) << f;
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  const core::TetMesh mesh = imaging::read_tet_mesh(out / "mesh.vtu");
-  EXPECT_GT(mesh.num_nodes(), 1500);
-  EXPECT_LT(mesh.num_nodes(), 2500);
-  const MatrixX3d u = imaging::read_displacement(out / "result.vtu");
-  for (const auto& p : imaging::read_node_displacements(out / "displace.csv")) {
-    EXPECT_LT((u.row(p.node).transpose() - Vector3d(10, 0, 0)).norm(), dirichlet_tol);
-  }
-  for (const index_t n : imaging::read_node_list(out / "fixed.csv")) {
-    EXPECT_LT(u.row(n).norm(), dirichlet_tol);
-  }
+  for (const char* f : {"report.json", "evaluation.json", "deformed.vtu", "displacement.nii.gz", "displacement.nrrd",
+                        "warped_mri.nii.gz", "overlay.png"})
+    EXPECT_TRUE(std::filesystem::exists(out / "result" / f)) << f;
+  EXPECT_NE(r.out.find("TRE mean"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("shift corrected"), std::string::npos) << r.out;
+  const auto ev = nlohmann::json::parse(read_all(out / "result" / "evaluation.json"));
+  // The phantom's mean landmark shift is ≈ 7 mm; the registration must remove at least half of
+  // it (measured: 7.23 → 2.45 mm, 66 %; the target of ≥ 85 % is not reached yet, see README).
+  EXPECT_GT(ev["tre_before_mm"]["mean"].get<double>(), 5.0);
+  EXPECT_LT(ev["tre_after_mm"]["mean"].get<double>(), 0.5 * ev["tre_before_mm"]["mean"].get<double>());
+  EXPECT_GT(ev["shift_corrected_pct"].get<double>(), 50.0);
 }
 
 }  // namespace

@@ -1,0 +1,116 @@
+#include "cmd_evaluate.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <array>
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+
+#include "core/error.hpp"
+#include "imaging/evaluation/metrics.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/csv.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/surface_io.hpp"
+#include "imaging/warping/warp_image.hpp"
+
+namespace brainshift::apps {
+namespace {
+
+/// The points moved by the displacement field: p + u(p), u trilinear per component.
+MatrixX3d moved(const imaging::VolumeF& field, ConstRef<MatrixX3d> p) {
+  std::array<imaging::VolumeF, 3> comp;
+  for (int c = 0; c < 3; ++c) {
+    comp[c] = imaging::VolumeF(field.geometry);
+    for (std::size_t v = 0; v < comp[c].data.size(); ++v) comp[c].data[v] = field.data[3 * v + c];
+  }
+  MatrixX3d out(p.rows(), 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    const Vector3d ijk = field.geometry.world_to_index(p.row(i).transpose());
+    for (int c = 0; c < 3; ++c) out(i, c) = p(i, c) + imaging::sample_trilinear(comp[c], ijk, 0.0F);
+  }
+  return out;
+}
+
+nlohmann::json stats_json(const imaging::ErrorStats& s) {
+  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"count", s.count}};
+}
+
+nlohmann::json surface_json(const imaging::SurfaceDistanceStats& s) {
+  return {{"h95", s.h95}, {"h75", s.h75}, {"h50", s.h50}, {"h25", s.h25}, {"max", s.max}, {"mean", s.mean}};
+}
+
+}  // namespace
+
+CLI::App* add_evaluate_command(CLI::App& app, EvaluateArgs& args) {
+  CLI::App* c = app.add_subcommand("evaluate", "TRE and surface distances of a result against truth");
+  c->add_option("--result", args.result, "result folder RES from register")->required();
+  c->add_option("--landmarks-pre", args.landmarks_pre, "pre-operative landmarks CSV id,x,y,z (mm)")->required();
+  c->add_option("--landmarks-intra", args.landmarks_intra, "intra-operative landmarks CSV id,x,y,z (mm)")->required();
+  c->add_option("--surface-pre", args.surface_pre, "pre-operative surface .vtp (e.g. ventricles)");
+  c->add_option("--surface-intra", args.surface_intra, "intra-operative surface .vtp");
+  return c;
+}
+
+nlohmann::json evaluate(const EvaluateArgs& args) {
+  BS_VERIFY(args.surface_pre.has_value() == args.surface_intra.has_value(),
+            "evaluate: give both --surface-pre and --surface-intra, or neither");
+  const std::filesystem::path field_path = args.result / "displacement.nii.gz";
+  const imaging::VolumeF field = imaging::read_volume(field_path);
+  BS_VERIFY(field.components == 3, field_path.string() << ": expected a 3-component displacement field, got "
+                                                       << field.components);
+  const imaging::Landmarks pre = imaging::read_landmarks(args.landmarks_pre);
+  const imaging::Landmarks intra = imaging::read_landmarks(args.landmarks_intra);
+  const imaging::LandmarkPairs pairs = imaging::match_landmarks_by_id(pre.ids, pre.points, intra.ids, intra.points);
+  BS_VERIFY(!pairs.ids.empty(), args.landmarks_pre.string() << " and " << args.landmarks_intra.string()
+                                                            << ": no landmark id in common");
+  const MatrixX3d predicted = moved(field, pairs.a);
+  const imaging::ErrorStats before = imaging::error_stats(imaging::landmark_errors(pairs.a, pairs.b));
+  const imaging::ErrorStats after = imaging::error_stats(imaging::landmark_errors(predicted, pairs.b));
+  nlohmann::json j = {{"result", args.result.string()},
+                      {"landmarks", pairs.ids.size()},
+                      {"unpaired_landmarks", pairs.warnings},
+                      {"tre_before_mm", stats_json(before)},
+                      {"tre_after_mm", stats_json(after)}};
+  const auto pct = imaging::percent_shift_corrected(before.mean, after.mean);
+  j["shift_corrected_pct"] = pct ? nlohmann::json(*pct) : nlohmann::json(nullptr);
+  if (args.surface_pre) {
+    constraints::SurfaceMesh s_pre = imaging::read_surface_vtp(*args.surface_pre);
+    const constraints::SurfaceMesh s_intra = imaging::read_surface_vtp(*args.surface_intra);
+    j["surface_before_mm"] = surface_json(imaging::hausdorff_percentiles(s_pre, s_intra));
+    s_pre.vertices = moved(field, s_pre.vertices);
+    j["surface_after_mm"] = surface_json(imaging::hausdorff_percentiles(s_pre, s_intra));
+  }
+  imaging::write_atomically(args.result / "evaluation.json", [&](const std::filesystem::path& tmp) {
+    std::ofstream f(tmp);
+    f << j.dump(2) << '\n';
+    BS_VERIFY(f.good(), tmp.string() << ": write failed");
+  });
+  return j;
+}
+
+int run_evaluate(const EvaluateArgs& args, std::ostream& out) {
+  const nlohmann::json j = evaluate(args);
+  out << std::fixed << std::setprecision(2);
+  out << "TRE (mm) over " << j["landmarks"].get<std::size_t>() << " landmarks\n";
+  out << "           mean  median     p95     max\n";
+  for (const char* k : {"tre_before_mm", "tre_after_mm"}) {
+    const auto& s = j[k];
+    out << (std::string(k) == "tre_before_mm" ? "  before " : "  after  ") << std::setw(6) << s["mean"].get<double>()
+        << std::setw(8) << s["median"].get<double>() << std::setw(8) << s["p95"].get<double>() << std::setw(8)
+        << s["max"].get<double>() << "\n";
+  }
+  if (!j["shift_corrected_pct"].is_null())
+    out << "shift corrected: " << j["shift_corrected_pct"].get<double>() << " %\n";
+  if (j.contains("surface_after_mm"))
+    for (const char* k : {"surface_before_mm", "surface_after_mm"})
+      out << (std::string(k) == "surface_before_mm" ? "surface before" : "surface after ") << ": H95 "
+          << j[k]["h95"].get<double>() << ", H75 " << j[k]["h75"].get<double>() << ", H50 "
+          << j[k]["h50"].get<double>() << ", H25 " << j[k]["h25"].get<double>() << " mm\n";
+  for (const auto& w : j["unpaired_landmarks"]) out << "warning: " << w.get<std::string>() << "\n";
+  out << "written: " << (args.result / "evaluation.json").string() << "\n";
+  return 0;
+}
+
+}  // namespace brainshift::apps

@@ -1,0 +1,40 @@
+#pragma once
+/// @file
+/// @brief `brainshift evaluate`: target registration error of a result against landmarks, before
+/// and after (mean, median, p95, max, mm), percent of shift corrected, and with surfaces the
+/// H95/H75/H50/H25 Hausdorff percentiles (seeds 001 and 004) before and after. The pre-operative
+/// landmarks (and surface vertices) are moved by RES/displacement.nii.gz (trilinear; the field
+/// maps the pre-operative frame to the intra-operative one, rigid part included). Writes
+/// RES/evaluation.json and prints a table.
+
+#include <filesystem>
+#include <iosfwd>
+#include <optional>
+
+#include <nlohmann/json.hpp>
+
+namespace CLI {
+class App;
+}  // namespace CLI
+
+namespace brainshift::apps {
+
+struct EvaluateArgs {
+  std::filesystem::path result;
+  std::filesystem::path landmarks_pre;
+  std::filesystem::path landmarks_intra;
+  std::optional<std::filesystem::path> surface_pre;
+  std::optional<std::filesystem::path> surface_intra;
+};
+
+CLI::App* add_evaluate_command(CLI::App& app, EvaluateArgs& args);
+
+/// Computes the evaluation and writes RES/evaluation.json (atomically); returns its content.
+/// \throws brainshift::Error, one line: unreadable files, no landmark ids in common, only one of
+/// the two surfaces given.
+nlohmann::json evaluate(const EvaluateArgs& args);
+
+/// evaluate() and a table on `out`.
+int run_evaluate(const EvaluateArgs& args, std::ostream& out);
+
+}  // namespace brainshift::apps

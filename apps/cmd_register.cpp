@@ -1,0 +1,196 @@
+#include "cmd_register.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <iostream>
+
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/mesh_io.hpp"
+#include "imaging/vessels/skeleton_graph.hpp"
+#include "imaging/vessels/vessel_extraction.hpp"
+#include "imaging/warping/warp_image.hpp"
+#include "intraop_footprint.hpp"
+#include "progress.hpp"
+#include "result_overlay.hpp"
+
+namespace brainshift::apps {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+void mesh_box(const core::TetMesh& mesh, Vector3d& lo, Vector3d& hi) {
+  lo = mesh.nodes().colwise().minCoeff().transpose();
+  hi = mesh.nodes().colwise().maxCoeff().transpose();
+}
+
+nlohmann::json matrix_json(const Eigen::Matrix4d& m) {
+  nlohmann::json j = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) j.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  return j;
+}
+
+}  // namespace
+
+CLI::App* add_register_command(CLI::App& app, RegisterArgs& args) {
+  CLI::App* c = app.add_subcommand("register", "Register a prepared model to intra-operative ultrasound");
+  c->add_option("--model", args.model, "MODEL folder from brainshift prepare")->required();
+  c->add_option("--doppler", args.doppler, "power-Doppler volume (vessels)")->required();
+  c->add_option("--bmode", args.bmode, "B-mode volume (probe footprint; k axis along the beam, k = 0 at the probe)");
+  c->add_option("--mri", args.mri, "pre-operative MRI to warp (same grid as the model's labels)");
+  c->add_option("--init", args.init, "rigid start: rigid or identity (default: the scene's)")
+      ->check(CLI::IsMember({"rigid", "identity"}));
+  c->add_option("--out", args.out, "result folder RES")->required();
+  return c;
+}
+
+Session open_session(const std::filesystem::path& model_dir) {
+  const auto t0 = Clock::now();
+  Session s;
+  s.loaded = load_model(model_dir);
+  const auto& sc = s.loaded.scene;
+  s.model = std::make_unique<constraints::RegistrationModel>(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
+                                                              sc.compliance);
+  s.seconds_load = since(t0);
+  return s;
+}
+
+IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
+                           const std::optional<std::filesystem::path>& bmode) {
+  const auto t0 = Clock::now();
+  IntraopInputs in;
+  const imaging::VolumeF d = imaging::read_volume(doppler);
+  BS_VERIFY(d.components == 1, doppler.string() << ": expected a scalar Doppler volume, got " << d.components
+                                                 << " components");
+  Vector3d lo, hi;
+  mesh_box(s.model->mesh(), lo, hi);
+  BS_VERIFY(grid_overlaps(d.geometry, lo, hi, 5.0),
+            doppler.string() << ": does not overlap the model (different space or patient? check the tracking)");
+  const imaging::VesselExtractionResult v = imaging::extract_vessels(d);
+  BS_VERIFY(v.non_finite_voxels < d.geometry.voxel_count(), doppler.string() << ": every voxel is NaN or infinite");
+  BS_VERIFY(v.status == imaging::VesselStatus::OK, doppler.string() << ": no vessels found (" << v.message << ")");
+  in.data.vessel_points = imaging::to_skeleton(v.graph).points;
+  in.report["doppler"] = {{"file", doppler.string()},          {"threshold", v.threshold},
+                          {"threshold_rule", v.threshold_rule}, {"branches", v.branch_count},
+                          {"length_mm", v.total_length_mm},     {"points", in.data.vessel_points.rows()},
+                          {"nan_voxels", v.non_finite_voxels}};
+  if (bmode) {
+    const IntraopFootprint f = footprint_from_bmode(*bmode);
+    in.data.footprint_points = f.points;
+    in.data.footprint_normals = f.normals;
+    in.report["bmode"] = f.report;
+  }
+  in.seconds = since(t0);
+  return in;
+}
+
+nlohmann::json registration_report(const constraints::RegistrationResult& r) {
+  using constraints::ConstraintSet;
+  nlohmann::json j;
+  j["iterations"] = r.iterations;
+  j["converged"] = r.converged;
+  j["stop"] = constraints::to_string(r.stop);
+  j["stop_reason"] = r.stop_reason;
+  auto rows = [&](ConstraintSet k) { return r.rows_by_set[static_cast<std::size_t>(k)]; };
+  const auto& last = r.history.empty() ? constraints::IterationRecord{} : r.history.back();
+  j["constraints"] = {{"vessels", {{"pairs", last.vessel_pairs}, {"rows", rows(ConstraintSet::VESSELS)}}},
+                      {"footprint", {{"pairs", last.footprint_pairs}, {"rows", rows(ConstraintSet::FOOTPRINT)}}},
+                      {"dura", {{"rows", rows(ConstraintSet::DURA)}}},
+                      {"landmarks", {{"rows", rows(ConstraintSet::LANDMARK)}}},
+                      {"total_rows", last.rows}};
+  j["rigid"] = {{"model_from_intraop", matrix_json(r.rigid.transform.matrix())},
+                {"converged", r.rigid.converged},
+                {"stop_reason", r.rigid.stop_reason},
+                {"rms_before_mm", r.rigid.rms_before_mm},
+                {"rms_after_mm", r.rigid.rms_after_mm},
+                {"weak_dofs", r.rigid.weak_dofs}};
+  j["timing"] = {{"rigid", r.seconds.rigid},           {"pairing", r.seconds.pairing},
+                 {"free_motion", r.seconds.free_motion}, {"delassus", r.seconds.delassus},
+                 {"pgs", r.seconds.pgs},               {"correction", r.seconds.correction},
+                 {"registration", r.seconds.total}};
+  j["history"] = nlohmann::json::array();
+  for (const auto& h : r.history)
+    j["history"].push_back({{"vessel_pairs", h.vessel_pairs},   {"footprint_pairs", h.footprint_pairs},
+                            {"dura_rows", h.dura_rows},         {"rows", h.rows},
+                            {"max_increment_mm", h.max_increment_mm}, {"pgs_iterations", h.pgs_iterations},
+                            {"pgs_residual", h.pgs_residual},   {"pgs_stop", h.pgs_stop},
+                            {"pairing_changed", h.pairing_changed}, {"pairing_frozen", h.pairing_frozen},
+                            {"trust_radius_mm", h.trust_radius_mm}, {"seconds", h.seconds},
+                            {"diagnosis", h.diagnosis}});
+  j["max_displacement_mm"] = r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
+  return j;
+}
+
+void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
+                  const IntraopInputs& in, const std::optional<std::filesystem::path>& mri, const nlohmann::json& extra) {
+  const auto t0 = Clock::now();
+  const core::TetMesh& mesh = s.model->mesh();
+  // Everything is written in the intra-operative frame: X ↦ T⁻¹ (X + u(X)).
+  const Eigen::Isometry3d to_intra = r.rigid.transform.inverse();
+  MatrixX3d u_intra(mesh.num_nodes(), 3);
+  for (index_t i = 0; i < mesh.num_nodes(); ++i)
+    u_intra.row(i) = (to_intra * Vector3d(r.positions.row(i).transpose())).transpose() - mesh.nodes().row(i);
+  std::optional<imaging::VolumeF> mri_image;
+  if (mri) {
+    mri_image = imaging::read_volume(*mri);
+    BS_VERIFY(same_grid(mri_image->geometry, s.loaded.preop_grid),
+              mri->string() << ": not on the grid of the model's labels (another patient or another scan?)");
+  }
+  nlohmann::json report = registration_report(r);
+  report["intraop"] = in.report;
+  if (extra.is_object()) report.merge_patch(extra);
+  report["timing"]["load_model"] = s.seconds_load;
+  report["timing"]["extraction"] = in.seconds;
+  write_folder_atomically(res, [&](const std::filesystem::path& dir) {
+    imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &u_intra);
+    imaging::DisplacementFieldOptions fo;
+    fo.rigid = to_intra.matrix();
+    const imaging::VolumeF field = imaging::displacement_field(mesh, u_intra, s.loaded.preop_grid, fo);
+    imaging::write_volume(dir / "displacement.nii.gz", field);
+    imaging::write_displacement_for_slicer(dir / "displacement.nrrd", field);
+    std::optional<imaging::VolumeF> warped;
+    if (mri_image) {
+      imaging::WarpOptions wo;
+      wo.rigid = to_intra.matrix();
+      warped = imaging::warp_image(*mri_image, mesh, u_intra, wo);
+      imaging::write_volume(dir / "warped_mri.nii.gz", *warped);
+    }
+    write_result_overlay(dir / "overlay.png", mri_image ? &*mri_image : nullptr, warped ? &*warped : nullptr,
+                         field, in.data, to_intra);
+    report["timing"]["outputs"] = since(t0);
+    double total = 0;
+    for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();
+    report["timing"]["total"] = total;
+    std::ofstream(dir / "report.json") << report.dump(2) << '\n';
+  });
+}
+
+int run_register(const RegisterArgs& args, std::ostream& out) {
+  const Progress progress("register");
+  verify_output_folder(args.out);
+  progress.stage("loading the model " + args.model.string());
+  Session s = open_session(args.model);
+  progress.stage("extracting vessels" + std::string(args.bmode ? " and the probe footprint" : ""));
+  const IntraopInputs in = read_intraop(s, args.doppler, args.bmode);
+  constraints::RegistrationOptions options = s.loaded.scene.options;
+  if (args.init == "rigid") options.start = constraints::RigidStart::RIGID;
+  if (args.init == "identity") options.start = constraints::RigidStart::IDENTITY;
+  progress.stage("registering (" + std::to_string(in.data.vessel_points.rows()) + " vessel points, " +
+                 std::to_string(in.data.footprint_points.rows()) + " footprint points)");
+  const constraints::RegistrationResult r = constraints::register_model(*s.model, in.data, options);
+  progress.stage("writing " + args.out.string());
+  write_result(args.out, s, r, in, args.mri, {});
+  out << "registered in " << r.iterations << " iterations (" << r.stop_reason << "); registration "
+      << r.seconds.total << " s, total " << progress.seconds() << " s; max displacement "
+      << (r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0) << " mm; results in "
+      << args.out.string() << "\n";
+  if (r.converged) return 0;
+  std::cerr << "brainshift register: did not converge: " << r.stop_reason << " (results written; see report.json)\n";
+  return 2;
+}
+
+}  // namespace brainshift::apps

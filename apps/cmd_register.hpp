@@ -1,0 +1,63 @@
+#pragma once
+/// @file
+/// @brief `brainshift register`: one intra-operative registration against a prepared MODEL —
+/// vessel points from the power Doppler, footprint from the B-mode, the constraint-based ICP,
+/// and the outputs (report.json, deformed.vtu, displacement.nii.gz / .nrrd, warped_mri.nii.gz,
+/// overlay.png). Wiring only; the pieces are reused by `replay` and `demo`.
+
+#include <filesystem>
+#include <iosfwd>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "constraints/registration/registration.hpp"
+#include "imaging/io/volume.hpp"
+#include "model_folder.hpp"
+
+namespace CLI {
+class App;
+}  // namespace CLI
+
+namespace brainshift::apps {
+
+struct RegisterArgs {
+  std::filesystem::path model;
+  std::filesystem::path doppler;
+  std::optional<std::filesystem::path> bmode;
+  std::optional<std::filesystem::path> mri;
+  std::string init;  ///< "rigid", "identity" or empty (the scene's choice)
+  std::filesystem::path out;
+};
+
+CLI::App* add_register_command(CLI::App& app, RegisterArgs& args);
+int run_register(const RegisterArgs& args, std::ostream& out);
+
+/// A prepared model ready for intra-operative work (loaded once, reused by replay).
+struct Session {
+  LoadedModel loaded;
+  std::unique_ptr<constraints::RegistrationModel> model;
+  double seconds_load = 0.0;
+};
+Session open_session(const std::filesystem::path& model_dir);
+
+/// Intra-operative data from the images, in the model's frame. Throws (one line naming the
+/// file) for an unreadable, empty, all-NaN or non-overlapping Doppler volume.
+struct IntraopInputs {
+  constraints::IntraopData data;
+  nlohmann::json report;  ///< what extraction found (counts, thresholds)
+  double seconds = 0.0;
+};
+IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
+                           const std::optional<std::filesystem::path>& bmode);
+
+/// Writes RES (report.json, deformed.vtu, displacement.nii.gz, displacement.nrrd, overlay.png,
+/// warped_mri.nii.gz with an MRI) atomically. `extra` is merged into the report.
+void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
+                  const IntraopInputs& in, const std::optional<std::filesystem::path>& mri, const nlohmann::json& extra);
+
+/// Everything in report.json about the registration itself.
+nlohmann::json registration_report(const constraints::RegistrationResult& r);
+
+}  // namespace brainshift::apps
