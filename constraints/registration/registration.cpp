@@ -70,6 +70,25 @@ std::vector<index_t> feature_tets(const Features& features, index_t count, const
   return t;
 }
 
+/// The segments of `s` with both ends within the bounding box of `points` enlarged by `margin`
+/// (mm): the part of the pre-operative tree the probe can have seen. A rigid ICP against the
+/// whole tree slides onto vessels outside the field of view (a dense cortical tree offers a
+/// near-match every few millimetres).
+Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double margin) {
+  if (points.rows() == 0) return s;
+  const Vector3d lo = points.colwise().minCoeff().transpose().array() - margin;
+  const Vector3d hi = points.colwise().maxCoeff().transpose().array() + margin;
+  auto inside = [&](index_t i) {
+    const Vector3d p = s.points.row(i).transpose();
+    return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
+  };
+  Skeleton out = s;
+  out.segments.clear();
+  for (const auto& seg : s.segments)
+    if (inside(seg[0]) && inside(seg[1])) out.segments.push_back(seg);
+  return out.segments.empty() ? s : out;
+}
+
 std::string no_data_reason(const IntraopData& d, const RegistrationModel& m, const RegistrationOptions& o) {
   std::string why;
   auto add = [&why](const std::string& s) { why += (why.empty() ? "" : ", ") + s; };
@@ -187,7 +206,8 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.rigid = initial->rigid;
   } else if (options.start == RigidStart::RIGID) {
     const auto t0 = Clock::now();
-    res.rigid = rigid_init(model.skeleton(), data.vessel_points, footprint ? &model.surface() : nullptr,
+    res.rigid = rigid_init(skeleton_near(model.skeleton(), data.vessel_points, options.rigid.max_pair_distance_mm),
+                           data.vessel_points, footprint ? &model.surface() : nullptr,
                            footprint ? &data.footprint_points : nullptr, options.rigid);
     res.seconds.rigid = seconds_since(t0);
     double motion = 0;
