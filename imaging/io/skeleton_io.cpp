@@ -3,7 +3,6 @@
 #include <cmath>
 #include <map>
 #include <string>
-#include <system_error>
 
 #include <vtkCellArray.h>
 #include <vtkDataArray.h>
@@ -13,13 +12,10 @@
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
-#include <vtkXMLPolyDataReader.h>
-#include <vtkXMLPolyDataWriter.h>
 
 #include "core/error.hpp"
 #include "core/logger.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "imaging/io/vtk_error_capture.hpp"
+#include "imaging/io/polydata_io.hpp"
 
 namespace brainshift::imaging {
 
@@ -48,30 +44,12 @@ void write_skeleton_vtp(const std::filesystem::path& path, const VesselGraph& gr
   poly->SetPoints(points);
   poly->SetLines(lines);
   poly->GetPointData()->AddArray(radius);
-  write_atomically(path, [&](const std::filesystem::path& temporary) {
-    const VtkErrorCapture errors;
-    vtkNew<vtkXMLPolyDataWriter> writer;
-    writer->SetInputData(poly);
-    writer->SetDataModeToAppended();
-    writer->EncodeAppendedDataOff();
-    writer->SetFileName(temporary.string().c_str());
-    BS_VERIFY(writer->Write() == 1 && !errors.failed(),
-              path.string() << ": cannot write: " << errors.message());
-  });
+  write_polydata(path, poly);
 }
 
 VesselGraph read_skeleton_vtp(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::error_code ec;
-  BS_VERIFY(std::filesystem::exists(path, ec), file << ": no such file");
-  BS_VERIFY(std::filesystem::is_regular_file(path, ec), file << ": not a regular file");
-  const VtkErrorCapture errors;
-  vtkNew<vtkXMLPolyDataReader> reader;
-  BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a VTK XML polydata (.vtp) file");
-  reader->SetFileName(file.c_str());
-  reader->Update();
-  BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
-  vtkPolyData* poly = reader->GetOutput();
+  const vtkSmartPointer<vtkPolyData> poly = read_polydata(path);
   BS_VERIFY(poly != nullptr && poly->GetNumberOfLines() > 0, file << ": no line cells");
 
   vtkDataArray* radius = poly->GetPointData()->GetArray("radius");

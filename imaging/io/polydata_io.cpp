@@ -1,0 +1,44 @@
+#include "imaging/io/polydata_io.hpp"
+
+#include <string>
+#include <system_error>
+
+#include <vtkNew.h>
+#include <vtkXMLPolyDataReader.h>
+#include <vtkXMLPolyDataWriter.h>
+
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/vtk_error_capture.hpp"
+
+namespace brainshift::imaging {
+
+vtkSmartPointer<vtkPolyData> read_polydata(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  std::error_code ec;
+  BS_VERIFY(std::filesystem::exists(path, ec), file << ": no such file");
+  BS_VERIFY(std::filesystem::is_regular_file(path, ec), file << ": not a regular file");
+  const VtkErrorCapture errors;
+  vtkNew<vtkXMLPolyDataReader> reader;
+  BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a VTK XML polydata (.vtp) file");
+  reader->SetFileName(file.c_str());
+  reader->Update();
+  BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
+  vtkSmartPointer<vtkPolyData> poly = reader->GetOutput();
+  BS_VERIFY(poly != nullptr, file << ": cannot read: no polydata");
+  return poly;
+}
+
+void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
+  write_atomically(path, [&](const std::filesystem::path& temporary) {
+    const VtkErrorCapture errors;
+    vtkNew<vtkXMLPolyDataWriter> writer;
+    writer->SetInputData(poly);
+    writer->SetDataModeToAppended();
+    writer->EncodeAppendedDataOff();
+    writer->SetFileName(temporary.string().c_str());
+    BS_VERIFY(writer->Write() == 1 && !errors.failed(), path.string() << ": cannot write: " << errors.message());
+  });
+}
+
+}  // namespace brainshift::imaging
