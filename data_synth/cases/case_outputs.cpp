@@ -1,46 +1,27 @@
 #include "data_synth/cases/case_outputs.hpp"
 
-#include <fstream>
-#include <iomanip>
-#include <limits>
-#include <sstream>
 #include <string>
 
 #include "core/error.hpp"
-#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/csv.hpp"
+#include "imaging/io/surface_io.hpp"
 
 namespace brainshift::data_synth {
 
 void write_landmarks_csv(const std::filesystem::path& path, const std::vector<Vector3d>& points) {
-  imaging::write_atomically(path, [&](const std::filesystem::path& tmp) {
-    std::ofstream out(tmp);
-    BS_VERIFY(out, "cannot open " << tmp.string() << " for writing");
-    out << std::setprecision(std::numeric_limits<double>::max_digits10) << "id,x,y,z\n";
-    for (std::size_t i = 0; i < points.size(); ++i)
-      out << i << ',' << points[i].x() << ',' << points[i].y() << ',' << points[i].z() << '\n';
-    out.flush();
-    BS_VERIFY(out, "write to " << tmp.string() << " failed");
-  });
+  imaging::Landmarks l;
+  l.points.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    l.ids.push_back(std::to_string(i));
+    l.points.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
+  }
+  imaging::write_landmarks(path, l);
 }
 
 std::vector<Vector3d> read_landmarks_csv(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  BS_VERIFY(in, "cannot open landmark file " << path.string());
-  std::string line;
-  BS_VERIFY(std::getline(in, line) && line.rfind("id,x,y,z", 0) == 0,
-            path.string() << ": expected the header 'id,x,y,z'");
+  const imaging::Landmarks l = imaging::read_landmarks(path);
   std::vector<Vector3d> points;
-  for (int number = 2; std::getline(in, line); ++number) {
-    if (line.empty() || line == "\r") continue;
-    std::istringstream s(line);
-    std::string field[4];
-    for (auto& f : field) std::getline(s, f, ',');
-    try {
-      points.emplace_back(std::stod(field[1]), std::stod(field[2]), std::stod(field[3]));
-    } catch (const std::exception&) {
-      BS_THROW(path.string() << ":" << number << ": expected id,x,y,z numbers, got '" << line << "'");
-    }
-  }
+  for (Eigen::Index i = 0; i < l.points.rows(); ++i) points.emplace_back(l.points.row(i).transpose());
   return points;
 }
 
@@ -59,26 +40,7 @@ core::BoundarySurface region_surface(const core::TetMesh& mesh,
 
 void write_surface_vtp(const std::filesystem::path& path, ConstRef<MatrixX3d> vertices,
                        const core::TriangleMatrix& faces) {
-  imaging::write_atomically(path, [&](const std::filesystem::path& tmp) {
-    std::ofstream out(tmp);
-    BS_VERIFY(out, "cannot open " << tmp.string() << " for writing");
-    out << std::setprecision(std::numeric_limits<double>::max_digits10);
-    out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PolyData\" version=\"0.1\" "
-           "byte_order=\"LittleEndian\">\n<PolyData>\n<Piece NumberOfPoints=\""
-        << vertices.rows() << "\" NumberOfPolys=\"" << faces.rows() << "\">\n"
-        << "<Points>\n<DataArray type=\"Float64\" NumberOfComponents=\"3\" format=\"ascii\">\n";
-    for (index_t v = 0; v < vertices.rows(); ++v)
-      out << vertices(v, 0) << ' ' << vertices(v, 1) << ' ' << vertices(v, 2) << '\n';
-    out << "</DataArray>\n</Points>\n<Polys>\n"
-        << "<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">\n";
-    for (index_t f = 0; f < faces.rows(); ++f)
-      out << faces(f, 0) << ' ' << faces(f, 1) << ' ' << faces(f, 2) << '\n';
-    out << "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">\n";
-    for (index_t f = 0; f < faces.rows(); ++f) out << 3 * (f + 1) << '\n';
-    out << "</DataArray>\n</Polys>\n</Piece>\n</PolyData>\n</VTKFile>\n";
-    out.flush();
-    BS_VERIFY(out, "write to " << tmp.string() << " failed");
-  });
+  imaging::write_surface_vtp(path, constraints::SurfaceMesh{vertices, faces});
 }
 
 }  // namespace brainshift::data_synth

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
-/// @brief Small writers of the phantom cases' truth files: landmark CSVs (`id,x,y,z`, mm, world
-/// RAS) and triangle surfaces as VTK XML polydata (.vtp, ASCII, world RAS mm), plus the surface
-/// of a labelled region of the truth mesh (e.g. the ventricles, for Hausdorff distances).
+/// @brief The phantom cases' truth files: landmark CSVs (`id,x,y,z`, mm, world RAS) and triangle
+/// surfaces (.vtp, world RAS mm) through imaging's readers and writers, plus the surface of a
+/// labelled region of the truth mesh (e.g. the ventricles, for Hausdorff distances).
 
 #include <cstdint>
 #include <filesystem>
@@ -28,8 +28,8 @@ core::BoundarySurface region_surface(const core::TetMesh& mesh,
                                      const std::vector<std::uint8_t>& tet_labels,
                                      std::uint8_t label);
 
-/// Writes a triangle surface (#V×3 vertices in mm, #F×3 faces) as ASCII VTK XML polydata,
-/// atomically. \throws brainshift::Error naming the path on failure.
+/// Writes a triangle surface (#V×3 vertices in mm, #F×3 faces) as VTK XML polydata (imaging's
+/// write_surface_vtp), atomically. \throws brainshift::Error naming the path on failure.
 void write_surface_vtp(const std::filesystem::path& path, ConstRef<MatrixX3d> vertices,
                        const core::TriangleMatrix& faces);
 
