@@ -86,14 +86,8 @@ int run_prepare(const PrepareArgs& args, std::ostream& out) {
   BS_VERIFY(mra.components == 1, args.mra.string() << ": expected a scalar image, got " << mra.components
                                                    << " components");
   {
-    Vector3d lo = Vector3d::Constant(1e300), hi = Vector3d::Constant(-1e300);
-    for (int c = 0; c < 8; ++c) {
-      const auto& g = labels.geometry;
-      const Vector3d p = g.index_to_world(
-          Vector3d((c & 1) ? g.size[0] - 1 : 0, (c & 2) ? g.size[1] - 1 : 0, (c & 4) ? g.size[2] - 1 : 0));
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
+    Vector3d lo, hi;
+    grid_bounds(labels.geometry, lo, hi);
     BS_VERIFY(grid_overlaps(mra.geometry, lo, hi, 0.0),
               args.mra.string() << ": does not overlap the label volume (different patient or frame?)");
   }

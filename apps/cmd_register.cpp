@@ -88,6 +88,13 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
   return in;
 }
 
+imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri) {
+  imaging::VolumeF image = imaging::read_volume(mri);
+  BS_VERIFY(same_grid(image.geometry, s.loaded.preop_grid),
+            mri.string() << ": not on the grid of the model's labels (another patient or another scan?)");
+  return image;
+}
+
 nlohmann::json registration_report(const constraints::RegistrationResult& r) {
   using constraints::ConstraintSet;
   nlohmann::json j;
@@ -126,7 +133,7 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
 }
 
 void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
-                  const IntraopInputs& in, const std::optional<std::filesystem::path>& mri, const nlohmann::json& extra) {
+                  const IntraopInputs& in, const imaging::VolumeF* mri, const nlohmann::json& extra) {
   const auto t0 = Clock::now();
   const core::TetMesh& mesh = s.model->mesh();
   // Everything is written in the intra-operative frame: X ↦ T⁻¹ (X + u(X)).
@@ -134,12 +141,6 @@ void write_result(const std::filesystem::path& res, const Session& s, const cons
   MatrixX3d u_intra(mesh.num_nodes(), 3);
   for (index_t i = 0; i < mesh.num_nodes(); ++i)
     u_intra.row(i) = (to_intra * Vector3d(r.positions.row(i).transpose())).transpose() - mesh.nodes().row(i);
-  std::optional<imaging::VolumeF> mri_image;
-  if (mri) {
-    mri_image = imaging::read_volume(*mri);
-    BS_VERIFY(same_grid(mri_image->geometry, s.loaded.preop_grid),
-              mri->string() << ": not on the grid of the model's labels (another patient or another scan?)");
-  }
   nlohmann::json report = registration_report(r);
   report["intraop"] = in.report;
   if (extra.is_object()) report.merge_patch(extra);
@@ -153,14 +154,13 @@ void write_result(const std::filesystem::path& res, const Session& s, const cons
     imaging::write_volume(dir / "displacement.nii.gz", field);
     imaging::write_displacement_for_slicer(dir / "displacement.nrrd", field);
     std::optional<imaging::VolumeF> warped;
-    if (mri_image) {
+    if (mri) {
       imaging::WarpOptions wo;
       wo.rigid = to_intra.matrix();
-      warped = imaging::warp_image(*mri_image, mesh, u_intra, wo);
+      warped = imaging::warp_image(*mri, mesh, u_intra, wo);
       imaging::write_volume(dir / "warped_mri.nii.gz", *warped);
     }
-    write_result_overlay(dir / "overlay.png", mri_image ? &*mri_image : nullptr, warped ? &*warped : nullptr,
-                         field, in.data, to_intra);
+    write_result_overlay(dir / "overlay.png", mri, warped ? &*warped : nullptr, field, in.data);
     report["timing"]["outputs"] = since(t0);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();
@@ -176,6 +176,8 @@ int run_register(const RegisterArgs& args, std::ostream& out) {
   Session s = open_session(args.model);
   progress.stage("extracting vessels" + std::string(args.bmode ? " and the probe footprint" : ""));
   const IntraopInputs in = read_intraop(s, args.doppler, args.bmode);
+  const std::optional<imaging::VolumeF> mri =
+      args.mri ? std::optional<imaging::VolumeF>(read_preop_mri(s, *args.mri)) : std::nullopt;
   constraints::RegistrationOptions options = s.loaded.scene.options;
   if (args.init == "rigid") options.start = constraints::RigidStart::RIGID;
   if (args.init == "identity") options.start = constraints::RigidStart::IDENTITY;
@@ -183,7 +185,7 @@ int run_register(const RegisterArgs& args, std::ostream& out) {
                  std::to_string(in.data.footprint_points.rows()) + " footprint points)");
   const constraints::RegistrationResult r = constraints::register_model(*s.model, in.data, options);
   progress.stage("writing " + args.out.string());
-  write_result(args.out, s, r, in, args.mri, {});
+  write_result(args.out, s, r, in, mri ? &*mri : nullptr, {});
   out << "registered in " << r.iterations << " iterations (" << r.stop_reason << "); registration "
       << r.seconds.total << " s, total " << progress.seconds() << " s; max displacement "
       << (r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0) << " mm; results in "

@@ -52,10 +52,14 @@ struct IntraopInputs {
 IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
                            const std::optional<std::filesystem::path>& bmode);
 
+/// Reads the pre-operative MRI to warp and checks it lies on the model's grid (same patient and
+/// scan). \throws brainshift::Error naming the file otherwise.
+imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri);
+
 /// Writes RES (report.json, deformed.vtu, displacement.nii.gz, displacement.nrrd, overlay.png,
-/// warped_mri.nii.gz with an MRI) atomically. `extra` is merged into the report.
+/// warped_mri.nii.gz with an MRI from read_preop_mri()) atomically. `extra` is merged into the report.
 void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
-                  const IntraopInputs& in, const std::optional<std::filesystem::path>& mri, const nlohmann::json& extra);
+                  const IntraopInputs& in, const imaging::VolumeF* mri, const nlohmann::json& extra);
 
 /// Everything in report.json about the registration itself.
 nlohmann::json registration_report(const constraints::RegistrationResult& r);

@@ -9,21 +9,15 @@
 
 #include "cmd_register.hpp"
 #include "core/error.hpp"
+#include "imaging/evaluation/metrics.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "progress.hpp"
 
 namespace brainshift::apps {
 namespace {
 
-/// p-th percentile (0–100) by linear interpolation between order statistics.
-double percentile(std::vector<double> v, double p) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double pos = p / 100.0 * static_cast<double>(v.size() - 1);
-  const auto lo = static_cast<std::size_t>(pos);
-  const std::size_t hi = std::min(lo + 1, v.size() - 1);
-  return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
-}
+/// p-th percentile of the latencies (0 when there are none: every frame failed).
+double latency_percentile(const std::vector<double>& v, double p) { return v.empty() ? 0.0 : imaging::percentile(v, p); }
 
 }  // namespace
 
@@ -65,7 +59,7 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
             std::filesystem::exists(bmode) ? std::optional<std::filesystem::path>(bmode) : std::nullopt);
         const constraints::RegistrationResult r = constraints::register_model(
             *s.model, in.data, s.loaded.scene.options, previous ? &*previous : nullptr);
-        write_result(dir / name, s, r, in, std::nullopt, {{"frame", name}, {"warm_start", previous.has_value()}});
+        write_result(dir / name, s, r, in, nullptr, {{"frame", name}, {"warm_start", previous.has_value()}});
         const double seconds = in.seconds + r.seconds.total;
         latency.push_back(seconds);
         entry.update({{"status", r.converged ? "ok" : "not_converged"},
@@ -82,7 +76,7 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
       }
       summary["frames"].push_back(entry);
     }
-    summary["latency_s"] = {{"median", percentile(latency, 50)}, {"p95", percentile(latency, 95)},
+    summary["latency_s"] = {{"median", latency_percentile(latency, 50)}, {"p95", latency_percentile(latency, 95)},
                             {"max", latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end())}};
     summary["failed"] = failed;
     summary["not_converged"] = unconverged;

@@ -50,14 +50,20 @@ bool same_grid(const imaging::ImageGeometry& a, const imaging::ImageGeometry& b)
          (a.spacing - b.spacing).cwiseAbs().maxCoeff() < 1e-6 && (a.direction - b.direction).cwiseAbs().maxCoeff() < 1e-6;
 }
 
-bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi, double margin) {
-  Vector3d glo = Vector3d::Constant(1e300), ghi = Vector3d::Constant(-1e300);
+void grid_bounds(const imaging::ImageGeometry& g, Vector3d& lo, Vector3d& hi) {
+  lo = Vector3d::Constant(1e300);
+  hi = Vector3d::Constant(-1e300);
   for (int c = 0; c < 8; ++c) {
     const Vector3d ijk((c & 1) ? g.size[0] - 1 : 0, (c & 2) ? g.size[1] - 1 : 0, (c & 4) ? g.size[2] - 1 : 0);
     const Vector3d p = g.index_to_world(ijk);
-    glo = glo.cwiseMin(p);
-    ghi = ghi.cwiseMax(p);
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
   }
+}
+
+bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi, double margin) {
+  Vector3d glo, ghi;
+  grid_bounds(g, glo, ghi);
   return ((glo.array() <= hi.array() + margin) && (ghi.array() >= lo.array() - margin)).all();
 }
 

@@ -48,6 +48,9 @@ imaging::ImageGeometry grid_from_json(const nlohmann::json& j);
 /// True when two grids are the same to 1e-3 mm / 1e-6 (same patient scan).
 bool same_grid(const imaging::ImageGeometry& a, const imaging::ImageGeometry& b);
 
+/// World bounding box [lo, hi] (mm) of a grid's voxel centres.
+void grid_bounds(const imaging::ImageGeometry& g, Vector3d& lo, Vector3d& hi);
+
 /// World bounding boxes (mm) of a grid's voxel centres intersect a box [lo, hi] enlarged by `margin`.
 bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi, double margin);
 

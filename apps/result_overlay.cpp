@@ -8,7 +8,7 @@ namespace brainshift::apps {
 
 void write_result_overlay(const std::filesystem::path& path, const imaging::VolumeF* mri,
                           const imaging::VolumeF* warped, const imaging::VolumeF& displacement,
-                          const constraints::IntraopData& data, const Eigen::Isometry3d& /*intra_from_model*/) {
+                          const constraints::IntraopData& data) {
   // The intra-operative points are in the intra-operative frame, as is the warped MRI.
   imaging::VolumeF magnitude;
   imaging::OverlayInput in;

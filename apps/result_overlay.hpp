@@ -14,6 +14,6 @@ namespace brainshift::apps {
 
 void write_result_overlay(const std::filesystem::path& path, const imaging::VolumeF* mri,
                           const imaging::VolumeF* warped, const imaging::VolumeF& displacement,
-                          const constraints::IntraopData& data, const Eigen::Isometry3d& intra_from_model);
+                          const constraints::IntraopData& data);
 
 }  // namespace brainshift::apps

@@ -21,6 +21,17 @@ double seconds_since(Clock::time_point t0) { return std::chrono::duration<double
 using PairKey = std::array<std::int64_t, 3>;  // (set, point, feature)
 using LambdaKey = std::array<std::int64_t, 3>;  // (set, feature, row within the group)
 
+/// Warm-start key of every row: (set, feature, position of the row within its group).
+std::vector<LambdaKey> lambda_keys(const ConstraintRows& rows) {
+  std::vector<LambdaKey> keys;
+  keys.reserve(static_cast<std::size_t>(rows.size()));
+  for (index_t i = 0, k = 0; i < rows.size(); ++i) {
+    k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
+    keys.push_back({static_cast<std::int64_t>(rows[i].set), rows[i].feature, k});
+  }
+  return keys;
+}
+
 std::vector<index_t> block_nodes_of(const core::TetMesh& mesh, const core::BarycentricMapping& a,
                                     const core::BarycentricMapping& b) {
   std::set<index_t> nodes;
@@ -296,23 +307,17 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.seconds.pairing += seconds_since(t_it);
 
     // Warm start keyed by (set, feature, row within the group), not by row index.
-    auto key_of = [&rows](index_t i, index_t k) -> LambdaKey {
-      return {static_cast<std::int64_t>(rows[i].set), rows[i].feature, k};
-    };
+    const std::vector<LambdaKey> keys_of_rows = lambda_keys(rows);
     Eigen::VectorXd lambda0 = Eigen::VectorXd::Zero(rows.size());
-    for (index_t i = 0, k = 0; i < rows.size(); ++i) {
-      k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
-      if (auto f = warm.find(key_of(i, k)); f != warm.end()) lambda0[i] = f->second;
-    }
+    for (index_t i = 0; i < rows.size(); ++i)
+      if (auto f = warm.find(keys_of_rows[static_cast<std::size_t>(i)]); f != warm.end()) lambda0[i] = f->second;
     step_options.max_increment = std::isfinite(radius) ? radius : 0.0;
     const StepResult step = model.mechanics().step(res.positions, rows, step_options, lambda0);
     rec.trust_radius_mm = step_options.max_increment;
     rec.limited = step.limited;
     warm.clear();
-    for (index_t i = 0, k = 0; i < rows.size(); ++i) {
-      k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
-      warm[key_of(i, k)] = step.lambda.size() ? step.lambda[i] : 0.0;
-    }
+    for (index_t i = 0; i < rows.size(); ++i)
+      warm[keys_of_rows[static_cast<std::size_t>(i)]] = step.lambda.size() ? step.lambda[i] : 0.0;
     const MatrixX3d dx = step.x - res.positions;
     res.positions = step.x;
     res.seconds.free_motion += step.seconds_free_motion;
