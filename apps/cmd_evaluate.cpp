@@ -2,7 +2,6 @@
 
 #include <CLI/CLI.hpp>
 
-#include <array>
 #include <fstream>
 #include <iomanip>
 #include <ostream>
@@ -20,15 +19,10 @@ namespace {
 
 /// The points moved by the displacement field: p + u(p), u trilinear per component.
 MatrixX3d moved(const imaging::VolumeF& field, ConstRef<MatrixX3d> p) {
-  std::array<imaging::VolumeF, 3> comp;
-  for (int c = 0; c < 3; ++c) {
-    comp[c] = imaging::VolumeF(field.geometry);
-    for (std::size_t v = 0; v < comp[c].data.size(); ++v) comp[c].data[v] = field.data[3 * v + c];
-  }
   MatrixX3d out(p.rows(), 3);
   for (Eigen::Index i = 0; i < p.rows(); ++i) {
     const Vector3d ijk = field.geometry.world_to_index(p.row(i).transpose());
-    for (int c = 0; c < 3; ++c) out(i, c) = p(i, c) + imaging::sample_trilinear(comp[c], ijk, 0.0F);
+    for (int c = 0; c < 3; ++c) out(i, c) = p(i, c) + imaging::sample_trilinear(field, ijk, 0.0F, c);
   }
   return out;
 }

@@ -169,7 +169,7 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
-float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value) {
+float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value, int component) {
   const auto& n = image.geometry.size;
   std::array<int, 3> i0{};
   std::array<double, 3> f{};
@@ -183,7 +183,7 @@ float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_
   }
   const std::int64_t sx = 1, sy = n[0], sz = std::int64_t(n[0]) * n[1];
   const std::int64_t dx = n[0] > 1 ? sx : 0, dy = n[1] > 1 ? sy : 0, dz = n[2] > 1 ? sz : 0;
-  const float* p = image.data.data() + (i0[2] * sz + i0[1] * sy + i0[0]) * image.components;
+  const float* p = image.data.data() + (i0[2] * sz + i0[1] * sy + i0[0]) * image.components + component;
   const auto at = [&](std::int64_t off) { return double(p[off * image.components]); };
   const double wx = f[0], wy = f[1], wz = f[2];
   const double c00 = (1 - wx) * at(0) + wx * at(dx);

@@ -71,9 +71,11 @@ VolumeF displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d> displa
                            const ImageGeometry& geometry,
                            const DisplacementFieldOptions& options = {});
 
-/// Trilinear sample of a scalar volume at continuous index (i, j, k) (voxel centres at integers);
-/// the border value within half a voxel beyond the outer centres, `outside_value` farther out.
+/// Trilinear sample of component `component` (0 … components − 1) of a volume at continuous index
+/// (i, j, k) (voxel centres at integers); the border value within half a voxel beyond the outer
+/// centres, `outside_value` farther out.
 /// Exact at voxel centres and for images linear in (i, j, k).
-float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value = 0.0F);
+float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value = 0.0F,
+                      int component = 0);
 
 }  // namespace brainshift::imaging
