@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/compliance_cache.hpp"
 #include "core/mapping/tet_locator.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
@@ -146,12 +147,29 @@ int run_prepare(const PrepareArgs& args, std::ostream& out) {
     imaging::write_node_list(dir / "fixed.csv", fixed);
     std::ofstream(dir / "scene.json") << scene.dump(2) << '\n';
     std::ofstream(dir / "model.json") << manifest.dump(2) << '\n';
+    LoadedModel loaded;
     try {  // the merged scene must be valid now, not at registration time
-      (void)load_model(dir);
+      loaded = load_model(dir);
     } catch (const Error& e) {
       BS_VERIFY(false, (args.scene_options ? args.scene_options->string() : std::string("scene"))
                            << ": " << e.what());
     }
+    // The intra-operative fast path: factorise K0 and precompute the compliance block now,
+    // once, and keep the block (register adopts it after checking it belongs to this model).
+    progress.stage("factorising the stiffness and precomputing the compliance block");
+    const auto& sc = loaded.scene;
+    constraints::RegistrationModel model(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface, sc.compliance);
+    const auto& op = model.mechanics().compliance();
+    nlohmann::json cache = {{"strategy", constraints::to_string(op.strategy())},
+                            {"block_nodes", op.block_nodes().size()},
+                            {"seconds", model.seconds_prepare()}};
+    if (op.strategy() == constraints::ComplianceStrategy::DENSE_BLOCK) {
+      imaging::write_compliance_cache(dir / compliance_cache_file, op.block());
+      cache["file"] = compliance_cache_file;
+      cache["bytes"] = std::filesystem::file_size(dir / compliance_cache_file);
+    }
+    manifest["compliance"] = cache;
+    std::ofstream(dir / "model.json") << manifest.dump(2) << '\n';
   });
   out << "prepared " << args.out.string() << ": " << mesh.num_nodes() << " nodes, " << mesh.num_tets()
       << " tetrahedra, " << surface.vertices.rows() << " surface vertices, " << fixed.size() << " fixed nodes, "

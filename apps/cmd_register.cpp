@@ -7,7 +7,9 @@
 #include <iostream>
 
 #include "core/error.hpp"
+#include "core/logger.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/compliance_cache.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
@@ -53,9 +55,31 @@ Session open_session(const std::filesystem::path& model_dir) {
   Session s;
   s.loaded = load_model(model_dir);
   const auto& sc = s.loaded.scene;
+  constraints::ComplianceOptions compliance = sc.compliance;
+  const std::filesystem::path cache = model_dir / compliance_cache_file;
+  std::string cache_problem;
+  if (compliance.strategy != constraints::ComplianceStrategy::SPARSE_SOLVE && std::filesystem::exists(cache)) {
+    try {
+      compliance.precomputed = std::make_shared<const constraints::ComplianceBlock>(imaging::read_compliance_cache(cache));
+    } catch (const Error& e) {
+      cache_problem = e.what();
+      logger().warn("{}; the compliance block will be recomputed", cache_problem);
+    }
+  }
   s.model = std::make_unique<constraints::RegistrationModel>(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
-                                                              sc.compliance);
+                                                              compliance);
   s.seconds_load = since(t0);
+  const auto& op = s.model->mechanics().compliance();
+  std::string status = op.cache_status();
+  if (!cache_problem.empty()) status = "unreadable (" + cache_problem + "); computed";
+  else if (status == "computed" && !compliance.precomputed) status = "absent; computed";
+  s.model_report = {{"nodes", sc.mesh.num_nodes()},
+                    {"tets", sc.mesh.num_tets()},
+                    {"compliance", {{"strategy", constraints::to_string(op.strategy())},
+                                    {"block_nodes", op.block_nodes().size()},
+                                    {"block_mib", static_cast<double>(op.block_bytes()) / (1 << 20)},
+                                    {"cache", status}}},
+                    {"seconds_prepare", s.model->seconds_prepare()}};
   return s;
 }
 
@@ -144,6 +168,7 @@ void write_result(const std::filesystem::path& res, const Session& s, const cons
   nlohmann::json report = registration_report(r);
   report["intraop"] = in.report;
   if (extra.is_object()) report.merge_patch(extra);
+  report["model"] = s.model_report;
   report["timing"]["load_model"] = s.seconds_load;
   report["timing"]["extraction"] = in.seconds;
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {

@@ -39,7 +39,11 @@ struct Session {
   LoadedModel loaded;
   std::unique_ptr<constraints::RegistrationModel> model;
   double seconds_load = 0.0;
+  nlohmann::json model_report;  ///< how the model was set up (compliance strategy, cache status)
 };
+/// Loads MODEL and prepares it for registration, adopting MODEL/compliance.bin when it is
+/// present and belongs to this model (else the block is recomputed and the report says why; a
+/// stale or damaged cache is a warning, not an error: it only costs time).
 Session open_session(const std::filesystem::path& model_dir);
 
 /// Intra-operative data from the images, in the model's frame. Throws (one line naming the

@@ -6,6 +6,8 @@
 ///   surface.vtp     decimated collision surface (≈300 vertices)
 ///   vessels.vtp     pre-operative vessel skeleton from the MRA (polylines, `radius`)
 ///   fixed.csv       fixed (cerebellum-side) nodes
+///   compliance.bin  cached compliance block K0⁻¹ on the constrained nodes
+///                   (imaging/io/compliance_cache.hpp); optional, checked before use
 ///   model.json      manifest: format name and version, the inputs (path, size, FNV-1a hash) and
 ///                   the pre-operative image grid (to refuse images from another patient)
 /// The folder is written under a temporary name and renamed, so it is complete or absent.
@@ -24,6 +26,7 @@ namespace brainshift::apps {
 
 inline constexpr const char* model_format = "brainshift-model";
 inline constexpr int model_version = 1;
+inline constexpr const char* compliance_cache_file = "compliance.bin";
 
 /// 64-bit FNV-1a hash of a file's bytes (identifies inputs; not cryptographic).
 /// \throws brainshift::Error naming the file when it cannot be read.

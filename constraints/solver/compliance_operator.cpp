@@ -31,7 +31,31 @@ void for_each_row_node(const SparseMatrix& H, Fn&& fn) {
   }
 }
 
+/// FNV-1a over raw bytes, continuing from `h`.
+std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < bytes; ++i) {
+    h ^= p[i];
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
 }  // namespace
+
+std::uint64_t stiffness_fingerprint(const core::TetMesh& mesh, std::vector<index_t> fixed_nodes) {
+  std::sort(fixed_nodes.begin(), fixed_nodes.end());
+  fixed_nodes.erase(std::unique(fixed_nodes.begin(), fixed_nodes.end()), fixed_nodes.end());
+  std::uint64_t h = 1469598103934665603ULL;
+  const std::int64_t sizes[2] = {mesh.num_nodes(), mesh.num_tets()};
+  h = fnv1a(h, sizes, sizeof sizes);
+  h = fnv1a(h, mesh.nodes().data(), sizeof(double) * static_cast<std::size_t>(mesh.nodes().size()));
+  h = fnv1a(h, mesh.tets().data(), sizeof(mesh.tets()(0, 0)) * static_cast<std::size_t>(mesh.tets().size()));
+  h = fnv1a(h, mesh.youngs_modulus().data(), sizeof(double) * static_cast<std::size_t>(mesh.youngs_modulus().size()));
+  h = fnv1a(h, mesh.poisson_ratio().data(), sizeof(double) * static_cast<std::size_t>(mesh.poisson_ratio().size()));
+  h = fnv1a(h, fixed_nodes.data(), sizeof(index_t) * fixed_nodes.size());
+  return h;
+}
 
 std::string to_string(ComplianceStrategy s) {
   switch (s) {
@@ -44,8 +68,12 @@ std::string to_string(ComplianceStrategy s) {
 
 ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,
                                        std::vector<index_t> block_nodes,
-                                       const ComplianceOptions& options)
-    : m_factor(&factor), m_dofs(&dofs), m_warp(factor, dofs), m_block_nodes(std::move(block_nodes)) {
+                                       const ComplianceOptions& options, std::uint64_t fingerprint)
+    : m_factor(&factor),
+      m_dofs(&dofs),
+      m_warp(factor, dofs),
+      m_block_nodes(std::move(block_nodes)),
+      m_fingerprint(fingerprint) {
   BS_VERIFY(factor.ok(), "compliance operator needs a factorised K0: " << factor.message());
   std::sort(m_block_nodes.begin(), m_block_nodes.end());
   m_block_nodes.erase(std::unique(m_block_nodes.begin(), m_block_nodes.end()), m_block_nodes.end());
@@ -70,14 +98,28 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
   }
   if (m_strategy != ComplianceStrategy::DENSE_BLOCK) return;
 
-  // Precompute C = K0_ff⁻¹ on the block DOFs, in chunks of unit right-hand sides.
   m_block_pos.assign(static_cast<std::size_t>(dofs.num_nodes()), -1);
   for (std::size_t b = 0; b < m_block_nodes.size(); ++b)
     m_block_pos[m_block_nodes[b]] = static_cast<index_t>(b);
-  m_block = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(nb), static_cast<Eigen::Index>(nb));
   std::vector<index_t> free_of_block(nb);  // free index of each block DOF, −1 if fixed
   for (std::size_t a = 0; a < nb; ++a)
     free_of_block[a] = dofs.free_index(3 * m_block_nodes[a / 3] + static_cast<index_t>(a % 3));
+
+  m_cache_status = "computed";
+  if (options.precomputed) {
+    const std::string why = check_precomputed(*options.precomputed, free_of_block);
+    if (why.empty()) {
+      m_block = options.precomputed->matrix;
+      m_cache_status = "adopted";
+      logger().info("compliance block: {} nodes adopted from the precomputed cache", m_block_nodes.size());
+      return;
+    }
+    m_cache_status = "rejected (" + why + "); computed";
+    logger().warn("precomputed compliance block not used: {}; computing it", why);
+  }
+
+  // Precompute C = K0_ff⁻¹ on the block DOFs, in chunks of unit right-hand sides.
+  m_block = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(nb), static_cast<Eigen::Index>(nb));
   std::vector<index_t> cols;  // block DOFs that are free
   for (std::size_t a = 0; a < nb; ++a)
     if (free_of_block[a] >= 0) cols.push_back(static_cast<index_t>(a));
@@ -91,7 +133,45 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
       for (std::size_t a = 0; a < nb; ++a)
         if (free_of_block[a] >= 0) m_block(static_cast<Eigen::Index>(a), cols[c0 + j]) = sol(free_of_block[a], j);
   }
+  // K0⁻¹ is symmetric; the solves are to ≈1e-16 relative. Make the block exactly symmetric so a
+  // cache that stores one triangle gives back the very same matrix (the loop's answer may depend
+  // on the last bit of W).
+  for (Eigen::Index j = 0; j < m_block.cols(); ++j)
+    for (Eigen::Index i = j + 1; i < m_block.rows(); ++i) m_block(i, j) = m_block(j, i) = 0.5 * (m_block(i, j) + m_block(j, i));
   logger().info("compliance block: {} nodes, {} MiB", m_block_nodes.size(), bytes >> 20);
+}
+
+std::string ComplianceOperator::check_precomputed(const ComplianceBlock& b,
+                                                  const std::vector<index_t>& free_of_block) const {
+  if (m_fingerprint == 0 || b.fingerprint != m_fingerprint)
+    return "made for another mesh, material or set of fixed nodes";
+  if (b.nodes != m_block_nodes) return "made for other block nodes (vessels or surface changed)";
+  const auto nb = static_cast<Eigen::Index>(free_of_block.size());
+  if (b.matrix.rows() != nb || b.matrix.cols() != nb) return "wrong size";
+  if (!b.matrix.allFinite()) return "not finite";
+  // Two columns against fresh solves: the fingerprint cannot see a corrupted payload or a change
+  // in how K0 is assembled. First and middle free block DOFs; relative agreement to 1e-8 (solves
+  // agree to ≈1e-14 relative; a block from another model disagrees at O(1)).
+  std::vector<Eigen::Index> probe;
+  for (Eigen::Index a : {Eigen::Index{0}, nb / 2})
+    for (Eigen::Index k = a; k < nb; ++k)
+      if (free_of_block[static_cast<std::size_t>(k)] >= 0) {
+        probe.push_back(k);
+        break;
+      }
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(m_dofs->num_free(), static_cast<Eigen::Index>(probe.size()));
+  for (std::size_t j = 0; j < probe.size(); ++j)
+    rhs(free_of_block[static_cast<std::size_t>(probe[j])], static_cast<Eigen::Index>(j)) = 1.0;
+  const Eigen::MatrixXd sol = m_factor->solve(rhs);
+  for (std::size_t j = 0; j < probe.size(); ++j) {
+    Eigen::VectorXd fresh = Eigen::VectorXd::Zero(nb);
+    for (Eigen::Index a = 0; a < nb; ++a)
+      if (free_of_block[static_cast<std::size_t>(a)] >= 0)
+        fresh[a] = sol(free_of_block[static_cast<std::size_t>(a)], static_cast<Eigen::Index>(j));
+    const double err = (b.matrix.col(probe[j]) - fresh).norm();
+    if (!(err <= 1e-8 * fresh.norm())) return "its values disagree with the factorised stiffness";
+  }
+  return {};
 }
 
 std::size_t ComplianceOperator::block_bytes() const {

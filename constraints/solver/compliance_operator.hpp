@@ -8,8 +8,16 @@
 ///  (b) SPARSE_SOLVE: per iteration Y = L⁻¹ P (H R)ᵀ with sparse right-hand sides (CHOLMOD), W = Yᵀ Y.
 /// AUTO picks (a) when the block fits the memory budget, else (b); a call whose rows touch a node
 /// outside the block falls back to (b) for that call.
+///
+/// The block is the expensive part of preparing a model (3|S| solves: seconds at 20k nodes), so it
+/// can be computed once before surgery, saved (imaging/io/compliance_cache.hpp) and handed back
+/// through ComplianceOptions::precomputed. It is adopted only when it provably belongs to this
+/// model: same stiffness fingerprint (mesh, materials, fixed nodes), same block nodes, finite, and
+/// two of its columns agree with fresh solves; otherwise it is recomputed and cache_status() says why.
 
 #include <cstddef>
+#include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -24,10 +32,24 @@ namespace brainshift::constraints {
 enum class ComplianceStrategy { AUTO, DENSE_BLOCK, SPARSE_SOLVE };
 std::string to_string(ComplianceStrategy s);
 
+/// A precomputed dense compliance block C = K0_ff⁻¹ on the DOFs of `nodes` (mm/mN).
+struct ComplianceBlock {
+  std::uint64_t fingerprint = 0;  ///< stiffness_fingerprint() of the model it was computed for
+  std::vector<index_t> nodes;     ///< sorted, unique
+  Eigen::MatrixXd matrix;         ///< (3|nodes|)², symmetric, zero rows/columns on fixed DOFs
+};
+
+/// 64-bit FNV-1a over everything K0_ff depends on: node coordinates, tetrahedra, per-element
+/// Young's modulus and Poisson ratio, and the fixed nodes (sorted). Not cryptographic: it tells a
+/// stale cache from a current one.
+std::uint64_t stiffness_fingerprint(const core::TetMesh& mesh, std::vector<index_t> fixed_nodes);
+
 struct ComplianceOptions {
   ComplianceStrategy strategy = ComplianceStrategy::AUTO;
   std::size_t memory_budget_bytes = std::size_t{512} << 20;  ///< for the dense block (default 512 MiB)
   int precompute_chunk = 64;  ///< right-hand sides per CHOLMOD solve when precomputing the block
+  /// A block saved by an earlier preparation of the same model (checked before it is used).
+  std::shared_ptr<const ComplianceBlock> precomputed;
 };
 
 class ComplianceOperator {
@@ -37,8 +59,11 @@ class ComplianceOperator {
   /// @param[in] block_nodes nodes any constraint can touch (for DENSE_BLOCK); may be empty.
   /// \throws brainshift::Error when DENSE_BLOCK is forced but the block exceeds the budget, or
   /// the factor is not usable.
+  /// @param[in] fingerprint stiffness_fingerprint() of the model `factor` factorises; a
+  /// precomputed block is adopted only when it carries the same one (0: never adopted).
   ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,
-                     std::vector<index_t> block_nodes, const ComplianceOptions& options = {});
+                     std::vector<index_t> block_nodes, const ComplianceOptions& options = {},
+                     std::uint64_t fingerprint = 0);
 
   /// The strategy in use (never AUTO).
   [[nodiscard]] ComplianceStrategy strategy() const { return m_strategy; }
@@ -49,6 +74,11 @@ class ComplianceOperator {
   /// How many delassus() calls fell back from the block to sparse solves.
   [[nodiscard]] int fallback_count() const { return m_fallbacks; }
   [[nodiscard]] const std::vector<index_t>& block_nodes() const { return m_block_nodes; }
+  /// The dense block with its fingerprint, for saving (matrix empty for SPARSE_SOLVE).
+  [[nodiscard]] ComplianceBlock block() const { return {m_fingerprint, m_block_nodes, m_block}; }
+  /// Where the block came from: "computed", "adopted" (from ComplianceOptions::precomputed),
+  /// "rejected (<why>); computed", or "none (sparse_solve)".
+  [[nodiscard]] const std::string& cache_status() const { return m_cache_status; }
 
   /// Sets nodal rotations R (#N, proper). Empty = identity (unwarped K0⁻¹, the ablation).
   void set_rotations(std::vector<Matrix3d> nodal_rotations);
@@ -67,6 +97,8 @@ class ComplianceOperator {
  private:
   /// G = H R restricted to free DOFs, as a (#free × #rows) sparse matrix (= (H R)ᵀ restricted).
   [[nodiscard]] SparseMatrix rotated_transposed_free(const SparseMatrix& H) const;
+  /// Empty when `b` can be adopted as this model's block, else why not.
+  [[nodiscard]] std::string check_precomputed(const ComplianceBlock& b, const std::vector<index_t>& free_of_block) const;
 
   const core::CholmodFactor* m_factor;  // not owned
   const core::DofMap* m_dofs;           // not owned
@@ -75,6 +107,8 @@ class ComplianceOperator {
   std::vector<index_t> m_block_nodes;
   std::vector<index_t> m_block_pos;  // node → position in the block, −1 outside
   Eigen::MatrixXd m_block;           // (3|S|)², column-major, zero on fixed DOFs
+  std::uint64_t m_fingerprint = 0;
+  std::string m_cache_status = "none (sparse_solve)";
   std::size_t m_last_sparse_bytes = 0;
   int m_fallbacks = 0;
 };

@@ -46,7 +46,8 @@ ConstrainedModel::ConstrainedModel(const core::TetMesh& mesh, const std::vector<
   BS_VERIFY(status == core::FactorStatus::OK,
             "rest stiffness cannot be factorised (" << m_factor->message()
                 << "): fix at least 3 non-collinear nodes so the model cannot move rigidly");
-  m_compliance = std::make_unique<ComplianceOperator>(*m_factor, m_dofs, std::move(block_nodes), compliance);
+  m_compliance = std::make_unique<ComplianceOperator>(*m_factor, m_dofs, std::move(block_nodes), compliance,
+                                                      stiffness_fingerprint(mesh, fixed_nodes));
 }
 
 StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& rows,

@@ -7,6 +7,8 @@
 
 #include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -34,7 +36,7 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   r = run_brainshift(dir, "prepare --labels " + q(ph / "preop/labels.nii.gz") + " --mra " + q(ph / "preop/mra.nii.gz") +
                               " --mri " + q(ph / "preop/mri.nii.gz") + " --out " + q(model));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "vessels.vtp", "fixed.csv"})
+  for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "vessels.vtp", "fixed.csv", "compliance.bin"})
     EXPECT_TRUE(std::filesystem::exists(model / f)) << f;
   EXPECT_NE(r.err.find("brainshift prepare: ["), std::string::npos) << "progress lines on stderr";
 
@@ -51,6 +53,51 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     EXPECT_TRUE(report.contains(k)) << k;
   EXPECT_TRUE(report["timing"].contains("total"));
   EXPECT_EQ(report["converged"].get<bool>(), r.exit_code == 0);
+  // prepare's compliance block is reloaded, not recomputed.
+  EXPECT_EQ(report["model"]["compliance"]["strategy"], "dense_block") << report["model"].dump();
+  EXPECT_EQ(report["model"]["compliance"]["cache"], "adopted") << report["model"].dump();
+  {  // Without the cache, with a stale one and with a damaged one: recomputed, said so, same answer.
+    auto copy_model = [&](const char* name) {
+      const auto m = dir / name;
+      std::filesystem::copy(model, m, std::filesystem::copy_options::recursive);
+      return m;
+    };
+    auto cache_status_and_shift = [&](const std::filesystem::path& m, const char* out) {
+      const CliRun run = run_brainshift(dir, "register --model " + q(m) + " --doppler " +
+                                                 q(ph / "intraop/doppler.nii.gz") + " --out " + q(dir / out));
+      EXPECT_TRUE(run.exit_code == 0 || run.exit_code == 2) << run.out << run.err;
+      const auto rep = read_json(dir / out / "report.json");
+      return std::make_pair(rep["model"]["compliance"]["cache"].get<std::string>(),
+                            rep["max_displacement_mm"].get<double>());
+    };
+    const auto none = copy_model("model_no_cache");
+    std::filesystem::remove(none / "compliance.bin");
+    const auto [absent, shift_absent] = cache_status_and_shift(none, "res_no_cache");
+    EXPECT_EQ(absent, "absent; computed");
+    // The cache holds the block bit for bit (it is exactly symmetric; one triangle is stored), so
+    // the answer is the same to the last bit; 1e-9 mm allows only for printing.
+    EXPECT_NEAR(shift_absent, report["max_displacement_mm"].get<double>(), 1e-9);
+
+    const auto stale = copy_model("model_stale");
+    std::vector<std::string> lines;
+    {
+      std::ifstream in(stale / "fixed.csv");
+      for (std::string l; std::getline(in, l);) lines.push_back(l);
+    }
+    lines.pop_back();  // one fixed node fewer: another stiffness
+    {
+      std::ofstream o(stale / "fixed.csv");
+      for (const auto& l : lines) o << l << '\n';
+    }
+    EXPECT_NE(cache_status_and_shift(stale, "res_stale").first.find("rejected (made for another mesh"), std::string::npos);
+
+    const auto damaged = copy_model("model_damaged");
+    std::filesystem::resize_file(damaged / "compliance.bin", std::filesystem::file_size(damaged / "compliance.bin") / 2);
+    const auto [unreadable, shift_damaged] = cache_status_and_shift(damaged, "res_damaged");
+    EXPECT_NE(unreadable.find("unreadable"), std::string::npos) << unreadable;
+    EXPECT_NE(unreadable.find("truncated"), std::string::npos) << unreadable;
+    EXPECT_NEAR(shift_damaged, report["max_displacement_mm"].get<double>(), 1e-9);
+  }
 
   r = run_brainshift(dir, "evaluate --result " + q(res) + " --landmarks-pre " + q(ph / "truth/landmarks_preop.csv") +
                               " --landmarks-intra " + q(ph / "truth/landmarks_intraop.csv") + " --surface-pre " +

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+#include <memory>
 #include <random>
 
 #include "constraints/solver/constrained_step.hpp"
@@ -95,6 +97,52 @@ TEST(ComplianceOperator, RowsOutsideTheBlockFallBackToSparseSolves) {
   const Eigen::MatrixXd W = C.delassus(H);
   EXPECT_EQ(C.fallback_count(), 1);
   EXPECT_LT(tests::relative_difference(W, C.delassus_sparse(H)), 1e-14);  // same computation
+}
+
+TEST(ComplianceOperator, APrecomputedBlockIsAdoptedOnlyWhenItBelongsToTheModel) {
+  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {2, 2, 4});
+  const auto fixed = tests::nodes_below(mesh, 0);
+  const auto top = tests::nodes_above(mesh, 20);
+  ConstrainedModel fresh(mesh, fixed, top);
+  ASSERT_EQ(fresh.compliance().strategy(), ComplianceStrategy::DENSE_BLOCK);
+  EXPECT_EQ(fresh.compliance().cache_status(), "computed");
+  const ComplianceBlock saved = fresh.compliance().block();
+  EXPECT_EQ(saved.fingerprint, stiffness_fingerprint(mesh, fixed));
+
+  auto with = [](std::shared_ptr<const ComplianceBlock> b) {
+    ComplianceOptions o;
+    o.precomputed = std::move(b);
+    return o;
+  };
+  // The same model: adopted, and W is bit-for-bit what the fresh computation gives.
+  ConstrainedModel cached(mesh, fixed, top, with(std::make_shared<ComplianceBlock>(saved)));
+  EXPECT_EQ(cached.compliance().cache_status(), "adopted");
+  ConstraintRows rows;
+  for (index_t n : {top[0], top[3], top.back()})
+    rows.add_bilateral_point(tests::node_stencil(n), mesh.nodes(), Vector3d::Zero(), ConstraintSet::LANDMARK);
+  const SparseMatrix H = rows.jacobian(mesh.num_nodes());
+  EXPECT_EQ(cached.compliance().delassus(H), fresh.compliance().delassus(H));
+
+  // Other fixed nodes (another stiffness): the fingerprint differs, the block is recomputed.
+  auto fixed2 = fixed;
+  fixed2.pop_back();
+  ConstrainedModel other_fixed(mesh, fixed2, top, with(std::make_shared<ComplianceBlock>(saved)));
+  EXPECT_NE(other_fixed.compliance().cache_status().find("rejected (made for another mesh"), std::string::npos)
+      << other_fixed.compliance().cache_status();
+  // Other block nodes (the vessels or surface changed).
+  ConstrainedModel other_nodes(mesh, fixed, tests::nodes_above(mesh, 30), with(std::make_shared<ComplianceBlock>(saved)));
+  EXPECT_NE(other_nodes.compliance().cache_status().find("other block nodes"), std::string::npos);
+  // Right fingerprint and nodes, wrong values (a corrupted or hand-edited cache): the spot check
+  // of two columns against fresh solves catches a 1 % error (solves agree to ≈1e-14).
+  auto tampered = std::make_shared<ComplianceBlock>(saved);
+  tampered->matrix *= 1.01;
+  ConstrainedModel bad_values(mesh, fixed, top, with(tampered));
+  EXPECT_NE(bad_values.compliance().cache_status().find("disagree"), std::string::npos);
+  EXPECT_EQ(bad_values.compliance().delassus(H), fresh.compliance().delassus(H));  // recomputed
+  auto nan = std::make_shared<ComplianceBlock>(saved);
+  nan->matrix(5, 5) = std::numeric_limits<double>::quiet_NaN();
+  ConstrainedModel non_finite(mesh, fixed, top, with(nan));
+  EXPECT_NE(non_finite.compliance().cache_status().find("not finite"), std::string::npos);
 }
 
 TEST(ComplianceOperator, ExactComplianceEqualsWarpedAtRest) {
