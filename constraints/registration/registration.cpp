@@ -176,6 +176,29 @@ RegistrationModel::~RegistrationModel() = default;
 Stencil RegistrationModel::skeleton_stencil(index_t i) const { return MappedVertices{&mesh(), &m_skeleton_map}.stencil(i); }
 Stencil RegistrationModel::surface_stencil(index_t i) const { return MappedVertices{&mesh(), &m_surface_map}.stencil(i); }
 
+RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options) {
+  const bool footprint =
+      options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
+  RigidInitResult rigid =
+      rigid_init(skeleton_near(model.skeleton(), data.vessel_points, options.rigid.max_pair_distance_mm),
+                 data.vessel_points, footprint ? &model.surface() : nullptr,
+                 footprint ? &data.footprint_points : nullptr, options.rigid);
+  double motion = 0;
+  for (Eigen::Index i = 0; i < data.vessel_points.rows(); ++i) {
+    const Vector3d p = data.vessel_points.row(i).transpose();
+    motion = std::max(motion, (rigid.transform * p - p).norm());
+  }
+  if (options.rigid_max_motion_mm > 0 && motion > options.rigid_max_motion_mm) {
+    rigid.stop_reason = "rejected: the fit moved the points by up to " + std::to_string(motion) +
+                        " mm, beyond the plausible " + std::to_string(options.rigid_max_motion_mm) + " mm (" +
+                        rigid.stop_reason + "); starting from the identity";
+    rigid.transform = Eigen::Isometry3d::Identity();
+    rigid.converged = false;
+    logger().warn("rigid initialisation {}", rigid.stop_reason);
+  }
+  return rigid;
+}
+
 RegistrationResult register_model(RegistrationModel& model, const IntraopData& data,
                                   const RegistrationOptions& options, const RegistrationResult* initial) {
   const std::string invalid = options.validate();
@@ -217,23 +240,8 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.rigid = initial->rigid;
   } else if (options.start == RigidStart::RIGID) {
     const auto t0 = Clock::now();
-    res.rigid = rigid_init(skeleton_near(model.skeleton(), data.vessel_points, options.rigid.max_pair_distance_mm),
-                           data.vessel_points, footprint ? &model.surface() : nullptr,
-                           footprint ? &data.footprint_points : nullptr, options.rigid);
+    res.rigid = rigid_start(model, data, options);
     res.seconds.rigid = seconds_since(t0);
-    double motion = 0;
-    for (Eigen::Index i = 0; i < data.vessel_points.rows(); ++i) {
-      const Vector3d p = data.vessel_points.row(i).transpose();
-      motion = std::max(motion, (res.rigid.transform * p - p).norm());
-    }
-    if (options.rigid_max_motion_mm > 0 && motion > options.rigid_max_motion_mm) {
-      res.rigid.stop_reason = "rejected: the fit moved the points by up to " + std::to_string(motion) +
-                              " mm, beyond the plausible " + std::to_string(options.rigid_max_motion_mm) +
-                              " mm (" + res.rigid.stop_reason + "); starting from the identity";
-      res.rigid.transform = Eigen::Isometry3d::Identity();
-      res.rigid.converged = false;
-      logger().warn("rigid initialisation {}", res.rigid.stop_reason);
-    }
   } else {
     res.rigid.converged = true;
     res.rigid.stop_reason = "identity (no rigid initialisation requested)";

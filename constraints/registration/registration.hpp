@@ -190,6 +190,12 @@ struct RegistrationResult {
   std::vector<std::pair<std::array<std::int64_t, 3>, double>> lambda;
 };
 
+/// The loop's rigid start alone (options.start is ignored): the robust rigid fit of the vessel
+/// points (and footprint, when used) to the skeleton, rejected — identity, with the reason in
+/// stop_reason — when it moves the points farther than options.rigid_max_motion_mm. Also the
+/// "rigid only" baseline of the benchmark.
+RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options);
+
 /// Runs the registration.
 /// @param[in] initial warm start: a previous result (its positions, rigid transform and λ are
 /// reused; the rigid fit is then skipped) or nullptr for the rest shape.
