@@ -19,6 +19,11 @@
 //   brainshift phantom --case NAME [--seed N] [--vessels FILE.vtp] [--frames K] --out DIR
 //       Synthetic phantom case with known truth (pre-op MRI/labels/MRA, intra-op Doppler/B-mode,
 //       truth displacement and landmarks); an unknown NAME lists the valid ones.
+//   brainshift bench [--quick] [--suite all|cases|sweeps] [--cases a,b] [--seed N] [--keep-work]
+//                    --out DIR
+//       Speed against error on the phantom cases (baselines rigid_only and prescribed) and
+//       sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and constraint
+//       sets: DIR/{results.csv, results.json, results.md, pareto.png}.
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv
 //                       [--gravity 0,0,-9810] [--linear] [--max-iterations 200]
 //                       [--tolerance 1e-6] [--write-unconverged] --out result.vtu
@@ -37,6 +42,7 @@
 #include <exception>
 #include <iostream>
 
+#include "cmd_bench.hpp"
 #include "cmd_demo.hpp"
 #include "cmd_evaluate.hpp"
 #include "cmd_phantom.hpp"
@@ -65,6 +71,8 @@ int main(int argc, char** argv) {
   const CLI::App* replay = apps::add_replay_command(app, replay_args);
   apps::EvaluateArgs evaluate_args;
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
+  apps::BenchArgs bench_args;
+  const CLI::App* bench = apps::add_bench_command(app, bench_args);
 
   try {
     app.parse(argc, argv);
@@ -85,6 +93,7 @@ int main(int argc, char** argv) {
     if (reg->parsed()) return apps::run_register(register_args, std::cout);
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
+    if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;

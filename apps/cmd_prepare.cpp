@@ -100,7 +100,15 @@ int run_prepare(const PrepareArgs& args, std::ostream& out) {
                                           : imaging::MeshingOptions::refined(args.mesh_refinement));
   const core::TetMesh& mesh = meshed.mesh;
   const imaging::MeshSurface outer = imaging::outer_boundary_surface(mesh);
-  const constraints::SurfaceMesh surface = imaging::decimate_surface(outer.surface, args.surface_vertices);
+  // A boundary where thin parts touch along an edge cannot be decimated (edge collapses need a
+  // manifold); the full boundary is then the collision surface — slower to pair, same shape.
+  const index_t non_manifold = imaging::count_non_manifold_edges(outer.surface);
+  const constraints::SurfaceMesh surface =
+      non_manifold ? outer.surface : imaging::decimate_surface(outer.surface, args.surface_vertices);
+  if (non_manifold)
+    progress.stage("warning: the boundary is non-manifold at " + std::to_string(non_manifold) +
+                   " edges (thin parts touching); the collision surface is the full boundary (" +
+                   std::to_string(outer.surface.vertices.rows()) + " vertices), not decimated");
   const std::vector<index_t> fixed = imaging::fixed_region_nodes(outer);
 
   progress.stage("extracting the vessels from the MRA");

@@ -9,6 +9,8 @@
 #include <CGAL/Surface_mesh_simplification/edge_collapse.h>
 #include <CGAL/boost/graph/helpers.h>
 
+#include <map>
+#include <utility>
 #include <vector>
 
 #include "core/error.hpp"
@@ -48,6 +50,18 @@ Mesh to_cgal(const constraints::SurfaceMesh& surface) {
 }
 
 }  // namespace
+
+index_t count_non_manifold_edges(const constraints::SurfaceMesh& surface) {
+  std::map<std::pair<index_t, index_t>, int> faces_of_edge;
+  for (index_t f = 0; f < surface.triangles.rows(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      const index_t a = surface.triangles(f, c), b = surface.triangles(f, (c + 1) % 3);
+      ++faces_of_edge[{std::min(a, b), std::max(a, b)}];
+    }
+  index_t n = 0;
+  for (const auto& [edge, count] : faces_of_edge) n += count > 2;
+  return n;
+}
 
 constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surface,
                                           index_t target_vertices) {

@@ -22,4 +22,8 @@ namespace brainshift::imaging {
 constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surface,
                                           index_t target_vertices = 300);
 
+/// Edges shared by more than two triangles: where parts of a closed boundary touch along an edge
+/// (thin structures one element wide). decimate_surface() refuses such a surface.
+index_t count_non_manifold_edges(const constraints::SurfaceMesh& surface);
+
 }  // namespace brainshift::imaging

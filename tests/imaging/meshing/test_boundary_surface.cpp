@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <map>
 #include <numbers>
 #include <set>
@@ -82,6 +84,35 @@ TEST(DecimateSurface, ReachesTheTargetAndStaysClosedAndClose) {
   EXPECT_GT(enclosed_volume(coarse), 0.0);  // still outward
   // Vertex-sampled two-sided Hausdorff distance ≤ 2 mm (≈ the sagitta of 15 mm edges on r = 40).
   EXPECT_LE(vertex_hausdorff(coarse, full), 2.0);
+}
+
+TEST(DecimateSurface, FindsTheNonManifoldEdgesWhereThinPartsTouch) {
+  // Two 10 mm cubes sharing only the edge x = y = 10: the boundary is closed but four faces meet
+  // at that edge (what one-element-wide thin structures produce). Nodes merged by position.
+  const core::TetMesh a = data_synth::make_box_mesh(Vector3d(10, 10, 10), Eigen::Vector3i(2, 2, 2));
+  const core::TetMesh b = data_synth::make_box_mesh(Vector3d(10, 10, 10), Eigen::Vector3i(2, 2, 2), Vector3d(10, 10, 0));
+  std::map<std::array<long, 3>, index_t> id;
+  std::vector<Vector3d> nodes;
+  MatrixX4i tets(a.num_tets() + b.num_tets(), 4);
+  index_t t = 0;
+  for (const core::TetMesh* m : {&a, &b})
+    for (index_t e = 0; e < m->num_tets(); ++e, ++t)
+      for (int k = 0; k < 4; ++k) {
+        const Vector3d p = m->nodes().row(m->tets()(e, k)).transpose();
+        const std::array<long, 3> key{std::lround(p.x() * 1000), std::lround(p.y() * 1000), std::lround(p.z() * 1000)};
+        auto [it, inserted] = id.try_emplace(key, static_cast<index_t>(nodes.size()));
+        if (inserted) nodes.push_back(p);
+        tets(t, k) = it->second;
+      }
+  MatrixX3d X(static_cast<index_t>(nodes.size()), 3);
+  for (std::size_t i = 0; i < nodes.size(); ++i) X.row(static_cast<index_t>(i)) = nodes[i].transpose();
+  const core::TetMesh both(X, tets);
+  const constraints::SurfaceMesh full = outer_boundary_surface(both).surface;
+  // The shared edge (2 segments of the cubes' 5 mm grid) is where four faces meet; nothing
+  // else is non-manifold. decimate_surface() cannot take it (a halfedge mesh cannot hold it).
+  EXPECT_EQ(count_non_manifold_edges(full), 2);
+  EXPECT_EQ(count_non_manifold_edges(outer_boundary_surface(a).surface), 0);
+  expect_error([&] { (void)decimate_surface(full, 30); }, {"non-manifold"});
 }
 
 TEST(DecimateSurface, RejectsOpenSurfaces) {

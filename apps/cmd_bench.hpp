@@ -1,0 +1,48 @@
+#pragma once
+/// @file
+/// @brief `brainshift bench`: speed against error on the phantom cases (issue 8). Every run is a
+/// real registration on a phantom with known truth — generated, prepared and registered through
+/// the same code as `phantom`, `prepare` and `register` — and records time per stage,
+/// iterations, peak memory, TRE (mean, p95, max) and the shift corrected.
+///
+///   suite `cases`:  each named phantom case with the product's defaults (vessels only), and two
+///                   baselines on the same data: `rigid_only` (the loop's rigid start alone) and
+///                   `prescribed` (the seeds' forward model: each vessel point's nearest skeleton
+///                   point is displaced onto it, no sliding, no re-pairing);
+///   suite `sweeps`: on `standard`: mesh size (≈1k … 50k nodes), intra-operative vessel sampling
+///                   (1.25, 2.5, 5 mm), compliance strategy (dense block, sparse solves, unwarped
+///                   K0 as the ablation), PGS tolerance (Gauss–Seidel forced), constraint sets
+///                   (vessels; + footprint; + dura).
+///
+/// Writes DIR/results.csv, DIR/results.json (with the machine, build type, date and the fitted
+/// growth exponents), DIR/results.md, DIR/pareto.png (gnuplot; its script and data are kept).
+/// The phantoms and models are built under DIR/work and removed unless --keep-work.
+
+#include <cstdint>
+#include <filesystem>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace CLI {
+class App;
+}  // namespace CLI
+
+namespace brainshift::apps {
+
+struct BenchArgs {
+  bool quick = false;               ///< standard case and a few sweep points (CI smoke test, < 2 min)
+  std::string suite = "all";        ///< all | cases | sweeps
+  std::vector<std::string> cases;   ///< named cases for suite `cases` (default: every case)
+  std::uint32_t seed = 1;           ///< phantom seed
+  bool keep_work = false;           ///< keep DIR/work (phantoms and models)
+  std::filesystem::path out;        ///< DIR
+};
+
+CLI::App* add_bench_command(CLI::App& app, BenchArgs& args);
+
+/// Runs the benchmark. @return 0 when every run gave a finite answer, 2 when some run failed or
+/// diverged (it is a row with its error; the others go on), 1 (by exception) on bad arguments.
+int run_bench(const BenchArgs& args, std::ostream& out);
+
+}  // namespace brainshift::apps
