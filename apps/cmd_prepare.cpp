@@ -68,7 +68,7 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
   c->add_option("--mra", args.mra, "MR angiogram in the same frame")->required();
   c->add_option("--mri", args.mri, "pre-operative MRI (recorded to check later inputs)");
   c->add_option("--scene-options", args.scene_options, "JSON merged over the default scene (see scene_io.hpp)");
-  c->add_option("--refine", args.mesh_refinement, "mesh refinement (1 ≈ 2k nodes, node count ≈ r³)")
+  c->add_option("--refine", args.mesh_refinement, "mesh refinement (1 ≈ 1.6k nodes on the phantom; node count grows ≈ r^2.7)")
       ->check(CLI::Range(0.25, 6.0));
   c->add_option("--surface-vertices", args.surface_vertices, "collision surface size")->check(CLI::Range(20, 100000));
   c->add_option("--out", args.out, "MODEL folder to write")->required();

@@ -20,7 +20,7 @@ struct PrepareArgs {
   std::optional<std::filesystem::path> mri;          ///< recorded in the manifest (grid, hash)
   std::optional<std::filesystem::path> scene_options;///< JSON merged over the default scene
   std::filesystem::path out;                         ///< MODEL folder
-  double mesh_refinement = 1.0;                      ///< 1 ≈ 2k nodes; node count grows ≈ r³
+  double mesh_refinement = 1.0;                      ///< 1 ≈ 1.6k nodes (phantom); grows ≈ r^2.7
   int surface_vertices = 300;                        ///< decimated collision surface
 };
 
