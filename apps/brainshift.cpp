@@ -21,7 +21,7 @@
 //       truth displacement and landmarks); an unknown NAME lists the valid ones.
 //   brainshift bench [--quick] [--suite all|cases|sweeps] [--cases a,b] [--seed N] [--keep-work]
 //                    --out DIR
-//       Speed against error on the phantom cases (baselines rigid_only and prescribed) and
+//       Speed against error on the phantom cases (baselines rigid_only and prescribed_displacement) and
 //       sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and constraint
 //       sets: DIR/{results.csv, results.json, results.md, pareto.png}.
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv

@@ -57,7 +57,7 @@ struct Row {
   std::uint32_t seed = 0;
   std::string sweep;   ///< for suite sweeps: mesh_size, vessel_sampling, compliance, pgs_tolerance, constraint_sets
   std::string value;   ///< the swept setting
-  std::string method;  ///< constraint_icp | rigid_only | prescribed
+  std::string method;  ///< constraint_icp | rigid_only | prescribed_displacement
   index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0, footprint_points = 0;
   index_t rows = 0;
   int iterations = 0;
@@ -183,7 +183,7 @@ RegistrationResult rigid_only(constraints::RegistrationModel& model, const const
 /// pairing distance); each skeleton point so chosen is displaced onto the mean of its points by
 /// point-to-point rows (as soft as our vessel rows), and the corotational model is solved with
 /// these displacements. No sliding along the vessels and no re-pairing.
-RegistrationResult prescribed(constraints::RegistrationModel& model, const constraints::IntraopData& data,
+RegistrationResult prescribed_displacement(constraints::RegistrationModel& model, const constraints::IntraopData& data,
                               const RegistrationOptions& options) {
   const auto t0 = Clock::now();
   const constraints::RigidInitResult rigid = options.start == constraints::RigidStart::RIGID
@@ -536,7 +536,7 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
           constraints::IntraopData data;
           data.vessel_points = doppler_points(c, 2.5);
           const RegistrationOptions o = product_options(s);
-          for (const char* method : {"constraint_icp", "rigid_only", "prescribed"}) {
+          for (const char* method : {"constraint_icp", "rigid_only", "prescribed_displacement"}) {
             Row row = base_row("cases", name);
             row.method = method;
             rows.push_back(measured(row, progress, [&](Row& r) {
@@ -545,7 +545,7 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
               const std::string m = method;
               const RegistrationResult res = m == "constraint_icp" ? constraints::register_model(*s.model, data, o)
                                              : m == "rigid_only"   ? rigid_only(*s.model, data, o)
-                                                                   : prescribed(*s.model, data, o);
+                                                                   : prescribed_displacement(*s.model, data, o);
               score(r, *s.model, res, c);
             }));
           }

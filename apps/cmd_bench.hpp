@@ -7,7 +7,7 @@
 ///
 ///   suite `cases`:  each named phantom case with the product's defaults (vessels only), and two
 ///                   baselines on the same data: `rigid_only` (the loop's rigid start alone) and
-///                   `prescribed` (the seeds' forward model: each vessel point's nearest skeleton
+///                   `prescribed_displacement` (the seeds' forward model: each vessel point's nearest skeleton
 ///                   point is displaced onto it, no sliding, no re-pairing);
 ///   suite `sweeps`: on `standard`: mesh size (≈1k … 50k nodes), intra-operative vessel sampling
 ///                   (1.25, 2.5, 5 mm), compliance strategy (dense block, sparse solves, unwarped

@@ -54,7 +54,7 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
     EXPECT_GT(run["peak_rss_mib"].get<double>(), 1.0);
     EXPECT_GT(run["nodes"].get<int>(), 500);
   }
-  EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "rigid_only", "prescribed"}));
+  EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "rigid_only", "prescribed_displacement"}));
   EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "vessel_sampling", "compliance", "pgs_tolerance",
                                            "constraint_sets"}));
   // Two mesh sizes give a growth exponent for the registration time.
