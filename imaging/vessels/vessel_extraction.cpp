@@ -97,6 +97,26 @@ VolumeF gaussian_prefilter(const VolumeF& image, double sigma_mm) {
   return out;
 }
 
+/// The factor by which gaussian_prefilter() scales the standard deviation of white noise:
+/// the product over the axes of √(Σ w²) of the normalised 1-D kernel.
+double prefilter_noise_gain(const ImageGeometry& g, double sigma_mm) {
+  double gain = 1.0;
+  if (!(sigma_mm > 0.0)) return gain;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double s = sigma_mm / g.spacing[axis];
+    if (s < 0.05 || g.size[axis] < 2) continue;
+    const int r = std::max(1, int(std::ceil(3.0 * s)));
+    double sum = 0.0, sum2 = 0.0;
+    for (int d = -r; d <= r; ++d) {
+      const double w = std::exp(-0.5 * d * d / (s * s));
+      sum += w;
+      sum2 += w * w;
+    }
+    gain *= std::sqrt(sum2) / sum;
+  }
+  return gain;
+}
+
 /// Robust location and scale of the tissue/noise: median and 1.4826 × MAD of the finite voxels
 /// above the image minimum. Nothing when fewer than 16 such voxels or a zero MAD.
 std::optional<std::pair<double, double>> robust_noise(const VolumeF& image) {
@@ -237,7 +257,10 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     return empty_result(result, "no threshold: the image has fewer than two distinct finite values");
   double seed_threshold = -std::numeric_limits<double>::infinity();
   if (!std::isfinite(options.threshold) && (options.noise_floor_k > 0.0 || options.hysteresis_k > 0.0)) {
-    if (const auto noise = robust_noise(filtered)) {
+    if (auto noise = robust_noise(image)) {
+      // Measured on the raw image (the filtered one has halos round every bright structure),
+      // scaled to the filtered image as for white noise.
+      noise->second *= prefilter_noise_gain(image.geometry, options.prefilter_sigma_mm);
       result.noise_median = noise->first;
       result.noise_sigma = noise->second;
       const double floor = noise->first + options.noise_floor_k * noise->second;
