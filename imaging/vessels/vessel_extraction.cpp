@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -57,6 +58,86 @@ std::vector<std::int64_t> label_components(const Mask& mask, std::vector<int>& l
   return sizes;
 }
 
+/// Separable Gaussian filter, standard deviation `sigma_mm` along each axis (in that axis's
+/// spacing); weights renormalised at the volume's faces; non-finite voxels enter as 0 and stay
+/// non-finite.
+VolumeF gaussian_prefilter(const VolumeF& image, double sigma_mm) {
+  VolumeF out = image;
+  for (float& v : out.data)
+    if (!std::isfinite(v)) v = 0.0F;
+  const Eigen::Vector3i n = image.geometry.size;
+  const std::int64_t stride[3] = {1, n[0], std::int64_t(n[0]) * n[1]};
+  std::vector<double> line, filtered;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double s = sigma_mm / image.geometry.spacing[axis];
+    if (s < 0.05 || n[axis] < 2) continue;  // a filter narrower than 1/20 voxel is the identity
+    const int r = std::max(1, int(std::ceil(3.0 * s)));
+    std::vector<double> w(std::size_t(2 * r + 1));
+    for (int d = -r; d <= r; ++d) w[std::size_t(d + r)] = std::exp(-0.5 * d * d / (s * s));
+    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+    line.resize(std::size_t(n[axis]));
+    filtered.resize(std::size_t(n[axis]));
+    for (int q = 0; q < n[a2]; ++q)
+      for (int p = 0; p < n[a1]; ++p) {
+        const std::int64_t start = std::int64_t(p) * stride[a1] + std::int64_t(q) * stride[a2];
+        for (int t = 0; t < n[axis]; ++t) line[std::size_t(t)] = out.data[std::size_t(start + t * stride[axis])];
+        for (int t = 0; t < n[axis]; ++t) {
+          double sum = 0.0, weight = 0.0;
+          for (int d = std::max(-r, -t); d <= std::min(r, n[axis] - 1 - t); ++d) {
+            sum += w[std::size_t(d + r)] * line[std::size_t(t + d)];
+            weight += w[std::size_t(d + r)];
+          }
+          filtered[std::size_t(t)] = sum / weight;
+        }
+        for (int t = 0; t < n[axis]; ++t) out.data[std::size_t(start + t * stride[axis])] = float(filtered[std::size_t(t)]);
+      }
+  }
+  for (std::size_t v = 0; v < out.data.size(); ++v)
+    if (!std::isfinite(image.data[v])) out.data[v] = image.data[v];
+  return out;
+}
+
+/// The factor by which gaussian_prefilter() scales the standard deviation of white noise:
+/// the product over the axes of √(Σ w²) of the normalised 1-D kernel.
+double prefilter_noise_gain(const ImageGeometry& g, double sigma_mm) {
+  double gain = 1.0;
+  if (!(sigma_mm > 0.0)) return gain;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double s = sigma_mm / g.spacing[axis];
+    if (s < 0.05 || g.size[axis] < 2) continue;
+    const int r = std::max(1, int(std::ceil(3.0 * s)));
+    double sum = 0.0, sum2 = 0.0;
+    for (int d = -r; d <= r; ++d) {
+      const double w = std::exp(-0.5 * d * d / (s * s));
+      sum += w;
+      sum2 += w * w;
+    }
+    gain *= std::sqrt(sum2) / sum;
+  }
+  return gain;
+}
+
+/// Robust location and scale of the tissue/noise: median and 1.4826 × MAD of the finite voxels
+/// above the image minimum. Nothing when fewer than 16 such voxels or a zero MAD.
+std::optional<std::pair<double, double>> robust_noise(const VolumeF& image) {
+  float low = std::numeric_limits<float>::infinity();
+  for (const float v : image.data)
+    if (std::isfinite(v)) low = std::min(low, v);
+  std::vector<float> values;
+  values.reserve(image.data.size());
+  for (const float v : image.data)
+    if (std::isfinite(v) && v > low) values.push_back(v);
+  if (values.size() < 16) return std::nullopt;
+  const auto mid = values.begin() + std::ptrdiff_t(values.size() / 2);
+  std::nth_element(values.begin(), mid, values.end());
+  const double median = *mid;
+  for (float& v : values) v = float(std::abs(double(v) - median));
+  std::nth_element(values.begin(), mid, values.end());
+  const double sigma = 1.4826 * double(*mid);
+  if (!(sigma > 0.0)) return std::nullopt;
+  return std::make_pair(median, sigma);
+}
+
 /// The threshold and the name of the rule that gave it, or NaN when no rule applies.
 std::pair<double, std::string> choose_threshold(const VolumeF& image,
                                                 const VesselExtractionOptions& options) {
@@ -69,6 +150,50 @@ std::pair<double, std::string> choose_threshold(const VolumeF& image,
     return {*t, "Otsu"};
   }
   return {std::nan(""), ""};
+}
+
+/// Removes the connected pieces of `graph` shorter than max(min_length, elongation × their
+/// largest radius) and the nodes they leave unused; returns how many pieces went.
+int remove_short_pieces(VesselGraph& graph, double min_length, double elongation) {
+  if (graph.branches.empty() || (min_length <= 0.0 && elongation <= 0.0)) return 0;
+  std::vector<index_t> parent(graph.nodes.size());
+  std::iota(parent.begin(), parent.end(), index_t(0));
+  const auto find = [&](index_t a) {
+    while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
+    return a;
+  };
+  for (const auto& b : graph.branches) parent[std::size_t(find(b.from))] = find(b.to);
+  std::vector<double> length(graph.nodes.size(), 0.0), radius(graph.nodes.size(), 0.0);
+  for (const auto& b : graph.branches) {
+    const auto root = std::size_t(find(b.from));
+    length[root] += polyline_length(b.points);
+    for (const double r : b.radius) radius[root] = std::max(radius[root], r);
+  }
+  std::vector<std::uint8_t> keep(graph.nodes.size(), 0);
+  int removed = 0;
+  for (std::size_t n = 0; n < graph.nodes.size(); ++n)
+    if (find(index_t(n)) == index_t(n) && length[n] > 0.0) {
+      if (length[n] >= std::max(min_length, elongation * radius[n])) keep[n] = 1;
+      else ++removed;
+    }
+  if (removed == 0) return 0;
+  std::vector<index_t> new_index(graph.nodes.size(), -1);
+  std::vector<VesselGraph::Node> nodes;
+  for (std::size_t n = 0; n < graph.nodes.size(); ++n)
+    if (keep[std::size_t(find(index_t(n)))] != 0) {
+      new_index[n] = index_t(nodes.size());
+      nodes.push_back(graph.nodes[n]);
+    }
+  std::vector<VesselGraph::Branch> branches;
+  for (auto& b : graph.branches)
+    if (new_index[std::size_t(b.from)] >= 0) {
+      b.from = new_index[std::size_t(b.from)];
+      b.to = new_index[std::size_t(b.to)];
+      branches.push_back(std::move(b));
+    }
+  graph.nodes = std::move(nodes);
+  graph.branches = std::move(branches);
+  return removed;
 }
 
 VesselExtractionResult empty_result(VesselExtractionResult result, const std::string& why) {
@@ -87,10 +212,18 @@ std::string VesselExtractionOptions::validate() const {
     why << "tail_fraction must lie in (0, 1), got " << tail_fraction << "; ";
   if (histogram.bins < 2) why << "histogram.bins must be ≥ 2, got " << histogram.bins << "; ";
   if (histogram.smoothing_half_width < 0) why << "histogram.smoothing_half_width must be ≥ 0; ";
+  if (!(prefilter_sigma_mm >= 0.0) || std::isinf(prefilter_sigma_mm))
+    why << "prefilter_sigma_mm must be ≥ 0 and finite, got " << prefilter_sigma_mm << "; ";
+  if (!(noise_floor_k >= 0.0) || std::isinf(noise_floor_k))
+    why << "noise_floor_k must be ≥ 0 and finite, got " << noise_floor_k << "; ";
+  if (!(hysteresis_k >= 0.0) || std::isinf(hysteresis_k))
+    why << "hysteresis_k must be ≥ 0 and finite, got " << hysteresis_k << "; ";
   if (!(min_component_mm3 >= 0.0)) why << "min_component_mm3 must be ≥ 0, got " << min_component_mm3 << "; ";
   if (max_components < 0) why << "max_components must be ≥ 0, got " << max_components << "; ";
   if (!(spurs.min_length_mm >= 0.0) || !(spurs.radius_factor >= 0.0))
     why << "spur pruning lengths must be ≥ 0; ";
+  if (!(min_piece_length_mm >= 0.0) || !(min_piece_elongation >= 0.0))
+    why << "min_piece_length_mm and min_piece_elongation must be ≥ 0; ";
   if (smoothing_passes < 0) why << "smoothing_passes must be ≥ 0; ";
   if (!(resample_step_mm >= 0.0) || std::isinf(resample_step_mm))
     why << "resample_step_mm must be ≥ 0 and finite, got " << resample_step_mm << "; ";
@@ -115,9 +248,33 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     logger().warn("vessel extraction: {} non-finite voxels treated as background",
                   result.non_finite_voxels);
 
+  const VolumeF filtered_storage =
+      options.prefilter_sigma_mm > 0.0 ? gaussian_prefilter(image, options.prefilter_sigma_mm) : VolumeF{};
+  const VolumeF& filtered = options.prefilter_sigma_mm > 0.0 ? filtered_storage : image;
+
   std::tie(result.threshold, result.threshold_rule) = choose_threshold(image, options);
   if (!std::isfinite(result.threshold))
     return empty_result(result, "no threshold: the image has fewer than two distinct finite values");
+  double seed_threshold = -std::numeric_limits<double>::infinity();
+  if (!std::isfinite(options.threshold) && (options.noise_floor_k > 0.0 || options.hysteresis_k > 0.0)) {
+    if (auto noise = robust_noise(image)) {
+      // Measured on the raw image (the filtered one has halos round every bright structure),
+      // scaled to the filtered image as for white noise.
+      noise->second *= prefilter_noise_gain(image.geometry, options.prefilter_sigma_mm);
+      result.noise_median = noise->first;
+      result.noise_sigma = noise->second;
+      const double floor = noise->first + options.noise_floor_k * noise->second;
+      if (options.noise_floor_k > 0.0 && floor > result.threshold) {
+        result.threshold = floor;
+        result.threshold_rule = "noise floor";
+      }
+      if (options.hysteresis_k > 0.0) {
+        seed_threshold = std::max(result.threshold, noise->first + options.hysteresis_k * noise->second);
+        result.seed_threshold = seed_threshold;
+        result.threshold_rule += " + hysteresis";
+      }
+    }
+  }
 
   // Foreground and its bounding box.
   const ImageGeometry& g = image.geometry;
@@ -125,7 +282,7 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i)
-        if (image.at(i, j, k) >= result.threshold) {  // false for NaN
+        if (filtered.at(i, j, k) >= result.threshold) {  // false for NaN
           ++result.foreground_voxels;
           lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
           hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
@@ -139,12 +296,22 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
   for (int k = lo[2]; k <= hi[2]; ++k)
     for (int j = lo[1]; j <= hi[1]; ++j)
       for (int i = lo[0]; i <= hi[0]; ++i)
-        mask.at(i - lo[0], j - lo[1], k - lo[2]) = image.at(i, j, k) >= result.threshold ? 1 : 0;
+        mask.at(i - lo[0], j - lo[1], k - lo[2]) = filtered.at(i, j, k) >= result.threshold ? 1 : 0;
 
   // Components above the minimum size, at most max_components of the largest.
   std::vector<int> label;
-  const std::vector<std::int64_t> sizes = label_components(mask, label);
+  std::vector<std::int64_t> sizes = label_components(mask, label);
   result.components_found = int(sizes.size());
+  if (std::isfinite(seed_threshold)) {  // hysteresis: components without a seed voxel go
+    std::vector<std::uint8_t> seeded(sizes.size() + 1, 0);
+    for (int k = lo[2]; k <= hi[2]; ++k)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int i = lo[0]; i <= hi[0]; ++i)
+          if (filtered.at(i, j, k) >= seed_threshold)
+            seeded[std::size_t(label[std::size_t(mask.geometry.linear_index(i - lo[0], j - lo[1], k - lo[2]))])] = 1;
+    for (std::size_t c = 0; c < sizes.size(); ++c)
+      if (seeded[c + 1] == 0) sizes[c] = 0;
+  }
   const double voxel_mm3 = g.spacing.prod();
   std::vector<int> order(sizes.size());
   std::iota(order.begin(), order.end(), 0);
@@ -175,6 +342,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
   result.skeleton_voxels = std::count(mask.data.begin(), mask.data.end(), std::uint8_t(1));
   result.graph = graph_from_skeleton(mask, radius);
   result.spurs_pruned = prune_spurs(result.graph, options.spurs);
+  result.pieces_removed =
+      remove_short_pieces(result.graph, options.min_piece_length_mm, options.min_piece_elongation);
   smooth_branches(result.graph, options.smoothing_passes);
   if (options.resample_step_mm > 0.0) resample_branches(result.graph, options.resample_step_mm);
 

@@ -24,6 +24,19 @@ struct VesselExtractionOptions {
   /// TISSUE_PEAK: the count, relative to the tissue peak's, below which the tail starts.
   double tail_fraction = 0.02;
   HistogramOptions histogram;
+  /// Gaussian pre-filter of the image before thresholding, standard deviation in mm; 0: none.
+  /// Speckle and clutter are nearly independent from voxel to voxel while a vessel spans
+  /// several voxels, so a filter of about one voxel averages the noise down (≈ 1/6 of its
+  /// standard deviation at σ = 1 voxel) and barely moves a tube's axis.
+  double prefilter_sigma_mm = 0.6;
+  /// Noise floor: the threshold is raised to at least median + noise_floor_k × σ̂ of the
+  /// (pre-filtered) image, σ̂ = 1.4826 × MAD over the voxels above the image minimum (the
+  /// minimum itself is masked-out background, e.g. outside an ultrasound field of view). Vessels
+  /// are a sparse bright tail, so median and MAD describe the tissue/noise. 0: no floor.
+  double noise_floor_k = 8.0;
+  /// Hysteresis (Canny): a component is kept only when it reaches median + hysteresis_k × σ̂;
+  /// 0: no hysteresis.
+  double hysteresis_k = 0.0;
   /// 26-connected components smaller than this are noise, mm³ (20 mm³ ≈ 6 mm of a 1 mm-radius
   /// vessel).
   double min_component_mm3 = 20.0;
@@ -31,6 +44,12 @@ struct VesselExtractionOptions {
   int max_components = 0;
   /// Spurs (end-point-to-junction branches shorter than the rule) are removed.
   SpurPruning spurs;
+  /// Shape rule on the connected pieces of the graph (after spur pruning): a piece is kept only
+  /// when its centreline length is at least max(min_piece_length_mm, min_piece_elongation × its
+  /// largest radius). Blobs (flash artefacts, spurious flow) thin to a point or a stub shorter
+  /// than their radius; vessels are long for their calibre. 0 and 0: keep every piece.
+  double min_piece_length_mm = 8.0;
+  double min_piece_elongation = 4.0;
   /// (1/4, 1/2, 1/4) smoothing passes on each branch before resampling.
   int smoothing_passes = 3;
   /// Centreline point spacing after resampling, mm (2.5 mm intra-operatively); 0: keep the
@@ -53,7 +72,10 @@ struct VesselExtractionResult {
   std::string message;                          ///< why EMPTY; a one-line summary when OK
   VesselGraph graph;                            ///< world RAS mm; empty when EMPTY
   double threshold = std::numeric_limits<double>::quiet_NaN();  ///< intensity used
-  std::string threshold_rule;                   ///< "given", "tissue peak" or "Otsu (fallback)"
+  std::string threshold_rule;  ///< "given", "tissue peak", "Otsu", "Otsu (fallback)" or "noise floor"; "+ hysteresis" when seeded
+  double noise_median = std::numeric_limits<double>::quiet_NaN();  ///< of the filtered image
+  double noise_sigma = std::numeric_limits<double>::quiet_NaN();   ///< 1.4826 × MAD
+  double seed_threshold = std::numeric_limits<double>::quiet_NaN();  ///< hysteresis seeds
   std::int64_t non_finite_voxels = 0;           ///< NaN/inf voxels, treated as background
   std::int64_t foreground_voxels = 0;           ///< voxels ≥ threshold
   int components_found = 0;                     ///< 26-connected components above threshold
@@ -61,6 +83,7 @@ struct VesselExtractionResult {
   double kept_volume_mm3 = 0.0;                 ///< volume of the kept components
   std::int64_t skeleton_voxels = 0;             ///< after thinning
   int spurs_pruned = 0;
+  int pieces_removed = 0;                       ///< graph pieces failing the shape rule
   int branch_count = 0;                         ///< branches of the final graph
   int junction_count = 0;                       ///< nodes of degree ≥ 3
   int endpoint_count = 0;                       ///< nodes of degree 1
