@@ -1,8 +1,9 @@
 #pragma once
 /// @file
-/// @brief Vessel centrelines from an angiogram (MRA) or a power-Doppler volume: histogram
-/// threshold → connected components above a minimum size → exact distance transform (radii) →
-/// topological thinning → skeleton graph → spur pruning → smoothing → resampling.
+/// @brief Vessel centrelines from an angiogram (MRA) or a power-Doppler volume: Gaussian
+/// pre-filter → histogram threshold raised to a robust noise floor → connected components above
+/// a minimum size → exact distance transform (radii) → topological thinning → skeleton graph →
+/// spur pruning → removal of pieces too short for their calibre (blobs) → smoothing → resampling.
 /// Positions in world RAS mm, radii in mm.
 
 #include <cstdint>
