@@ -450,11 +450,11 @@ std::string write_pareto(const std::filesystem::path& dir, const std::vector<Row
   }
   std::ofstream g(dir / "pareto.gp");
   g << "# gnuplot pareto.gp (run in this folder) redraws pareto.png\n"
-       "set terminal pngcairo size 1100,750 font ',10'\n"
+       "set terminal pngcairo size 1100,750 font ',10' noenhanced\n"
        "set output 'pareto.png'\n"
        "set logscale x\n"
        "set grid\n"
-       "set key top right\n"
+       "set key outside bottom center horizontal\n"
        "set title \"brainshift bench: time against error, phantom 'standard'\"\n"
        "set xlabel 'registration time, s (wall; log scale)'\n"
        "set ylabel 'mean TRE, mm'\n"
@@ -596,6 +596,13 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             score(r, m, constraints::register_model(m, d, o), c);
           }));
         };
+
+        // The start: identity, or the robust rigid fit (which also absorbs any bulk brain motion).
+        for (const auto start : {constraints::RigidStart::IDENTITY, constraints::RigidStart::RIGID}) {
+          RegistrationOptions o = product_options(s);
+          o.start = start;
+          sweep("start", start == constraints::RigidStart::RIGID ? "rigid" : "identity", data, o);
+        }
 
         // Intra-operative vessel sampling.
         for (double step : args.quick ? std::vector<double>{5.0} : std::vector<double>{1.25, 2.5, 5.0}) {

@@ -9,7 +9,8 @@
 ///                   baselines on the same data: `rigid_only` (the loop's rigid start alone) and
 ///                   `prescribed_displacement` (the seeds' forward model: each vessel point's nearest skeleton
 ///                   point is displaced onto it, no sliding, no re-pairing);
-///   suite `sweeps`: on `standard`: mesh size (≈1k … 50k nodes), intra-operative vessel sampling
+///   suite `sweeps`: on `standard`: mesh size (≈1k … 50k nodes), start (identity or rigid),
+///                   intra-operative vessel sampling
 ///                   (1.25, 2.5, 5 mm), compliance strategy (dense block, sparse solves, unwarped
 ///                   K0 as the ablation), PGS tolerance (Gauss–Seidel forced), constraint sets
 ///                   (vessels; + footprint; + dura).

@@ -55,7 +55,7 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
     EXPECT_GT(run["nodes"].get<int>(), 500);
   }
   EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "rigid_only", "prescribed_displacement"}));
-  EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "vessel_sampling", "compliance", "pgs_tolerance",
+  EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "start", "vessel_sampling", "compliance", "pgs_tolerance",
                                            "constraint_sets"}));
   // Two mesh sizes give a growth exponent for the registration time.
   EXPECT_TRUE(j["fits"].contains("registration_s_vs_nodes")) << j["fits"].dump();
