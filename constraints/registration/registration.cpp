@@ -120,6 +120,8 @@ std::string RegistrationOptions::validate() const {
   if (!(increment_tolerance_mm > 0)) return "increment_tolerance_mm must be > 0";
   if (!(direction_radius_mm > 0)) return "direction_radius_mm must be > 0";
   if (!(rigid_max_motion_mm >= 0)) return "rigid_max_motion_mm must be ≥ 0";
+  if (shift_stage_iterations < 0) return "shift_stage_iterations must be ≥ 0";
+  if (auto e = shift_search.validate(); !e.empty()) return e;
   if (auto e = vessel_filter.validate(); !e.empty()) return "vessel filter: " + e;
   if (auto e = footprint_filter.validate(); !e.empty()) return "footprint filter: " + e;
   if (auto e = dura.validate(); !e.empty()) return e;
@@ -240,6 +242,16 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
   }
   const Eigen::Isometry3d& T = res.rigid.transform;
   const MatrixX3d vessel_pts = transformed(T, data.vessel_points);
+  if (vessels && !initial && options.shift_search.enabled) {
+    const auto t0 = Clock::now();
+    res.shift = search_shift(skeleton_near(model.skeleton(), vessel_pts, options.shift_search.radius_mm),
+                             vessel_pts, options.shift_search);
+    res.seconds.rigid += seconds_since(t0);
+    logger().debug("shift search: {}", res.shift.message);
+  }
+  // Stage 1 (bulk shift accepted): pairs made at the shifted points, held until settled.
+  bool shift_stage = res.shift.accepted;
+  int shift_stage_end = 0;
   const MatrixX3d footprint_pts = transformed(T, data.footprint_points);
   const MatrixX3d footprint_nrm = rotated(T, data.footprint_normals);
   const MatrixX3d landmark_tgt = transformed(T, data.landmark_targets);
@@ -276,8 +288,14 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     std::set<PairKey> keys;
     if (vessels) {
       const FeatureIndex index = FeatureIndex::segments(model.skeleton_mapping().apply(res.positions), segs);
-      vessel_pairs = make_pairs(index, vessel_pts, frozen ? &vessel_pairs : nullptr, directions, seg_tets,
-                                options.pair_max_distance_mm, options.vessel_filter, &rec.vessel_filter);
+      if (shift_stage && it == 1) {
+        const MatrixX3d shifted = vessel_pts.rowwise() - res.shift.shift.transpose();
+        vessel_pairs = make_pairs(index, shifted, nullptr, directions, seg_tets, options.pair_max_distance_mm,
+                                  options.vessel_filter, &rec.vessel_filter);
+      } else {
+        vessel_pairs = make_pairs(index, vessel_pts, (frozen || shift_stage) ? &vessel_pairs : nullptr, directions,
+                                  seg_tets, options.pair_max_distance_mm, options.vessel_filter, &rec.vessel_filter);
+      }
       add_vessel_rows(rows, vessel_pairs, model.skeleton(), skel, res.positions, vessel_pts);
       for (const Pair& p : vessel_pairs) keys.insert({0, p.point, p.feature});
       rec.vessel_pairs = static_cast<index_t>(vessel_pairs.size());
@@ -344,7 +362,7 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
                    "PGS {} ({} sweeps){}",
                    it, rec.vessel_pairs, rec.footprint_pairs, rec.dura_rows, rec.rows, rec.max_increment_mm,
                    rec.pgs_stop, rec.pgs_iterations, rec.pairing_frozen ? ", pairs frozen" : "");
-    if (!step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
+    if (!shift_stage && !step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
         (!rec.pairing_changed || rec.pairing_frozen)) {
       res.converged = true;
       res.stop = RegistrationStop::CONVERGED;
@@ -360,6 +378,17 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
       else radius = std::min(max_radius, 1.5 * radius);
     }
     previous_dx = dx;
+    // Stage 1 ends when its held pairs have settled (or at its cap, or when its trust region
+    // collapses): free pairing from here, with a fresh trust region and cycle history.
+    if (shift_stage && ((!step.limited && rec.max_increment_mm < options.increment_tolerance_mm) ||
+                        it >= options.shift_stage_iterations || radius < options.increment_tolerance_mm)) {
+      shift_stage = false;
+      shift_stage_end = it;
+      pair_sets.clear();
+      previous_dx.resize(0, 3);
+      radius = max_radius;
+      continue;
+    }
     if (radius < options.increment_tolerance_mm) {
       res.stop = RegistrationStop::NOT_SETTLING;
       break;
@@ -374,12 +403,15 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
                   "cannot be met (inconsistent data or too large a shift); last PGS: %s",
                   options.increment_tolerance_mm, res.iterations, res.history.back().pgs_stop.c_str());
   else if (res.converged)
-    std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations",
-                  options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations);
+    std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations (%d on the "
+                  "pairs of the bulk shift)",
+                  options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations,
+                  shift_stage_end);
   else
     std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)", options.max_iterations,
                   res.history.empty() ? 0.0 : res.history.back().max_increment_mm);
   res.stop_reason = buf;
+  if (!res.shift.message.empty()) res.stop_reason += "; bulk shift: " + res.shift.message;
   res.seconds.total = seconds_since(t_start);
   return res;
 }

@@ -35,6 +35,7 @@
 #include "constraints/registration/constraint_builders.hpp"
 #include "constraints/registration/filtering.hpp"
 #include "constraints/registration/rigid_init.hpp"
+#include "constraints/registration/shift_search.hpp"
 #include "constraints/registration/skeleton.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
@@ -109,6 +110,14 @@ struct RegistrationOptions {
   /// mm) is implausible for a tracking error (the ICP slid onto other vessels): it is rejected,
   /// the loop starts from the identity and `rigid.stop_reason` says why. 0 disables the check.
   double rigid_max_motion_mm = 15.0;
+  /// Global search for the bulk shift of the vessel points (shift_search.hpp), after the rigid
+  /// start. When accepted, the first pairs are made at the shifted points (pᵢ − shift) and held
+  /// (each point keeps its feature) until the model has settled on them, at most
+  /// `shift_stage_iterations` iterations; free nearest-feature pairing takes over from there.
+  /// Nearest-feature pairing from the rest shape picks the neighbouring vessel once the shift
+  /// exceeds the vessel spacing; pairs made after the bulk shift is taken out do not.
+  ShiftSearchOptions shift_search;
+  int shift_stage_iterations = 40;
   bool use_vessels = true;
   bool use_footprint = true;
   bool use_landmarks = true;
@@ -179,6 +188,7 @@ struct RegistrationResult {
   MatrixX3d positions;        ///< final nodal positions #N×3, model frame, mm
   MatrixX3d displacement;     ///< positions − rest, mm
   RigidInitResult rigid;      ///< the rigid start (identity when options.start is IDENTITY)
+  ShiftSearchResult shift;    ///< the bulk-shift search (not accepted when disabled or warm-started)
   int iterations = 0;
   bool converged = false;
   RegistrationStop stop = RegistrationStop::NO_DATA;
