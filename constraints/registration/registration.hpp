@@ -118,6 +118,15 @@ struct RegistrationOptions {
   /// exceeds the vessel spacing; pairs made after the bulk shift is taken out do not.
   ShiftSearchOptions shift_search;
   int shift_stage_iterations = 40;
+  /// Shape of the searched shift: the model's own response to a uniform load (one per axis,
+  /// normalised to the identity on average over the points) instead of a translation. The
+  /// response follows the boundary conditions (nodes near the fixed base move less than the
+  /// cortex under the probe), which a translation of a 6 cm deep field of view cannot; the
+  /// direction and size of the shift are still searched, not assumed.
+  bool shift_load_basis = true;
+  /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
+  /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
+  double refine_pair_distance_mm = 2.0;
   bool use_vessels = true;
   bool use_footprint = true;
   bool use_landmarks = true;
@@ -135,8 +144,10 @@ struct RegistrationOptions {
   /// Vessel filter defaults: at most 2 rows per tetrahedron (soft rows tolerate more than one;
   /// 1 discards half the data on a 7 mm mesh).
   static FilterOptions default_vessel_filter();
-  /// The step settings the loop is tuned for: vessel rows compliant with ratio 0.2 (see
-  /// StepOptions::compliance_ratio; Doppler points are noisy), footprint, dura and landmark rows
+  /// The step settings the loop is tuned for: vessel rows compliant with ratio 1 (see
+  /// StepOptions::compliance_ratio; Doppler centrelines lie 1–2 mm off the pre-operative ones
+  /// even at the true shift, so a row is a noisy spring, averaged over its neighbours), dura 0.2,
+  /// footprint and landmark rows
   /// hard (the probe is rigid, few points), a 5 mm trust region, PGS to 1e-4 or 500 sweeps (each
   /// iteration re-solves from a warm start; a tighter solve per iteration buys nothing).
   static StepOptions default_step();

@@ -19,6 +19,7 @@
 /// distances near each segment), so one candidate costs one lookup per point.
 
 #include <string>
+#include <vector>
 
 #include "constraints/registration/skeleton.hpp"
 #include "core/config.hpp"
@@ -29,9 +30,15 @@ struct ShiftSearchOptions {
   bool enabled = true;
   double radius_mm = 20.0;       ///< largest shift searched, per axis (mm)
   double coarse_step_mm = 1.0;   ///< grid of candidate shifts (mm)
-  double coarse_kernel_mm = 2.0; ///< τ of the coarse search (mm): ≥ the step so no peak falls between nodes
-  double fine_kernel_mm = 1.0;   ///< τ of the refinement (mm)
+  /// τ of the coarse search (mm): ≥ the step so no peak falls between nodes. Wide: the
+  /// Doppler and MRA centrelines of one vessel are 1–2 mm apart even at the true shift, and a
+  /// single shift is off by 1–3 mm at the edges of the field of view.
+  double coarse_kernel_mm = 3.0;
+  double fine_kernel_mm = 3.0;   ///< τ of the refinement on a quarter-step grid (mm)
   double voxel_mm = 0.5;         ///< distance table spacing (mm)
+  /// At most this many points are scored (an even subsample): clutter-heavy Doppler volumes
+  /// give tens of thousands of centreline points and the shift needs far fewer.
+  int max_points = 2000;
   /// Keep the shift only when its score beats the score at zero shift by this factor; a flat
   /// score (a single straight vessel, too few points) says nothing about the shift.
   double min_gain = 1.2;
@@ -48,9 +55,13 @@ struct ShiftSearchResult {
 };
 
 /// Searches the bulk shift of `points` (#N×3, mm) relative to the segments of `skeleton` (mm,
-/// same frame). No points or segments: not accepted, zero shift.
-/// \throws brainshift::Error when options.validate() fails or the inputs are not finite.
+/// same frame). `basis` (empty, or one 3×3 matrix per point) shapes the shift: point i is
+/// compared at pᵢ − basisᵢ·s instead of pᵢ − s, so that s is the shift of a smooth deformation
+/// (e.g. the model's response to a uniform load, normalised to I on average over the points)
+/// rather than a translation. No points or segments: not accepted, zero shift.
+/// \throws brainshift::Error when options.validate() fails, the inputs are not finite or the
+/// basis has the wrong size.
 ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
-                               const ShiftSearchOptions& options);
+                               const std::vector<Matrix3d>& basis, const ShiftSearchOptions& options);
 
 }  // namespace brainshift::constraints
