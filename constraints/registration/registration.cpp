@@ -186,7 +186,7 @@ StepOptions RegistrationOptions::default_step() {
   s.pgs.tolerance = 1e-4;
   s.pgs.max_iterations = 500;
   s.max_increment = 5.0;
-  s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] = 1.0;
+  s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] = 0.2;
   s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::DURA)] = 0.2;
   return s;
 }

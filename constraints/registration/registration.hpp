@@ -116,6 +116,9 @@ struct RegistrationOptions {
   /// `shift_stage_iterations` iterations; free nearest-feature pairing takes over from there.
   /// Nearest-feature pairing from the rest shape picks the neighbouring vessel once the shift
   /// exceeds the vessel spacing; pairs made after the bulk shift is taken out do not.
+  /// An accepted rigid start is kept only when the shift searched in its frame scores at least
+  /// as well as the one searched from the identity (a rigid ICP can absorb part of the
+  /// deformation into a wrong pose, and its motion alone does not show it).
   ShiftSearchOptions shift_search;
   int shift_stage_iterations = 40;
   /// Shape of the searched shift: the model's own response to a uniform load (one per axis,
@@ -144,10 +147,8 @@ struct RegistrationOptions {
   /// Vessel filter defaults: at most 2 rows per tetrahedron (soft rows tolerate more than one;
   /// 1 discards half the data on a 7 mm mesh).
   static FilterOptions default_vessel_filter();
-  /// The step settings the loop is tuned for: vessel rows compliant with ratio 1 (see
-  /// StepOptions::compliance_ratio; Doppler centrelines lie 1–2 mm off the pre-operative ones
-  /// even at the true shift, so a row is a noisy spring, averaged over its neighbours), dura 0.2,
-  /// footprint and landmark rows
+  /// The step settings the loop is tuned for: vessel rows compliant with ratio 0.2 (see
+  /// StepOptions::compliance_ratio; Doppler points are noisy), footprint, dura and landmark rows
   /// hard (the probe is rigid, few points), a 5 mm trust region, PGS to 1e-4 or 500 sweeps (each
   /// iteration re-solves from a warm start; a tighter solve per iteration buys nothing).
   static StepOptions default_step();
