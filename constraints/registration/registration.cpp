@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+
 #include <set>
 #include <utility>
 
@@ -100,6 +101,52 @@ Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double mar
   return out.segments.empty() ? s : out;
 }
 
+/// Stage 2 after the bulk shift: a point that found no feature within the refinement distance
+/// keeps the feature it was given in stage 1 (unless another point took that feature). Without
+/// it, points drop out one after the other — the model relaxes towards the rest shape where it
+/// loses rows, which moves more points out of reach — until nothing holds the shift.
+void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held, const FeatureIndex& index,
+                     ConstRef<MatrixX3d> points) {
+  std::set<index_t> paired, taken;
+  for (const Pair& p : pairs) {
+    paired.insert(p.point);
+    taken.insert(p.feature);
+  }
+  for (const Pair& h : held)
+    if (!paired.count(h.point) && !taken.count(h.feature)) {
+      Pair p = index.closest_on(h.feature, points.row(h.point).transpose());
+      p.point = h.point;
+      pairs.push_back(p);
+    }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.point < b.point; });
+}
+
+/// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of
+/// the linear model at the rest mesh node nearest the point, normalised so the mean over the
+/// points is the identity. Empty when the mean is singular (points on fixed nodes).
+std::vector<Matrix3d> load_basis(ConstrainedModel& mechanics, ConstRef<MatrixX3d> points) {
+  const core::TetMesh& mesh = mechanics.model().mesh();
+  StepOptions o;
+  o.mechanics = Mechanics::LINEAR;
+  std::array<MatrixX3d, 3> response;
+  for (int k = 0; k < 3; ++k) {
+    o.gravity = 9810.0 * Vector3d::Unit(k);
+    response[static_cast<std::size_t>(k)] = mechanics.step(mesh.nodes(), ConstraintRows{}, o).x - mesh.nodes();
+  }
+  std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
+  Matrix3d mean = Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    Eigen::Index node = 0;
+    (mesh.nodes().rowwise() - points.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    for (std::size_t k = 0; k < 3; ++k) basis[static_cast<std::size_t>(i)].col(static_cast<Eigen::Index>(k)) = response[k].row(node).transpose();
+    mean += basis[static_cast<std::size_t>(i)] / static_cast<double>(points.rows());
+  }
+  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return {};
+  const Matrix3d inv = mean.inverse();
+  for (Matrix3d& b : basis) b = b * inv;
+  return basis;
+}
+
 std::string no_data_reason(const IntraopData& d, const RegistrationModel& m, const RegistrationOptions& o) {
   std::string why;
   auto add = [&why](const std::string& s) { why += (why.empty() ? "" : ", ") + s; };
@@ -120,6 +167,9 @@ std::string RegistrationOptions::validate() const {
   if (!(increment_tolerance_mm > 0)) return "increment_tolerance_mm must be > 0";
   if (!(direction_radius_mm > 0)) return "direction_radius_mm must be > 0";
   if (!(rigid_max_motion_mm >= 0)) return "rigid_max_motion_mm must be ≥ 0";
+  if (shift_stage_iterations < 0) return "shift_stage_iterations must be ≥ 0";
+  if (!(refine_pair_distance_mm > 0)) return "refine_pair_distance_mm must be > 0";
+  if (auto e = shift_search.validate(); !e.empty()) return e;
   if (auto e = vessel_filter.validate(); !e.empty()) return "vessel filter: " + e;
   if (auto e = footprint_filter.validate(); !e.empty()) return "footprint filter: " + e;
   if (auto e = dura.validate(); !e.empty()) return e;
@@ -246,8 +296,41 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.rigid.converged = true;
     res.rigid.stop_reason = "identity (no rigid initialisation requested)";
   }
+  std::vector<Matrix3d> shift_basis;
+  if (vessels && !initial && options.shift_search.enabled) {
+    const auto t0 = Clock::now();
+    const ShiftSearchOptions& so = options.shift_search;
+    auto search_in = [&](const Eigen::Isometry3d& frame, std::vector<Matrix3d>& basis) {
+      const MatrixX3d pts = transformed(frame, data.vessel_points);
+      basis = options.shift_load_basis ? load_basis(model.mechanics(), pts) : std::vector<Matrix3d>{};
+      return search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, basis, so);
+    };
+    res.shift = search_in(res.rigid.transform, shift_basis);
+    // A rigid fit can absorb part of the shift into a wrong pose (the ICP from the identity has
+    // the same ambiguity as the pairing); it is kept only when the bulk shift in its frame
+    // matches the vessels at least as well as the bulk shift from the identity.
+    if (!res.rigid.transform.isApprox(Eigen::Isometry3d::Identity())) {
+      std::vector<Matrix3d> basis0;
+      ShiftSearchResult from_identity = search_in(Eigen::Isometry3d::Identity(), basis0);
+      if (from_identity.score > res.shift.score) {
+        res.rigid.stop_reason = "rejected: the bulk shift from the identity matches the vessels better (score " +
+                                std::to_string(from_identity.score) + " vs " + std::to_string(res.shift.score) +
+                                ") (" + res.rigid.stop_reason + "); starting from the identity";
+        res.rigid.transform = Eigen::Isometry3d::Identity();
+        res.rigid.converged = false;
+        res.shift = std::move(from_identity);
+        shift_basis = std::move(basis0);
+        logger().warn("rigid initialisation {}", res.rigid.stop_reason);
+      }
+    }
+    res.seconds.rigid += seconds_since(t0);
+    logger().debug("shift search: {}", res.shift.message);
+  }
   const Eigen::Isometry3d& T = res.rigid.transform;
   const MatrixX3d vessel_pts = transformed(T, data.vessel_points);
+  // Stage 1 (bulk shift accepted): pairs made at the shifted points, held until settled.
+  bool shift_stage = res.shift.accepted;
+  int shift_stage_end = 0;
   const MatrixX3d footprint_pts = transformed(T, data.footprint_points);
   const MatrixX3d footprint_nrm = rotated(T, data.footprint_normals);
   const MatrixX3d landmark_tgt = transformed(T, data.landmark_targets);
@@ -268,7 +351,7 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
   if (initial)
     for (const auto& [k, l] : initial->lambda) warm[k] = l;
   std::vector<std::set<PairKey>> pair_sets;  // per iteration
-  std::vector<Pair> vessel_pairs, footprint_pairs;
+  std::vector<Pair> vessel_pairs, footprint_pairs, stage1_pairs;
   bool frozen = false;
   res.stop = RegistrationStop::MAX_ITERATIONS;
   const double max_radius =
@@ -284,8 +367,21 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     std::set<PairKey> keys;
     if (vessels) {
       const FeatureIndex index = FeatureIndex::segments(model.skeleton_mapping().apply(res.positions), segs);
-      vessel_pairs = make_pairs(index, vessel_pts, frozen ? &vessel_pairs : nullptr, directions, seg_tets,
-                                options.pair_max_distance_mm, options.vessel_filter, &rec.vessel_filter);
+      if (shift_stage && it == 1) {
+        // Stage 1: pairs made where each point was before the bulk shift; held from here on.
+        MatrixX3d shifted = vessel_pts;
+        for (Eigen::Index i = 0; i < shifted.rows(); ++i)
+          shifted.row(i) -= shift_basis.empty() ? res.shift.shift.transpose()
+                                                : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.shift.shift).transpose();
+        vessel_pairs = make_pairs(index, shifted, nullptr, directions, seg_tets, options.pair_max_distance_mm,
+                                  options.vessel_filter, &rec.vessel_filter);
+      } else {
+        const bool refine = res.shift.accepted && !shift_stage && !frozen;
+        vessel_pairs = make_pairs(index, vessel_pts, (frozen || shift_stage) ? &vessel_pairs : nullptr, directions,
+                                  seg_tets, refine ? options.refine_pair_distance_mm : options.pair_max_distance_mm,
+                                  options.vessel_filter, &rec.vessel_filter);
+        if (refine) keep_held_pairs(vessel_pairs, stage1_pairs, index, vessel_pts);
+      }
       add_vessel_rows(rows, vessel_pairs, model.skeleton(), skel, res.positions, vessel_pts);
       for (const Pair& p : vessel_pairs) keys.insert({0, p.point, p.feature});
       rec.vessel_pairs = static_cast<index_t>(vessel_pairs.size());
@@ -352,7 +448,7 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
                    "PGS {} ({} sweeps){}",
                    it, rec.vessel_pairs, rec.footprint_pairs, rec.dura_rows, rec.rows, rec.max_increment_mm,
                    rec.pgs_stop, rec.pgs_iterations, rec.pairing_frozen ? ", pairs frozen" : "");
-    if (!step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
+    if (!shift_stage && !step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
         (!rec.pairing_changed || rec.pairing_frozen)) {
       res.converged = true;
       res.stop = RegistrationStop::CONVERGED;
@@ -368,6 +464,18 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
       else radius = std::min(max_radius, 1.5 * radius);
     }
     previous_dx = dx;
+    // Stage 1 ends when its held pairs have settled (or at its cap, or when its trust region
+    // collapses): free pairing from here, with a fresh trust region and cycle history.
+    if (shift_stage && ((!step.limited && rec.max_increment_mm < options.increment_tolerance_mm) ||
+                        it >= options.shift_stage_iterations || radius < options.increment_tolerance_mm)) {
+      shift_stage = false;
+      shift_stage_end = it;
+      stage1_pairs = vessel_pairs;
+      pair_sets.clear();
+      previous_dx.resize(0, 3);
+      radius = max_radius;
+      continue;
+    }
     if (radius < options.increment_tolerance_mm) {
       res.stop = RegistrationStop::NOT_SETTLING;
       break;
@@ -382,12 +490,15 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
                   "cannot be met (inconsistent data or too large a shift); last PGS: %s",
                   options.increment_tolerance_mm, res.iterations, res.history.back().pgs_stop.c_str());
   else if (res.converged)
-    std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations",
-                  options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations);
+    std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations (%d on the "
+                  "pairs of the bulk shift)",
+                  options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations,
+                  shift_stage_end);
   else
     std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)", options.max_iterations,
                   res.history.empty() ? 0.0 : res.history.back().max_increment_mm);
   res.stop_reason = buf;
+  if (!res.shift.message.empty()) res.stop_reason += "; bulk shift: " + res.shift.message;
   res.seconds.total = seconds_since(t_start);
   return res;
 }

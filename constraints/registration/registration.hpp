@@ -35,6 +35,7 @@
 #include "constraints/registration/constraint_builders.hpp"
 #include "constraints/registration/filtering.hpp"
 #include "constraints/registration/rigid_init.hpp"
+#include "constraints/registration/shift_search.hpp"
 #include "constraints/registration/skeleton.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
@@ -109,6 +110,26 @@ struct RegistrationOptions {
   /// mm) is implausible for a tracking error (the ICP slid onto other vessels): it is rejected,
   /// the loop starts from the identity and `rigid.stop_reason` says why. 0 disables the check.
   double rigid_max_motion_mm = 15.0;
+  /// Global search for the bulk shift of the vessel points (shift_search.hpp), after the rigid
+  /// start. When accepted, the first pairs are made at the shifted points (pᵢ − shift) and held
+  /// (each point keeps its feature) until the model has settled on them, at most
+  /// `shift_stage_iterations` iterations; free nearest-feature pairing takes over from there.
+  /// Nearest-feature pairing from the rest shape picks the neighbouring vessel once the shift
+  /// exceeds the vessel spacing; pairs made after the bulk shift is taken out do not.
+  /// An accepted rigid start is kept only when the shift searched in its frame scores at least
+  /// as well as the one searched from the identity (a rigid ICP can absorb part of the
+  /// deformation into a wrong pose, and its motion alone does not show it).
+  ShiftSearchOptions shift_search;
+  int shift_stage_iterations = 40;
+  /// Shape of the searched shift: the model's own response to a uniform load (one per axis,
+  /// normalised to the identity on average over the points) instead of a translation. The
+  /// response follows the boundary conditions (nodes near the fixed base move less than the
+  /// cortex under the probe), which a translation of a 6 cm deep field of view cannot; the
+  /// direction and size of the shift are still searched, not assumed.
+  bool shift_load_basis = true;
+  /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
+  /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
+  double refine_pair_distance_mm = 2.0;
   bool use_vessels = true;
   bool use_footprint = true;
   bool use_landmarks = true;
@@ -179,6 +200,7 @@ struct RegistrationResult {
   MatrixX3d positions;        ///< final nodal positions #N×3, model frame, mm
   MatrixX3d displacement;     ///< positions − rest, mm
   RigidInitResult rigid;      ///< the rigid start (identity when options.start is IDENTITY)
+  ShiftSearchResult shift;    ///< the bulk-shift search (not accepted when disabled or warm-started)
   int iterations = 0;
   bool converged = false;
   RegistrationStop stop = RegistrationStop::NO_DATA;

@@ -1,0 +1,67 @@
+#pragma once
+/// @file
+/// @brief Global search for the bulk shift of the intra-operative vessel points relative to the
+/// pre-operative skeleton: the translation s (mm) that maximises the kernel correlation
+///   score(s) = Σᵢ κ(d(pᵢ − s)),   κ(d) = max(0, 1 − d²/τ²),
+/// with d(q) the distance from q to the nearest skeleton segment, searched exhaustively on a grid
+/// of translations |sₖ| ≤ radius (then refined with a smaller τ around the best).
+///
+/// Why: brain shift (5–20 mm) is larger than the spacing of cortical vessels (1–3 mm), so the
+/// nearest-feature pairing of ICP starting from the rest shape picks the neighbouring vessel and
+/// the loop settles in a wrong local minimum. A rigid ICP from the identity slides along the
+/// cortical sheet for the same reason. An exhaustive search over translations has no basin to
+/// fall out of; the truncated kernel ignores spurious Doppler blobs and vessels missing on either
+/// side (kernel correlation: Tsin & Kanade, ECCV 2004). A translation is the lowest-frequency
+/// part of the shift; the deformation that remains is left to the constrained ICP, which starts
+/// from pairs made at the shifted positions.
+///
+/// The distances are tabulated once on a voxel grid (truncated at τ, exact point-to-segment
+/// distances near each segment), so one candidate costs one lookup per point.
+
+#include <string>
+#include <vector>
+
+#include "constraints/registration/skeleton.hpp"
+#include "core/config.hpp"
+
+namespace brainshift::constraints {
+
+struct ShiftSearchOptions {
+  bool enabled = true;
+  double radius_mm = 20.0;       ///< largest shift searched, per axis (mm)
+  double coarse_step_mm = 1.0;   ///< grid of candidate shifts (mm)
+  /// τ of the coarse search (mm): ≥ the step so no peak falls between nodes. Wide: the
+  /// Doppler and MRA centrelines of one vessel are 1–2 mm apart even at the true shift, and a
+  /// single shift is off by 1–3 mm at the edges of the field of view.
+  double coarse_kernel_mm = 3.0;
+  double fine_kernel_mm = 3.0;   ///< τ of the refinement on a quarter-step grid (mm)
+  double voxel_mm = 0.5;         ///< distance table spacing (mm)
+  /// At most this many points are scored (an even subsample): clutter-heavy Doppler volumes
+  /// give tens of thousands of centreline points and the shift needs far fewer.
+  int max_points = 2000;
+  /// Keep the shift only when its score beats the score at zero shift by this factor; a flat
+  /// score (a single straight vessel, too few points) says nothing about the shift.
+  double min_gain = 1.2;
+  /// Empty when valid, else what is wrong.
+  [[nodiscard]] std::string validate() const;
+};
+
+struct ShiftSearchResult {
+  Vector3d shift = Vector3d::Zero();  ///< p_intra ≈ p_pre + shift (mm); zero when not accepted
+  bool accepted = false;
+  double score = 0.0;       ///< fine score at the shift (points, kernel-weighted)
+  double score_zero = 0.0;  ///< fine score at zero shift
+  std::string message;
+};
+
+/// Searches the bulk shift of `points` (#N×3, mm) relative to the segments of `skeleton` (mm,
+/// same frame). `basis` (empty, or one 3×3 matrix per point) shapes the shift: point i is
+/// compared at pᵢ − basisᵢ·s instead of pᵢ − s, so that s is the shift of a smooth deformation
+/// (e.g. the model's response to a uniform load, normalised to I on average over the points)
+/// rather than a translation. No points or segments: not accepted, zero shift.
+/// \throws brainshift::Error when options.validate() fails, the inputs are not finite or the
+/// basis has the wrong size.
+ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
+                               const std::vector<Matrix3d>& basis, const ShiftSearchOptions& options);
+
+}  // namespace brainshift::constraints
