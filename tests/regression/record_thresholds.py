@@ -1,0 +1,38 @@
+#!/usr/bin/env python3
+"""Writes tests/regression/thresholds.json from a `brainshift bench --suite cases` run.
+
+Usage: tests/regression/record_thresholds.py DIR/results.json > tests/regression/thresholds.json
+
+The recorded figures are the constraint-ICP runs (Release build, the seed of the run); the test
+allows mean TRE up to recorded x tre_factor + tre_add_mm, shift corrected down to recorded -
+corrected_pct_drop, and mean TRE at most rigid-only + rigid_gap_mm + tre_add_mm. The margin covers what varies between machines and builds without a code
+change: CGAL's sliver exudation is not bit-reproducible, so the mesh (and with it the pairing of a
+few points) differs slightly from run to run; on the recorded cases this moved the mean TRE by up
+to ~0.2 mm.
+"""
+import json
+import sys
+
+runs = json.load(open(sys.argv[1]))
+rigid = {r["case"]: r["tre_mean_mm"] for r in runs["runs"]
+         if r["suite"] == "cases" and r["method"] == "rigid_only" and r["ok"]}
+cases = {}
+for r in runs["runs"]:
+    if r["suite"] == "cases" and r["method"] == "constraint_icp" and r["ok"]:
+        cases[r["case"]] = {
+            "tre_mean_mm": round(r["tre_mean_mm"], 3),
+            "shift_corrected_pct": round(r["shift_corrected_pct"] or 0.0, 1),
+            "tre_before_mean_mm": round(r["tre_before_mean_mm"], 3),
+            # How much worse than the rigid-only baseline the case was when recorded (0 when
+            # better): the target is 0 everywhere; a case with a gap is a known shortfall, and
+            # the test keeps it from growing.
+            "rigid_gap_mm": round(max(0.0, r["tre_mean_mm"] - rigid[r["case"]]), 3),
+        }
+out = {
+    "_comment": "Recorded by tests/regression/record_thresholds.py from `brainshift bench --suite cases` "
+    f"({runs['machine']['date']}, {runs['machine']['build_type']}, seed {runs['seed']}); see that script for the margin.",
+    "margin": {"tre_factor": 1.25, "tre_add_mm": 0.3, "corrected_pct_drop": 10.0},
+    "cases": cases,
+}
+json.dump(out, sys.stdout, indent=2)
+print()

@@ -1,0 +1,75 @@
+// The phantom regression suite (issue 8 item 3, CTest label `regression`): every named case
+// registered end to end by `brainshift bench --suite cases --cases NAME`, with thresholds on TRE
+// and shift corrected taken from the recorded figures (tests/regression/thresholds.json) plus a
+// stated margin; every run must give a finite answer with a stop reason; our method must not fall
+// further behind the rigid-only baseline on the same data than recorded.
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/cli_helpers.hpp"
+#include "tests/config.hpp"
+
+namespace brainshift {
+namespace {
+
+nlohmann::json read_json(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  return nlohmann::json::parse(in);
+}
+
+const nlohmann::json& thresholds() {
+  static const nlohmann::json t = read_json(std::filesystem::path(tests::source_dir) / "tests/regression/thresholds.json");
+  return t;
+}
+
+class PhantomCase : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
+  const std::string name = GetParam();
+  const auto& t = thresholds();
+  ASSERT_TRUE(t["cases"].contains(name)) << "no recorded figures for " << name;
+  const auto& rec = t["cases"][name];
+  const auto& margin = t["margin"];
+
+  const tests::TempFolder dir;
+  const CliRun r = run_brainshift(dir, "bench --suite cases --cases " + name + " --out " + q(dir / "b"));
+  // 0: every run finite; 2 would mean a run failed or diverged.
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto j = read_json(dir / "b" / "results.json");
+  const nlohmann::json* icp = nullptr;
+  const nlohmann::json* rigid = nullptr;
+  for (const auto& run : j["runs"]) {
+    SCOPED_TRACE(run.dump());
+    EXPECT_TRUE(run["ok"].get<bool>());
+    EXPECT_FALSE(run["stop"].get<std::string>().empty());
+    if (run["method"] == "constraint_icp") icp = &run;
+    if (run["method"] == "rigid_only") rigid = &run;
+  }
+  ASSERT_TRUE(icp && rigid);
+  const double tre = (*icp)["tre_mean_mm"].get<double>();
+  const double limit = rec["tre_mean_mm"].get<double>() * margin["tre_factor"].get<double>() +
+                       margin["tre_add_mm"].get<double>();
+  EXPECT_LE(tre, limit) << name << ": mean TRE " << tre << " mm, recorded " << rec["tre_mean_mm"];
+  const double pct = (*icp)["shift_corrected_pct"].is_null() ? 0.0 : (*icp)["shift_corrected_pct"].get<double>();
+  EXPECT_GE(pct, rec["shift_corrected_pct"].get<double>() - margin["corrected_pct_drop"].get<double>())
+      << name << ": recorded " << rec["shift_corrected_pct"];
+  // Never worse than rigid alone (the same rigid start, no deformation): the target is a gap of
+  // 0; the recorded gap (0 on most cases, a known shortfall on a few — docs/BENCHMARKS.md) may
+  // not grow beyond the margin's absolute part.
+  EXPECT_LE(tre, (*rigid)["tre_mean_mm"].get<double>() + rec["rigid_gap_mm"].get<double>() +
+                     margin["tre_add_mm"].get<double>())
+      << name << ": rigid only " << (*rigid)["tre_mean_mm"];
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, PhantomCase,
+                         ::testing::Values("standard", "large_shift", "deep_tumour_one_side_vessels", "noisy_doppler",
+                                           "tracking_error", "sparse_vessels", "resection", "thin_structures"),
+                         [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
+
+}  // namespace
+}  // namespace brainshift
