@@ -5,6 +5,7 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "core/hash.hpp"
 #include "imaging/io/atomic_write.hpp"
 
 namespace brainshift::apps {
@@ -12,14 +13,11 @@ namespace brainshift::apps {
 std::uint64_t file_hash(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   BS_VERIFY(in.good(), path.string() << ": cannot read");
-  std::uint64_t h = 1469598103934665603ULL;
+  std::uint64_t h = core::fnv1a_offset;
   char buf[1 << 16];
   while (in) {
     in.read(buf, sizeof buf);
-    for (std::streamsize i = 0; i < in.gcount(); ++i) {
-      h ^= static_cast<unsigned char>(buf[i]);
-      h *= 1099511628211ULL;
-    }
+    h = core::fnv1a(buf, static_cast<std::size_t>(in.gcount()), h);
   }
   return h;
 }

@@ -124,15 +124,8 @@ void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held, co
 /// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of
 /// the linear model at the rest mesh node nearest the point, normalised so the mean over the
 /// points is the identity. Empty when the mean is singular (points on fixed nodes).
-std::vector<Matrix3d> load_basis(ConstrainedModel& mechanics, ConstRef<MatrixX3d> points) {
-  const core::TetMesh& mesh = mechanics.model().mesh();
-  StepOptions o;
-  o.mechanics = Mechanics::LINEAR;
-  std::array<MatrixX3d, 3> response;
-  for (int k = 0; k < 3; ++k) {
-    o.gravity = 9810.0 * Vector3d::Unit(k);
-    response[static_cast<std::size_t>(k)] = mechanics.step(mesh.nodes(), ConstraintRows{}, o).x - mesh.nodes();
-  }
+std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+                                 ConstRef<MatrixX3d> points) {
   std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
   Matrix3d mean = Matrix3d::Zero();
   for (Eigen::Index i = 0; i < points.rows(); ++i) {
@@ -223,6 +216,21 @@ RegistrationModel::RegistrationModel(const core::TetMesh& mesh, const std::vecto
 
 RegistrationModel::~RegistrationModel() = default;
 
+const std::array<MatrixX3d, 3>& RegistrationModel::load_response() {
+  if (!m_load_response) {
+    const core::TetMesh& rest = mesh();
+    StepOptions o;
+    o.mechanics = Mechanics::LINEAR;
+    std::array<MatrixX3d, 3> response;
+    for (int k = 0; k < 3; ++k) {
+      o.gravity = 9810.0 * Vector3d::Unit(k);
+      response[static_cast<std::size_t>(k)] = m_mechanics->step(rest.nodes(), ConstraintRows{}, o).x - rest.nodes();
+    }
+    m_load_response = std::move(response);
+  }
+  return *m_load_response;
+}
+
 Stencil RegistrationModel::skeleton_stencil(index_t i) const { return MappedVertices{&mesh(), &m_skeleton_map}.stencil(i); }
 Stencil RegistrationModel::surface_stencil(index_t i) const { return MappedVertices{&mesh(), &m_surface_map}.stencil(i); }
 
@@ -302,7 +310,7 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     const ShiftSearchOptions& so = options.shift_search;
     auto search_in = [&](const Eigen::Isometry3d& frame, std::vector<Matrix3d>& basis) {
       const MatrixX3d pts = transformed(frame, data.vessel_points);
-      basis = options.shift_load_basis ? load_basis(model.mechanics(), pts) : std::vector<Matrix3d>{};
+      basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts) : std::vector<Matrix3d>{};
       return search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, basis, so);
     };
     res.shift = search_in(res.rigid.transform, shift_basis);

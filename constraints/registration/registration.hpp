@@ -29,6 +29,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,10 @@ class RegistrationModel {
   [[nodiscard]] Stencil surface_stencil(index_t i) const;
   /// Seconds spent preparing (factorisation, compliance block, mappings).
   [[nodiscard]] double seconds_prepare() const { return m_seconds_prepare; }
+  /// Nodal displacements (#N×3 each, mm) of the linear model under a uniform body load along x,
+  /// y and z: the shape of the bulk-shift search's basis. Computed on first use (three solves),
+  /// then kept: it depends on the model only, not on the frame or the data.
+  [[nodiscard]] const std::array<MatrixX3d, 3>& load_response();
 
  private:
   Skeleton m_skeleton;
@@ -86,6 +91,7 @@ class RegistrationModel {
   MatrixX3d m_rest_normals;
   std::unique_ptr<ConstrainedModel> m_mechanics;
   double m_seconds_prepare = 0.0;
+  std::optional<std::array<MatrixX3d, 3>> m_load_response;
 };
 
 /// Intra-operative data, in the tracked intra-operative frame (mm; RAS world when tracking is

@@ -4,6 +4,7 @@
 
 #include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
+#include "core/hash.hpp"
 #include "core/logger.hpp"
 
 namespace brainshift::constraints {
@@ -31,30 +32,19 @@ void for_each_row_node(const SparseMatrix& H, Fn&& fn) {
   }
 }
 
-/// FNV-1a over raw bytes, continuing from `h`.
-std::uint64_t fnv1a(std::uint64_t h, const void* data, std::size_t bytes) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < bytes; ++i) {
-    h ^= p[i];
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
-
 }  // namespace
 
 std::uint64_t stiffness_fingerprint(const core::TetMesh& mesh, std::vector<index_t> fixed_nodes) {
   std::sort(fixed_nodes.begin(), fixed_nodes.end());
   fixed_nodes.erase(std::unique(fixed_nodes.begin(), fixed_nodes.end()), fixed_nodes.end());
-  std::uint64_t h = 1469598103934665603ULL;
+  using core::fnv1a;
   const std::int64_t sizes[2] = {mesh.num_nodes(), mesh.num_tets()};
-  h = fnv1a(h, sizes, sizeof sizes);
-  h = fnv1a(h, mesh.nodes().data(), sizeof(double) * static_cast<std::size_t>(mesh.nodes().size()));
-  h = fnv1a(h, mesh.tets().data(), sizeof(mesh.tets()(0, 0)) * static_cast<std::size_t>(mesh.tets().size()));
-  h = fnv1a(h, mesh.youngs_modulus().data(), sizeof(double) * static_cast<std::size_t>(mesh.youngs_modulus().size()));
-  h = fnv1a(h, mesh.poisson_ratio().data(), sizeof(double) * static_cast<std::size_t>(mesh.poisson_ratio().size()));
-  h = fnv1a(h, fixed_nodes.data(), sizeof(index_t) * fixed_nodes.size());
-  return h;
+  std::uint64_t h = fnv1a(sizes, sizeof sizes);
+  h = fnv1a(mesh.nodes().data(), sizeof(double) * static_cast<std::size_t>(mesh.nodes().size()), h);
+  h = fnv1a(mesh.tets().data(), sizeof(mesh.tets()(0, 0)) * static_cast<std::size_t>(mesh.tets().size()), h);
+  h = fnv1a(mesh.youngs_modulus().data(), sizeof(double) * static_cast<std::size_t>(mesh.youngs_modulus().size()), h);
+  h = fnv1a(mesh.poisson_ratio().data(), sizeof(double) * static_cast<std::size_t>(mesh.poisson_ratio().size()), h);
+  return fnv1a(fixed_nodes.data(), sizeof(index_t) * fixed_nodes.size(), h);
 }
 
 std::string to_string(ComplianceStrategy s) {

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/hash.hpp"
 #include "imaging/io/atomic_write.hpp"
 
 namespace brainshift::imaging {
@@ -21,11 +22,7 @@ class HashingWriter {
  public:
   explicit HashingWriter(std::ofstream& out) : m_out(out) {}
   void put(const void* data, std::size_t bytes) {
-    const auto* p = static_cast<const unsigned char*>(data);
-    for (std::size_t i = 0; i < bytes; ++i) {
-      m_hash ^= p[i];
-      m_hash *= 1099511628211ULL;
-    }
+    m_hash = core::fnv1a(data, bytes, m_hash);
     m_out.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
   }
   template <typename T>
@@ -34,7 +31,7 @@ class HashingWriter {
 
  private:
   std::ofstream& m_out;
-  std::uint64_t m_hash = 1469598103934665603ULL;
+  std::uint64_t m_hash = core::fnv1a_offset;
 };
 
 /// Reads from an in-memory copy of the file with bounds checks.
@@ -54,14 +51,7 @@ class Reader {
   }
   [[nodiscard]] std::size_t position() const { return m_pos; }
   [[nodiscard]] std::size_t remaining() const { return m_bytes.size() - m_pos; }
-  [[nodiscard]] std::uint64_t hash_before(std::size_t end) const {
-    std::uint64_t h = 1469598103934665603ULL;
-    for (std::size_t i = 0; i < end; ++i) {
-      h ^= static_cast<unsigned char>(m_bytes[i]);
-      h *= 1099511628211ULL;
-    }
-    return h;
-  }
+  [[nodiscard]] std::uint64_t hash_before(std::size_t end) const { return core::fnv1a(m_bytes.data(), end); }
 
  private:
   std::filesystem::path m_path;
