@@ -19,7 +19,7 @@
 //   brainshift phantom --case NAME [--seed N] [--vessels FILE.vtp] [--frames K] --out DIR
 //       Synthetic phantom case with known truth (pre-op MRI/labels/MRA, intra-op Doppler/B-mode,
 //       truth displacement and landmarks); an unknown NAME lists the valid ones.
-//   brainshift bench [--quick] [--suite all|cases|sweeps] [--cases a,b] [--seed N] [--keep-work]
+//   brainshift bench [--quick] [--suite all|cases|sweeps] [--cases a,b] [--seed N] [--repeat N] [--keep-work]
 //                    --out DIR
 //       Speed against error on the phantom cases (baselines rigid_only and prescribed_displacement) and
 //       sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and constraint

@@ -36,6 +36,7 @@ struct BenchArgs {
   std::string suite = "all";        ///< all | cases | sweeps
   std::vector<std::string> cases;   ///< named cases for suite `cases` (default: every case)
   std::uint32_t seed = 1;           ///< phantom seed
+  int repeat = 1;                   ///< registrations per run; the median run's times are recorded
   bool keep_work = false;           ///< keep DIR/work (phantoms and models)
   std::filesystem::path out;        ///< DIR
 };

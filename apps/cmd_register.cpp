@@ -68,6 +68,8 @@ Session open_session(const std::filesystem::path& model_dir) {
   }
   s.model = std::make_unique<constraints::RegistrationModel>(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
                                                               compliance);
+  if (sc.options.shift_search.enabled && sc.options.shift_load_basis)
+    (void)s.model->load_response();  // model-only work, done before the Doppler arrives
   s.seconds_load = since(t0);
   const auto& op = s.model->mechanics().compliance();
   std::string status = op.cache_status();
@@ -84,7 +86,8 @@ Session open_session(const std::filesystem::path& model_dir) {
 }
 
 IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
-                           const std::optional<std::filesystem::path>& bmode) {
+                           const std::optional<std::filesystem::path>& bmode,
+                           const imaging::VesselExtractionOptions& vessels) {
   const auto t0 = Clock::now();
   IntraopInputs in;
   const imaging::VolumeF d = imaging::read_volume(doppler);
@@ -94,7 +97,7 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
   mesh_box(s.model->mesh(), lo, hi);
   BS_VERIFY(grid_overlaps(d.geometry, lo, hi, 5.0),
             doppler.string() << ": does not overlap the model (different space or patient? check the tracking)");
-  const imaging::VesselExtractionResult v = imaging::extract_vessels(d);
+  const imaging::VesselExtractionResult v = imaging::extract_vessels(d, vessels);
   BS_VERIFY(v.non_finite_voxels < d.geometry.voxel_count(), doppler.string() << ": every voxel is NaN or infinite");
   BS_VERIFY(v.status == imaging::VesselStatus::OK, doppler.string() << ": no vessels found (" << v.message << ")");
   in.data.vessel_points = imaging::to_skeleton(v.graph).points;

@@ -14,6 +14,7 @@
 
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
+#include "imaging/vessels/vessel_extraction.hpp"
 #include "model_folder.hpp"
 
 namespace CLI {
@@ -53,8 +54,10 @@ struct IntraopInputs {
   nlohmann::json report;  ///< what extraction found (counts, thresholds)
   double seconds = 0.0;
 };
+/// `vessels`: extraction settings (the defaults suit the intra-operative Doppler).
 IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
-                           const std::optional<std::filesystem::path>& bmode);
+                           const std::optional<std::filesystem::path>& bmode,
+                           const imaging::VesselExtractionOptions& vessels = {});
 
 /// Reads the pre-operative MRI to warp and checks it lies on the model's grid (same patient and
 /// scan). \throws brainshift::Error naming the file otherwise.
