@@ -5,6 +5,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 
 #include "data_synth/geometry/structured_mesh.hpp"
 #include "expect_error.hpp"
@@ -194,6 +195,180 @@ TEST(DisplacementField, IsTheTranslationInsideTheMeshAndRigidOutside) {
   EXPECT_GT(inside, 5000);
   EXPECT_LE(worst_in, 5.0 * 4 * FLOAT_EPS);    // float storage of |d| ≈ 6 mm
   EXPECT_LE(worst_out, 10.0 * 4 * FLOAT_EPS);  // |T X − X| ≤ ≈ 6 mm
+}
+
+/// An affine deformation u(X) = A X + b of the box mesh: φ is affine, its inverse known exactly.
+struct AffineCase {
+  Matrix3d A;
+  Vector3d b;
+  MatrixX3d u;
+  [[nodiscard]] Vector3d inverse(const Vector3d& y) const { return (Matrix3d::Identity() + A).inverse() * (y - b); }
+};
+
+AffineCase affine_case(const core::TetMesh& mesh) {
+  AffineCase c;
+  c.A << 0.05, -0.02, 0.03, 0.01, -0.04, 0.02, -0.03, 0.02, 0.06;
+  c.b = Vector3d(1.0, -0.5, 2.0);
+  c.u.resize(mesh.num_nodes(), 3);
+  for (index_t n = 0; n < mesh.num_nodes(); ++n)
+    c.u.row(n) = (c.A * mesh.nodes().row(n).transpose() + c.b).transpose();
+  return c;
+}
+
+Vector3d field_at(const VolumeF& f, int i, int j, int k) {
+  return {f.at(i, j, k, 0), f.at(i, j, k, 1), f.at(i, j, k, 2)};
+}
+
+TEST(InverseDisplacementField, IsTheExactInverseInsideTheDeformedMeshAndRigidOutside) {
+  const core::TetMesh mesh = test_box();
+  const AffineCase c = affine_case(mesh);
+  const Eigen::Affine3d T = Eigen::Translation3d(0.5, 0.0, -1.0) * Eigen::AngleAxisd(0.1, Vector3d::UnitX());
+  DisplacementFieldOptions options;
+  options.rigid = T.matrix();
+  for (bool rotated : {false, true}) {
+    SCOPED_TRACE(rotated ? "rotated grid" : "axis-aligned grid");
+    const ImageGeometry g = test_grid(rotated);
+    const VolumeF v = inverse_displacement_field(mesh, c.u, g, options);
+    ASSERT_EQ(v.components, 3);
+    int inside = 0, outside = 0;
+    double worst_in = 0.0, worst_out = 0.0;
+    for (int k = 0; k < g.size[2]; ++k)
+      for (int j = 0; j < g.size[1]; ++j)
+        for (int i = 0; i < g.size[0]; ++i) {
+          const Vector3d y = g.index_to_world(Vector3d(i, j, k));
+          const Vector3d X = c.inverse(y);  // the rest point the affine map sends to y
+          if (inside_box(X, 1e-6)) {
+            worst_in = std::max(worst_in, (field_at(v, i, j, k) - (X - y)).norm());
+            ++inside;
+          } else if (!inside_box(X, -1e-6)) {
+            worst_out = std::max(worst_out, (field_at(v, i, j, k) - (T.inverse() * y - y)).norm());
+            ++outside;
+          }
+        }
+    EXPECT_GT(inside, 5000);
+    EXPECT_GT(outside, 5000);
+    // Barycentric interpolation of an affine map is exact; what is left is float storage of
+    // values up to ≈ 5 mm (|X − y| here) and rounding in the index maps.
+    EXPECT_LE(worst_in, 5.0 * 4 * FLOAT_EPS);
+    EXPECT_LE(worst_out, 10.0 * 4 * FLOAT_EPS);  // |T⁻¹ y − y| ≤ ≈ 6 mm
+  }
+}
+
+TEST(InverseDisplacementField, ComposedWithTheForwardFieldGivesTheIdentity) {
+  // A non-affine deformation: X = y + v(y) must satisfy φ(X) = X + u(X) = y, with φ evaluated
+  // on the mesh by barycentric coordinates (brute force over the tetrahedra).
+  const core::TetMesh mesh = test_box();
+  MatrixX3d u(mesh.num_nodes(), 3);
+  for (index_t n = 0; n < mesh.num_nodes(); ++n) {
+    const Vector3d X = mesh.nodes().row(n).transpose();
+    u.row(n) = Eigen::RowVector3d(1.5 * std::sin(0.2 * X.y()), 0.8 * std::cos(0.15 * X.z()), 0.05 * X.x() * X.y() / 10);
+  }
+  const ImageGeometry g = test_grid(/*rotated=*/true);
+  // A rigid part far away: voxels outside the deformed mesh map 100 mm off, outside the box.
+  DisplacementFieldOptions options;
+  options.rigid = Eigen::Affine3d(Eigen::Translation3d(100.0, 0.0, 0.0)).matrix();
+  const VolumeF v = inverse_displacement_field(mesh, u, g, options);
+  // φ by brute force: find the rest tetrahedron containing X and interpolate u.
+  const auto phi = [&](const Vector3d& X) -> std::optional<Vector3d> {
+    for (index_t t = 0; t < mesh.num_tets(); ++t) {
+      Matrix3d E;
+      const auto node = [&](int a) { return Vector3d(mesh.nodes().row(mesh.tets()(t, a)).transpose()); };
+      E << node(1) - node(0), node(2) - node(0), node(3) - node(0);
+      const Vector3d l = E.inverse() * (X - node(0));
+      const Vector4d lambda(1.0 - l.sum(), l[0], l[1], l[2]);
+      if (lambda.minCoeff() < -1e-9) continue;
+      Vector3d x = X;
+      for (int a = 0; a < 4; ++a) x += lambda[a] * u.row(mesh.tets()(t, a)).transpose();
+      return x;
+    }
+    return std::nullopt;
+  };
+  int checked = 0;
+  double worst = 0.0;
+  for (int k = 0; k < g.size[2]; k += 3)
+    for (int j = 0; j < g.size[1]; j += 3)
+      for (int i = 0; i < g.size[0]; i += 3) {
+        const Vector3d y = g.index_to_world(Vector3d(i, j, k));
+        const Vector3d X = y + field_at(v, i, j, k);
+        if (!inside_box(X, 1e-3)) continue;
+        const auto x = phi(X);
+        ASSERT_TRUE(x.has_value());
+        worst = std::max(worst, (*x - y).norm());
+        ++checked;
+      }
+  EXPECT_GT(checked, 200);
+  // Exact map, float storage of |v| ≤ ≈ 3 mm: a few ulp.
+  EXPECT_LE(worst, 3.0 * 8 * FLOAT_EPS);
+}
+
+TEST(DisplacementFields, TheExtensionContinuesTheMeshMapBeyondItsSurface) {
+  const core::TetMesh mesh = test_box();
+  const AffineCase c = affine_case(mesh);
+  const ImageGeometry g = test_grid(/*rotated=*/true);
+  DisplacementFieldOptions options;
+  options.rigid = Eigen::Affine3d(Eigen::Translation3d(4.0, 0.0, 0.0)).matrix();  // far from the mesh map
+  options.extension_mm = trilinear_support_mm(g);
+  EXPECT_NEAR(options.extension_mm, g.spacing.norm(), 1e-12);
+  const VolumeF forward = displacement_field(mesh, c.u, g, options);
+  const VolumeF inverse = inverse_displacement_field(mesh, c.u, g, options);
+  int ring_forward = 0, ring_inverse = 0, far = 0;
+  double worst = 0.0, worst_far = 0.0;
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j)
+      for (int i = 0; i < g.size[0]; ++i) {
+        const Vector3d p = g.index_to_world(Vector3d(i, j, k));
+        // Outside the box, closer to it than the extension (Euclidean distance to the box; 0.9:
+        // the affine map stretches distances by up to ≈ 8 %, and the inverse is rasterised in the
+        // deformed space).
+        const auto band = [&](const Vector3d& X) {
+          const Vector3d gap = (Eigen::Array3d(-12, -12, -10) - X.array())
+                                   .max(X.array() - Eigen::Array3d(12, 12, 10))
+                                   .max(0.0)
+                                   .matrix();
+          return gap.norm() > 1e-6 && gap.norm() < 0.9 * options.extension_mm;
+        };
+        if (band(p)) {  // forward: the affine u continued
+          worst = std::max(worst, (field_at(forward, i, j, k) - (c.A * p + c.b)).norm());
+          ++ring_forward;
+        }
+        const Vector3d X = c.inverse(p);
+        if (band(X)) {  // inverse: the affine inverse continued (the deformed box is affine too)
+          worst = std::max(worst, (field_at(inverse, i, j, k) - (X - p)).norm());
+          ++ring_inverse;
+        }
+        if (!inside_box(p, -2.0 * options.extension_mm - 1.0)) {  // well beyond: rigid part
+          worst_far = std::max(worst_far, (field_at(forward, i, j, k) - Vector3d(4.0, 0.0, 0.0)).norm());
+          ++far;
+        }
+      }
+  EXPECT_GT(ring_forward, 1000);
+  EXPECT_GT(ring_inverse, 1000);
+  EXPECT_GT(far, 1000);
+  EXPECT_LE(worst, 5.0 * 4 * FLOAT_EPS);      // affine map continued exactly, float storage
+  EXPECT_LE(worst_far, 4.0 * 4 * FLOAT_EPS);  // the rigid translation
+  options.extension_mm = -1.0;
+  expect_error([&] { (void)displacement_field(mesh, c.u, g, options); }, {"extension"});
+}
+
+TEST(CoveringGrid, CoversThePointsOnTheVoxelLatticeOfTheModel) {
+  const ImageGeometry like = test_grid(/*rotated=*/true);
+  MatrixX3d points(3, 3);
+  points << 40.0, -7.0, 3.0, -25.0, 31.0, -12.0, 5.0, 5.0, 50.0;
+  const ImageGeometry g = covering_grid(like, points, /*margin_mm=*/2.0);
+  EXPECT_TRUE(g.spacing.isApprox(like.spacing));
+  EXPECT_TRUE(g.direction.isApprox(like.direction));
+  for (index_t r = 0; r < points.rows(); ++r) {
+    const Vector3d ijk = g.world_to_index(points.row(r).transpose());
+    // Inside the grid with the margin (2 mm ≥ 2 / 1.3 voxels along every axis here).
+    EXPECT_TRUE((ijk.array() >= 2.0 / like.spacing.array() - 1e-9).all()) << ijk.transpose();
+    EXPECT_TRUE((ijk.array() <= (g.size.cast<double>() - Vector3d::Ones()).array() - 2.0 / like.spacing.array() + 1e-9)
+                    .all())
+        << ijk.transpose();
+  }
+  // Voxel centres of the new grid are voxel centres of the old one (integer index offsets).
+  const Vector3d offset = like.world_to_index(g.origin);
+  EXPECT_LE((offset - offset.array().round().matrix()).norm(), 1e-9);
+  expect_error([&] { (void)covering_grid(like, MatrixX3d(0, 3), 0.0); }, {"no points"});
 }
 
 TEST(WarpImage, RejectsBadInput) {
