@@ -75,8 +75,8 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
   return c;
 }
 
-int run_prepare(const PrepareArgs& args, std::ostream& out) {
-  const Progress progress("prepare");
+int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink& progress_sink) {
+  const Progress progress("prepare", progress_sink);
   verify_output_folder(args.out);
   progress.stage("reading the label volume");
   const imaging::LabelVolume labels = imaging::read_labels(args.labels);

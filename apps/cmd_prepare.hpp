@@ -8,6 +8,8 @@
 #include <iosfwd>
 #include <optional>
 
+#include "progress.hpp"
+
 namespace CLI {
 class App;
 }  // namespace CLI
@@ -26,8 +28,9 @@ struct PrepareArgs {
 
 CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args);
 
-/// Builds and writes the model; prints a summary to `out` and progress to stderr.
+/// Builds and writes the model; prints a summary to `out` and progress to stderr (or to
+/// `progress_sink` when given).
 /// \throws brainshift::Error, one line, for any bad input (nothing is written then).
-int run_prepare(const PrepareArgs& args, std::ostream& out);
+int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink& progress_sink = {});
 
 }  // namespace brainshift::apps

@@ -14,9 +14,9 @@
 #include "imaging/io/mesh_io.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
-#include "imaging/warping/warp_image.hpp"
 #include "intraop_footprint.hpp"
 #include "progress.hpp"
+#include "result_fields.hpp"
 #include "result_overlay.hpp"
 
 namespace brainshift::apps {
@@ -159,37 +159,39 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
   return j;
 }
 
-void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
-                  const IntraopInputs& in, const imaging::VolumeF* mri, const nlohmann::json& extra) {
-  const auto t0 = Clock::now();
-  const core::TetMesh& mesh = s.model->mesh();
-  // Everything is written in the intra-operative frame: X ↦ T⁻¹ (X + u(X)).
-  const Eigen::Isometry3d to_intra = r.rigid.transform.inverse();
-  MatrixX3d u_intra(mesh.num_nodes(), 3);
-  for (index_t i = 0; i < mesh.num_nodes(); ++i)
-    u_intra.row(i) = (to_intra * Vector3d(r.positions.row(i).transpose())).transpose() - mesh.nodes().row(i);
+nlohmann::json result_report(const Session& s, const constraints::RegistrationResult& r, const IntraopInputs& in,
+                             const nlohmann::json& extra) {
   nlohmann::json report = registration_report(r);
   report["intraop"] = in.report;
   if (extra.is_object()) report.merge_patch(extra);
   report["model"] = s.model_report;
   report["timing"]["load_model"] = s.seconds_load;
   report["timing"]["extraction"] = in.seconds;
+  return report;
+}
+
+void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
+                  const IntraopInputs& in, const imaging::VolumeF* mri, const nlohmann::json& extra) {
+  const auto t0 = Clock::now();
+  // Everything is written in the intra-operative frame (result_fields.hpp).
+  const ResultFields f = compute_result_fields(s, r, mri);
+  write_result(res, s, r, in, mri, f, extra, since(t0));
+}
+
+void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
+                  const IntraopInputs& in, const imaging::VolumeF* mri, const ResultFields& f,
+                  const nlohmann::json& extra, double seconds_fields) {
+  const auto t0 = Clock::now();
+  const core::TetMesh& mesh = s.model->mesh();
+  nlohmann::json report = result_report(s, r, in, extra);
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
-    imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &u_intra);
-    imaging::DisplacementFieldOptions fo;
-    fo.rigid = to_intra.matrix();
-    const imaging::VolumeF field = imaging::displacement_field(mesh, u_intra, s.loaded.preop_grid, fo);
-    imaging::write_volume(dir / "displacement.nii.gz", field);
-    imaging::write_displacement_for_slicer(dir / "displacement.nrrd", field);
-    std::optional<imaging::VolumeF> warped;
-    if (mri) {
-      imaging::WarpOptions wo;
-      wo.rigid = to_intra.matrix();
-      warped = imaging::warp_image(*mri, mesh, u_intra, wo);
-      imaging::write_volume(dir / "warped_mri.nii.gz", *warped);
-    }
-    write_result_overlay(dir / "overlay.png", mri, warped ? &*warped : nullptr, field, in.data);
-    report["timing"]["outputs"] = since(t0);
+    imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &f.u_intra);
+    imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
+    imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
+    imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
+    if (f.warped_mri) imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
+    write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr, f.displacement, in.data);
+    report["timing"]["outputs"] = seconds_fields + since(t0);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();
     report["timing"]["total"] = total;

@@ -2,8 +2,8 @@
 /// @file
 /// @brief `brainshift register`: one intra-operative registration against a prepared MODEL —
 /// vessel points from the power Doppler, footprint from the B-mode, the constraint-based ICP,
-/// and the outputs (report.json, deformed.vtu, displacement.nii.gz / .nrrd, warped_mri.nii.gz,
-/// overlay.png). Wiring only; the pieces are reused by `replay` and `demo`.
+/// and the outputs (report.json, deformed.vtu, displacement.nii.gz, preop_to_intraop.nrrd,
+/// intraop_to_preop.nrrd, warped_mri.nii.gz, overlay.png; the fields in result_fields.hpp). Wiring only; the pieces are reused by `replay` and `demo`.
 
 #include <filesystem>
 #include <iosfwd>
@@ -63,10 +63,23 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
 /// scan). \throws brainshift::Error naming the file otherwise.
 imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri);
 
-/// Writes RES (report.json, deformed.vtu, displacement.nii.gz, displacement.nrrd, overlay.png,
-/// warped_mri.nii.gz with an MRI from read_preop_mri()) atomically. `extra` is merged into the report.
+/// Writes RES (report.json, deformed.vtu, displacement.nii.gz, preop_to_intraop.nrrd,
+/// intraop_to_preop.nrrd, overlay.png, warped_mri.nii.gz with an MRI from read_preop_mri())
+/// atomically. `extra` is merged into the report.
 void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
                   const IntraopInputs& in, const imaging::VolumeF* mri, const nlohmann::json& extra);
+
+struct ResultFields;
+/// As above with the fields already computed (compute_result_fields() with the same `mri`);
+/// `seconds_fields` is added to the report's output time.
+void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
+                  const IntraopInputs& in, const imaging::VolumeF* mri, const ResultFields& fields,
+                  const nlohmann::json& extra, double seconds_fields);
+
+/// report.json without its output timing: registration_report(), the intra-operative inputs,
+/// `extra` (merged), the model set-up and the load / extraction times.
+nlohmann::json result_report(const Session& s, const constraints::RegistrationResult& r, const IntraopInputs& in,
+                             const nlohmann::json& extra);
 
 /// Everything in report.json about the registration itself.
 nlohmann::json registration_report(const constraints::RegistrationResult& r);

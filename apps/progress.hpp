@@ -1,19 +1,29 @@
 #pragma once
 /// @file
 /// @brief Progress lines on stderr ("brainshift register: [1.2 s] pairing…") so that anything
-/// longer than a second shows it is alive; results go to stdout.
+/// longer than a second shows it is alive; results go to stdout. A sink can take the stages
+/// instead (the Slicer modules report them in Slicer's `<filter-progress>` format).
 
 #include <chrono>
+#include <functional>
 #include <iostream>
 #include <string>
+#include <utility>
 
 namespace brainshift::apps {
 
 class Progress {
  public:
-  explicit Progress(std::string command) : m_command(std::move(command)), m_start(Clock::now()) {}
-  /// One line on stderr naming the stage that starts now.
+  /// Receives each stage (what starts now, seconds since construction) instead of stderr.
+  using Sink = std::function<void(const std::string& what, double seconds)>;
+  explicit Progress(std::string command, Sink sink = {})
+      : m_command(std::move(command)), m_sink(std::move(sink)), m_start(Clock::now()) {}
+  /// One line on stderr (or a call of the sink) naming the stage that starts now.
   void stage(const std::string& what) const {
+    if (m_sink) {
+      m_sink(what, seconds());
+      return;
+    }
     std::cerr << "brainshift " << m_command << ": [" << format(seconds()) << " s] " << what << "\n";
   }
   /// Seconds since construction.
@@ -27,6 +37,7 @@ class Progress {
     return b;
   }
   std::string m_command;
+  Sink m_sink;
   Clock::time_point m_start;
 };
 

@@ -168,8 +168,8 @@ TEST(Cli, DemoRunsTheWholeWorkflowAndCorrectsMostOfTheShift) {
   const auto out = dir / "demo";
   const CliRun r = run_brainshift(dir, "demo --out " + q(out));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  for (const char* f : {"report.json", "evaluation.json", "deformed.vtu", "displacement.nii.gz", "displacement.nrrd",
-                        "warped_mri.nii.gz", "overlay.png"})
+  for (const char* f : {"report.json", "evaluation.json", "deformed.vtu", "displacement.nii.gz",
+                        "preop_to_intraop.nrrd", "intraop_to_preop.nrrd", "warped_mri.nii.gz", "overlay.png"})
     EXPECT_TRUE(std::filesystem::exists(out / "result" / f)) << f;
   EXPECT_NE(r.out.find("TRE mean"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("shift corrected"), std::string::npos) << r.out;

@@ -45,8 +45,8 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   r = run_brainshift(dir, reg + " --out " + q(res));
   // 0 = converged, 2 = stopped without meeting the convergence test; both write the result.
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.out << r.err;
-  for (const char* f : {"report.json", "deformed.vtu", "displacement.nii.gz", "displacement.nrrd", "warped_mri.nii.gz",
-                        "overlay.png"})
+  for (const char* f : {"report.json", "deformed.vtu", "displacement.nii.gz", "preop_to_intraop.nrrd",
+                        "intraop_to_preop.nrrd", "warped_mri.nii.gz", "overlay.png"})
     EXPECT_TRUE(std::filesystem::exists(res / f)) << f;
   const auto report = read_json(res / "report.json");
   for (const char* k : {"timing", "iterations", "converged", "stop_reason", "constraints", "rigid"})

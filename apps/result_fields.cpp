@@ -1,0 +1,48 @@
+#include "result_fields.hpp"
+
+#include "core/error.hpp"
+#include "imaging/warping/warp_image.hpp"
+
+namespace brainshift::apps {
+
+ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
+                                   const imaging::VolumeF* mri) {
+  const core::TetMesh& mesh = s.model->mesh();
+  BS_VERIFY(r.positions.rows() == mesh.num_nodes(),
+            "the registration result has " << r.positions.rows() << " positions for " << mesh.num_nodes()
+                                           << " nodes");
+  ResultFields f;
+  f.intraop_from_model = r.rigid.transform.inverse();
+  f.u_intra.resize(mesh.num_nodes(), 3);
+  for (index_t i = 0; i < mesh.num_nodes(); ++i)
+    f.u_intra.row(i) =
+        (f.intraop_from_model * Vector3d(r.positions.row(i).transpose())).transpose() - mesh.nodes().row(i);
+
+  const imaging::ImageGeometry& preop = s.loaded.preop_grid;
+  imaging::DisplacementFieldOptions fo;
+  fo.rigid = f.intraop_from_model.matrix();
+  f.displacement = imaging::displacement_field(mesh, f.u_intra, preop, fo);
+
+  imaging::DisplacementFieldOptions slicer = fo;
+  slicer.extension_mm = imaging::trilinear_support_mm(preop);
+  f.intraop_to_preop = imaging::displacement_field(mesh, f.u_intra, preop, slicer);
+  // Where pre-operative content is now: the rigidly moved pre-operative grid and the deformed brain.
+  MatrixX3d now(8 + mesh.num_nodes(), 3);
+  for (int c = 0; c < 8; ++c) {
+    const Vector3d ijk((c & 1) ? preop.size[0] - 1 : 0, (c & 2) ? preop.size[1] - 1 : 0,
+                       (c & 4) ? preop.size[2] - 1 : 0);
+    now.row(c) = (f.intraop_from_model * preop.index_to_world(ijk)).transpose();
+  }
+  now.bottomRows(mesh.num_nodes()) = mesh.nodes() + f.u_intra;
+  const imaging::ImageGeometry intra = imaging::covering_grid(preop, now, /*margin_mm=*/0.0);
+  f.preop_to_intraop = imaging::inverse_displacement_field(mesh, f.u_intra, intra, slicer);
+
+  if (mri) {
+    imaging::WarpOptions wo;
+    wo.rigid = f.intraop_from_model.matrix();
+    f.warped_mri = imaging::warp_image(*mri, mesh, f.u_intra, wo);
+  }
+  return f;
+}
+
+}  // namespace brainshift::apps

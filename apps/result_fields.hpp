@@ -1,0 +1,47 @@
+#pragma once
+/// @file
+/// @brief The fields and images of a registration result, computed in memory, in the frames
+/// users apply them in. Written by `brainshift register` (RES/) and by the Slicer module
+/// BrainshiftRegister (at the paths Slicer gives).
+///
+/// Frames (README "Frames"): the model is the pre-operative frame; the rigid start T maps
+/// intra-operative points into it (rigid.model_from_intraop). A pre-operative point X is now at
+/// φ(X) = T⁻¹ (X + u(X)) in the intra-operative frame, with u the registration's nodal
+/// displacement interpolated on the mesh; outside the brain φ is the rigid part T⁻¹ alone.
+///
+/// Two kinds of displacement field, both sampled exactly at voxel centres by rasterising the
+/// mesh's tetrahedra (imaging/warping/warp_image.hpp), vectors and grids in world RAS here
+/// (the Slicer files are converted to LPS when written):
+/// - forward, on the pre-operative grid: d(X) = φ(X) − X (displacement.nii.gz; with the extension
+///   below also intraop_to_preop.nrrd, which moves intra-operative content onto the MRI);
+/// - resampling (ITK / Slicer sense, "transform from parent"), on a grid covering the
+///   intra-operative brain and everything of the pre-operative grid: v(y) = φ⁻¹(y) − y, so
+///   y + v(y) is the pre-operative point now at y (preop_to_intraop.nrrd: applied to pre-operative
+///   content, it shows it where it is now).
+/// The Slicer fields extend the brain's map trilinear_support_mm() beyond the mesh, so that
+/// trilinear interpolation anywhere in the brain blends no rigid-part values across its surface.
+
+#include <optional>
+
+#include "cmd_register.hpp"
+#include "constraints/registration/registration.hpp"
+#include "imaging/io/volume.hpp"
+
+namespace brainshift::apps {
+
+/// Everything register writes apart from the report, overlay and mesh file.
+struct ResultFields {
+  Eigen::Isometry3d intraop_from_model;  ///< T⁻¹: model (pre-operative) → intra-operative frame
+  MatrixX3d u_intra;                     ///< #N×3: φ(X_n) − X_n at the mesh nodes, mm
+  imaging::VolumeF displacement;         ///< d = φ(X) − X on the pre-op grid (displacement.nii.gz)
+  imaging::VolumeF intraop_to_preop;     ///< d on the pre-op grid, extended beyond the brain
+  imaging::VolumeF preop_to_intraop;     ///< v = φ⁻¹(y) − y on a grid over the intra-op brain
+  std::optional<imaging::VolumeF> warped_mri;  ///< the MRI pulled through φ⁻¹ (with an MRI)
+};
+
+/// Computes the fields of a result (and warps `mri` when given, on its own grid).
+/// \throws brainshift::Error when the result's positions do not fit the model.
+ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
+                                   const imaging::VolumeF* mri);
+
+}  // namespace brainshift::apps
