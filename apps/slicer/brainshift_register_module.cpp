@@ -47,39 +47,90 @@ bool has_extension(const std::filesystem::path& p, const std::string& ext) {
   return name.size() >= ext.size() && name.compare(name.size() - ext.size(), ext.size(), ext) == 0;
 }
 
-int register_body(const Values& v, const ProgressReport& progress) {
-  const auto t0 = Clock::now();
-  const std::filesystem::path model = v.at("model");
-  const std::filesystem::path doppler = v.at("doppler");
-  const auto bmode = optional_path(v, "bmode");
-  const auto mri_path = optional_path(v, "preopMRI");
-  const auto warped_path = optional_path(v, "warpedMRI");
-  const auto to_intra_path = optional_path(v, "preopToIntraop");
-  const auto to_pre_path = optional_path(v, "intraopToPreop");
-  const auto report_path = optional_path(v, "reportFile");
-  const auto result_dir = optional_path(v, "resultDirectory");
+/// The module's paths (absent: not given).
+struct RegisterPaths {
+  std::filesystem::path model, doppler;
+  std::optional<std::filesystem::path> bmode, mri, warped, to_intra, to_pre, report, result_dir;
+};
 
-  // Everything that can be checked before the long work.
-  BS_VERIFY(warped_path || to_intra_path || to_pre_path || report_path || result_dir,
+RegisterPaths paths_of(const Values& v) {
+  RegisterPaths p;
+  p.model = v.at("model");
+  p.doppler = v.at("doppler");
+  p.bmode = optional_path(v, "bmode");
+  p.mri = optional_path(v, "preopMRI");
+  p.warped = optional_path(v, "warpedMRI");
+  p.to_intra = optional_path(v, "preopToIntraop");
+  p.to_pre = optional_path(v, "intraopToPreop");
+  p.report = optional_path(v, "reportFile");
+  p.result_dir = optional_path(v, "resultDirectory");
+  return p;
+}
+
+/// Everything that can be checked before the long work. \throws brainshift::Error, one line.
+void check_outputs(const RegisterPaths& p) {
+  BS_VERIFY(p.warped || p.to_intra || p.to_pre || p.report || p.result_dir,
             "no output requested: give at least one of --warpedMRI, --preopToIntraop, --intraopToPreop, "
             "--reportFile, --resultDirectory");
-  BS_VERIFY(!warped_path || mri_path, warped_path->string() << ": the warped MRI needs the pre-operative MRI "
-                                                               "(--preopMRI)");
-  for (const auto& t : {to_intra_path, to_pre_path})
+  BS_VERIFY(!p.warped || p.mri, p.warped->string() << ": the warped MRI needs the pre-operative MRI (--preopMRI)");
+  for (const auto& t : {p.to_intra, p.to_pre})
     if (t) BS_VERIFY(has_extension(*t, ".nrrd"), t->string() << ": a transform is written as a .nrrd displacement field");
-  for (const auto& p : {warped_path, to_intra_path, to_pre_path, report_path})
-    if (p) imaging::verify_writable(*p);
-  if (result_dir) {
-    verify_output_folder(*result_dir);
-    verify_replaceable_folder(*result_dir, "report.json");
+  for (const auto& f : {p.warped, p.to_intra, p.to_pre, p.report})
+    if (f) imaging::verify_writable(*f);
+  if (p.result_dir) {
+    verify_output_folder(*p.result_dir);
+    verify_replaceable_folder(*p.result_dir, "report.json");
   }
+}
 
-  progress("loading the model " + model.string(), 0.05);
-  Session s = open_session(model);
-  progress("extracting vessels" + std::string(bmode ? " and the probe footprint" : ""), 0.25);
-  const IntraopInputs in = read_intraop(s, doppler, bmode);
+/// Writes the requested outputs, all or none.
+void write_outputs(const RegisterPaths& p, const Session& s, const constraints::RegistrationResult& r,
+                   const IntraopInputs& in, const imaging::VolumeF* mri, const ResultFields& f,
+                   Clock::time_point t_out, double seconds_fields) {
+  StagedOutputs outputs;
+  if (p.warped) {
+    outputs.add(*p.warped, [&](const std::filesystem::path& tmp) {
+      // Slicer's own convention for NRRD volumes is LPS; other formats by their extension.
+      if (has_extension(*p.warped, ".nrrd")) imaging::write_nrrd(tmp, *f.warped_mri, imaging::NrrdSpace::LPS);
+      else imaging::write_volume(tmp, *f.warped_mri);
+    });
+  }
+  if (p.to_intra)
+    outputs.add(*p.to_intra, [&](const std::filesystem::path& tmp) {
+      imaging::write_displacement_for_slicer(tmp, f.preop_to_intraop);
+    });
+  if (p.to_pre)
+    outputs.add(*p.to_pre, [&](const std::filesystem::path& tmp) {
+      imaging::write_displacement_for_slicer(tmp, f.intraop_to_preop);
+    });
+  const nlohmann::json extra = {{"slicer_module", "BrainshiftRegister"}};
+  if (p.report) {
+    nlohmann::json report = result_report(s, r, in, extra);
+    report["timing"]["outputs"] = since(t_out);
+    double total = 0;
+    for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();
+    report["timing"]["total"] = total;
+    outputs.add(*p.report, [&](const std::filesystem::path& tmp) {
+      std::ofstream o(tmp);
+      o << report.dump(2) << '\n';
+      o.close();
+      BS_VERIFY(o.good(), p.report->string() << ": cannot write the report");
+    });
+  }
+  if (p.result_dir) write_result(*p.result_dir, s, r, in, mri, f, extra, seconds_fields);
+  outputs.commit();
+}
+
+int register_body(const Values& v, const ProgressReport& progress) {
+  const auto t0 = Clock::now();
+  const RegisterPaths p = paths_of(v);
+  check_outputs(p);
+  progress("loading the model " + p.model.string(), 0.05);
+  Session s = open_session(p.model);
+  progress("extracting vessels" + std::string(p.bmode ? " and the probe footprint" : ""), 0.25);
+  const IntraopInputs in = read_intraop(s, p.doppler, p.bmode);
   const std::optional<imaging::VolumeF> mri =
-      mri_path ? std::optional<imaging::VolumeF>(read_preop_mri(s, *mri_path)) : std::nullopt;
+      p.mri ? std::optional<imaging::VolumeF>(read_preop_mri(s, *p.mri)) : std::nullopt;
   constraints::RegistrationOptions options = s.loaded.scene.options;
   const std::string init = v.count("init") ? v.at("init") : "scene";
   if (init == "rigid") options.start = constraints::RigidStart::RIGID;
@@ -92,40 +143,8 @@ int register_body(const Values& v, const ProgressReport& progress) {
   progress("computing the transforms" + std::string(mri ? " and the warped MRI" : ""), 0.7);
   const auto t_out = Clock::now();
   const ResultFields f = compute_result_fields(s, r, mri ? &*mri : nullptr);
-  const double seconds_fields = since(t_out);
   progress("writing the outputs", 0.85);
-  StagedOutputs outputs;
-  if (warped_path) {
-    outputs.add(*warped_path, [&](const std::filesystem::path& tmp) {
-      // Slicer's own convention for NRRD volumes is LPS; other formats by their extension.
-      if (has_extension(*warped_path, ".nrrd")) imaging::write_nrrd(tmp, *f.warped_mri, imaging::NrrdSpace::LPS);
-      else imaging::write_volume(tmp, *f.warped_mri);
-    });
-  }
-  if (to_intra_path)
-    outputs.add(*to_intra_path, [&](const std::filesystem::path& tmp) {
-      imaging::write_displacement_for_slicer(tmp, f.preop_to_intraop);
-    });
-  if (to_pre_path)
-    outputs.add(*to_pre_path, [&](const std::filesystem::path& tmp) {
-      imaging::write_displacement_for_slicer(tmp, f.intraop_to_preop);
-    });
-  const nlohmann::json extra = {{"slicer_module", "BrainshiftRegister"}};
-  if (report_path) {
-    nlohmann::json report = result_report(s, r, in, extra);
-    report["timing"]["outputs"] = since(t_out);
-    double total = 0;
-    for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();
-    report["timing"]["total"] = total;
-    outputs.add(*report_path, [&](const std::filesystem::path& tmp) {
-      std::ofstream o(tmp);
-      o << report.dump(2) << '\n';
-      o.close();
-      BS_VERIFY(o.good(), report_path->string() << ": cannot write the report");
-    });
-  }
-  if (result_dir) write_result(*result_dir, s, r, in, mri ? &*mri : nullptr, f, extra, seconds_fields);
-  outputs.commit();
+  write_outputs(p, s, r, in, mri ? &*mri : nullptr, f, t_out, since(t_out));
 
   std::cout << "registered in " << r.iterations << " iterations (" << r.stop_reason << "); registration "
             << r.seconds.total << " s, total " << since(t0) << " s; max displacement "
