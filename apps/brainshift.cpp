@@ -24,6 +24,9 @@
 //       Speed against error on the phantom cases (baselines rigid_only and prescribed_displacement) and
 //       sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and constraint
 //       sets: DIR/{results.csv, results.json, results.md, pareto.png}.
+//   brainshift extract vessels --image FILE --out SKELETON.vtp [--report REPORT.json] [--png MIP.png]
+//       One extraction alone, to check an input: the vessel skeleton of an MRA, CTA or power
+//       Doppler (as prepare writes vessels.vtp), a report and a maximum-intensity projection.
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv
 //                       [--gravity 0,0,-9810] [--linear] [--max-iterations 200]
 //                       [--tolerance 1e-6] [--write-unconverged] --out result.vtu
@@ -45,6 +48,7 @@
 #include "cmd_bench.hpp"
 #include "cmd_demo.hpp"
 #include "cmd_evaluate.hpp"
+#include "cmd_extract.hpp"
 #include "cmd_phantom.hpp"
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
@@ -73,6 +77,10 @@ int main(int argc, char** argv) {
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
   apps::BenchArgs bench_args;
   const CLI::App* bench = apps::add_bench_command(app, bench_args);
+  // `extract` and its subcommands, one file each (cmd_extract*.cpp).
+  CLI::App* extract = apps::add_extract_command(app);
+  apps::ExtractVesselsArgs extract_vessels_args;
+  const CLI::App* extract_vessels = apps::add_extract_vessels_command(*extract, extract_vessels_args);
 
   try {
     app.parse(argc, argv);
@@ -94,6 +102,7 @@ int main(int argc, char** argv) {
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
+    if (extract_vessels->parsed()) return apps::run_extract_vessels(extract_vessels_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;

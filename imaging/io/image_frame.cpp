@@ -1,6 +1,9 @@
 #include "imaging/io/image_frame.hpp"
 
 #include <cmath>
+#include <sstream>
+
+#include <Eigen/SVD>
 
 namespace brainshift::imaging {
 
@@ -19,9 +22,11 @@ void flip_vectors_lps_ras(Volume<float>& volume) {
   }
 }
 
+double orthonormality_error(const Matrix3d& direction) {
+  return (direction.transpose() * direction - Matrix3d::Identity()).cwiseAbs().maxCoeff();
+}
+
 void verify_geometry(const ImageGeometry& geometry, const std::string& file) {
-  // Float headers (NIfTI, VTK) store directions to ~1e-7; hand-edited ones to a few digits.
-  constexpr double orthonormal_tolerance = 1e-3;
   const Eigen::Vector3i& n = geometry.size;
   BS_VERIFY(n.minCoeff() > 0, file << ": zero-size image (" << n[0] << "×" << n[1] << "×" << n[2]
                                    << " voxels)");
@@ -34,11 +39,25 @@ void verify_geometry(const ImageGeometry& geometry, const std::string& file) {
             file << ": non-finite direction matrix (rows: "
                  << geometry.direction.row(0) << "; " << geometry.direction.row(1) << "; "
                  << geometry.direction.row(2) << ")");
-  const double error =
-      (geometry.direction.transpose() * geometry.direction - Matrix3d::Identity()).cwiseAbs().maxCoeff();
-  BS_VERIFY(error <= orthonormal_tolerance,
-            file << ": direction matrix is not orthonormal (|DᵀD − I| = " << error
-                 << "; sheared or scaled grids are not supported)");
+  const double error = orthonormality_error(geometry.direction);
+  BS_VERIFY(std::abs(geometry.direction.determinant()) > 1e-6,
+            file << ": direction matrix is singular (determinant " << geometry.direction.determinant()
+                 << "; two image axes are parallel)");
+  BS_VERIFY(error <= direction_orthonormal_tolerance,
+            file << ": direction matrix is not orthonormal (|DᵀD − I| = " << error << " > "
+                 << direction_orthonormal_tolerance << "; sheared or scaled grids are not supported)");
+}
+
+std::string orthonormalise_direction(ImageGeometry& geometry, const std::string& file) {
+  const double error = orthonormality_error(geometry.direction);
+  if (error == 0.0) return {};
+  const Eigen::JacobiSVD<Matrix3d> svd(geometry.direction, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  geometry.direction = svd.matrixU() * svd.matrixV().transpose();
+  if (error <= direction_note_level) return {};
+  std::ostringstream note;
+  note << file << ": direction matrix orthonormal only to |DᵀD − I| = " << error
+       << " (single-precision header); re-orthonormalised (nearest rotation)";
+  return note.str();
 }
 
 }  // namespace brainshift::imaging

@@ -346,16 +346,22 @@ ImageFormat image_format(const std::filesystem::path& path) {
                             ".mhd, .nrrd, .vti)");
 }
 
-VolumeF read_volume(const std::filesystem::path& path) {
+VolumeF read_volume(const std::filesystem::path& path, std::string* header_note) {
   const ImageFormat format = image_format(path);
   verify_readable(path);
-  switch (format) {
-    case ImageFormat::NIFTI: return read_nifti(path);
-    case ImageFormat::METAIMAGE: return read_metaimage(path);
-    case ImageFormat::NRRD: return read_nrrd(path);
-    case ImageFormat::VTI: return read_vti(path);
-  }
-  BS_UNREACHABLE();
+  VolumeF volume = [&] {
+    switch (format) {
+      case ImageFormat::NIFTI: return read_nifti(path);
+      case ImageFormat::METAIMAGE: return read_metaimage(path);
+      case ImageFormat::NRRD: return read_nrrd(path);
+      case ImageFormat::VTI: return read_vti(path);
+    }
+    BS_UNREACHABLE();
+  }();
+  const std::string note = orthonormalise_direction(volume.geometry, path.string());
+  if (!note.empty()) logger().warn("{}", note);
+  if (header_note != nullptr) *header_note = note;
+  return volume;
 }
 
 LabelVolume read_labels(const std::filesystem::path& path) {

@@ -25,6 +25,7 @@
 /// are copied as they are.
 
 #include <filesystem>
+#include <string>
 
 #include "imaging/io/volume.hpp"
 
@@ -37,12 +38,16 @@ enum class ImageFormat { NIFTI, METAIMAGE, NRRD, VTI };
 /// \throws brainshift::Error naming the file and the supported extensions when unknown.
 ImageFormat image_format(const std::filesystem::path& path);
 
-/// Reads a volume (any voxel type, converted to float) into world RAS, mm.
+/// Reads a volume (any voxel type, converted to float) into world RAS, mm. A direction matrix
+/// orthonormal only to single precision (|DᵀD − I| ≤ 1e-4, image_frame.hpp) is replaced by the
+/// nearest orthonormal one; a real shear or a singular matrix is an error.
+/// @param[out] header_note  when not null: a one-line note naming the file when the header was
+/// mended beyond float rounding (orthonormalise_direction()), else empty. Also logged.
 /// @return the volume; `components` ≥ 1 values per voxel.
 /// \throws brainshift::Error, one line naming the file and the problem: missing file, unknown
 /// extension, corrupt or truncated data, zero size, non-finite or non-positive spacing,
-/// non-finite or non-orthonormal direction.
-VolumeF read_volume(const std::filesystem::path& path);
+/// non-finite, singular or sheared direction.
+VolumeF read_volume(const std::filesystem::path& path, std::string* header_note = nullptr);
 
 /// Reads a label volume: one component, every value in {0, 1, 2, 3} (see Label).
 /// \throws brainshift::Error as read_volume(), and naming the first other value and its voxel.

@@ -10,6 +10,7 @@ namespace brainshift::imaging {
 
 /// How a vessel threshold is chosen from the histogram.
 enum class ThresholdMethod {
+  VESSEL_CONTRAST,  ///< from the tubes themselves (vessel_threshold.hpp), not the histogram
   TISSUE_PEAK,  ///< just after the tissue peak (seed 002): see tissue_peak_threshold()
   OTSU,         ///< Otsu's between-class-variance maximum (N. Otsu, IEEE SMC 9(1), 1979)
 };

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/logger.hpp"
+#include "imaging/filters/gaussian.hpp"
 #include "imaging/vessels/distance_transform.hpp"
 #include "imaging/vessels/thinning.hpp"
 
@@ -58,65 +59,6 @@ std::vector<std::int64_t> label_components(const Mask& mask, std::vector<int>& l
   return sizes;
 }
 
-/// Separable Gaussian filter, standard deviation `sigma_mm` along each axis (in that axis's
-/// spacing); weights renormalised at the volume's faces; non-finite voxels enter as 0 and stay
-/// non-finite.
-VolumeF gaussian_prefilter(const VolumeF& image, double sigma_mm) {
-  VolumeF out = image;
-  for (float& v : out.data)
-    if (!std::isfinite(v)) v = 0.0F;
-  const Eigen::Vector3i n = image.geometry.size;
-  const std::int64_t stride[3] = {1, n[0], std::int64_t(n[0]) * n[1]};
-  std::vector<double> line, filtered;
-  for (int axis = 0; axis < 3; ++axis) {
-    const double s = sigma_mm / image.geometry.spacing[axis];
-    if (s < 0.05 || n[axis] < 2) continue;  // a filter narrower than 1/20 voxel is the identity
-    const int r = std::max(1, int(std::ceil(3.0 * s)));
-    std::vector<double> w(std::size_t(2 * r + 1));
-    for (int d = -r; d <= r; ++d) w[std::size_t(d + r)] = std::exp(-0.5 * d * d / (s * s));
-    const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-    line.resize(std::size_t(n[axis]));
-    filtered.resize(std::size_t(n[axis]));
-    for (int q = 0; q < n[a2]; ++q)
-      for (int p = 0; p < n[a1]; ++p) {
-        const std::int64_t start = std::int64_t(p) * stride[a1] + std::int64_t(q) * stride[a2];
-        for (int t = 0; t < n[axis]; ++t) line[std::size_t(t)] = out.data[std::size_t(start + t * stride[axis])];
-        for (int t = 0; t < n[axis]; ++t) {
-          double sum = 0.0, weight = 0.0;
-          for (int d = std::max(-r, -t); d <= std::min(r, n[axis] - 1 - t); ++d) {
-            sum += w[std::size_t(d + r)] * line[std::size_t(t + d)];
-            weight += w[std::size_t(d + r)];
-          }
-          filtered[std::size_t(t)] = sum / weight;
-        }
-        for (int t = 0; t < n[axis]; ++t) out.data[std::size_t(start + t * stride[axis])] = float(filtered[std::size_t(t)]);
-      }
-  }
-  for (std::size_t v = 0; v < out.data.size(); ++v)
-    if (!std::isfinite(image.data[v])) out.data[v] = image.data[v];
-  return out;
-}
-
-/// The factor by which gaussian_prefilter() scales the standard deviation of white noise:
-/// the product over the axes of √(Σ w²) of the normalised 1-D kernel.
-double prefilter_noise_gain(const ImageGeometry& g, double sigma_mm) {
-  double gain = 1.0;
-  if (!(sigma_mm > 0.0)) return gain;
-  for (int axis = 0; axis < 3; ++axis) {
-    const double s = sigma_mm / g.spacing[axis];
-    if (s < 0.05 || g.size[axis] < 2) continue;
-    const int r = std::max(1, int(std::ceil(3.0 * s)));
-    double sum = 0.0, sum2 = 0.0;
-    for (int d = -r; d <= r; ++d) {
-      const double w = std::exp(-0.5 * d * d / (s * s));
-      sum += w;
-      sum2 += w * w;
-    }
-    gain *= std::sqrt(sum2) / sum;
-  }
-  return gain;
-}
-
 /// Robust location and scale of the tissue/noise: median and 1.4826 × MAD of the finite voxels
 /// above the image minimum. Nothing when fewer than 16 such voxels or a zero MAD.
 std::optional<std::pair<double, double>> robust_noise(const VolumeF& image) {
@@ -142,6 +84,7 @@ std::optional<std::pair<double, double>> robust_noise(const VolumeF& image) {
 std::pair<double, std::string> choose_threshold(const VolumeF& image,
                                                 const VesselExtractionOptions& options) {
   if (std::isfinite(options.threshold)) return {options.threshold, "given"};
+  if (options.threshold_method == ThresholdMethod::VESSEL_CONTRAST) return {std::nan(""), ""};
   if (options.threshold_method == ThresholdMethod::TISSUE_PEAK) {
     if (const auto t = tissue_peak_threshold(image, options.tail_fraction, options.histogram))
       return {*t, "tissue peak"};
@@ -248,30 +191,50 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     logger().warn("vessel extraction: {} non-finite voxels treated as background",
                   result.non_finite_voxels);
 
-  const VolumeF filtered_storage =
-      options.prefilter_sigma_mm > 0.0 ? gaussian_prefilter(image, options.prefilter_sigma_mm) : VolumeF{};
+  const VolumeF filtered_storage = options.prefilter_sigma_mm > 0.0
+                                       ? filters::gaussian_filter(image, options.prefilter_sigma_mm)
+                                       : VolumeF{};
   const VolumeF& filtered = options.prefilter_sigma_mm > 0.0 ? filtered_storage : image;
 
-  std::tie(result.threshold, result.threshold_rule) = choose_threshold(image, options);
-  if (!std::isfinite(result.threshold))
-    return empty_result(result, "no threshold: the image has fewer than two distinct finite values");
   double seed_threshold = -std::numeric_limits<double>::infinity();
-  if (!std::isfinite(options.threshold) && (options.noise_floor_k > 0.0 || options.hysteresis_k > 0.0)) {
-    if (auto noise = robust_noise(image)) {
-      // Measured on the raw image (the filtered one has halos round every bright structure),
-      // scaled to the filtered image as for white noise.
-      noise->second *= prefilter_noise_gain(image.geometry, options.prefilter_sigma_mm);
-      result.noise_median = noise->first;
-      result.noise_sigma = noise->second;
-      const double floor = noise->first + options.noise_floor_k * noise->second;
-      if (options.noise_floor_k > 0.0 && floor > result.threshold) {
-        result.threshold = floor;
-        result.threshold_rule = "noise floor";
-      }
-      if (options.hysteresis_k > 0.0) {
-        seed_threshold = std::max(result.threshold, noise->first + options.hysteresis_k * noise->second);
-        result.seed_threshold = seed_threshold;
-        result.threshold_rule += " + hysteresis";
+  VesselContrast contrast;
+  if (!std::isfinite(options.threshold) && options.threshold_method == ThresholdMethod::VESSEL_CONTRAST) {
+    contrast = vessel_contrast_threshold(image, filtered, options.contrast);
+    result.vessel_level = contrast.vessel_level;
+    result.noise_median = contrast.background_level;
+    result.noise_sigma = contrast.noise_sigma;
+    result.background_suppressed = contrast.background_suppressed;
+    result.masked_fraction = contrast.masked_fraction;
+    if (!std::isfinite(contrast.threshold)) return empty_result(result, contrast.empty_reason);
+    result.threshold = contrast.threshold;
+    result.threshold_rule = contrast.rule;
+    if (!contrast.warning.empty()) result.warnings.push_back(contrast.warning);
+    if (options.hysteresis_k > 0.0) {
+      seed_threshold = std::max(result.threshold, contrast.background_level + options.hysteresis_k * contrast.noise_sigma);
+      result.seed_threshold = seed_threshold;
+      result.threshold_rule += " + hysteresis";
+    }
+  } else {
+    std::tie(result.threshold, result.threshold_rule) = choose_threshold(image, options);
+    if (!std::isfinite(result.threshold))
+      return empty_result(result, "no threshold: the image has fewer than two distinct finite values");
+    if (!std::isfinite(options.threshold) && (options.noise_floor_k > 0.0 || options.hysteresis_k > 0.0)) {
+      if (auto noise = robust_noise(image)) {
+        // Measured on the raw image (the filtered one has halos round every bright structure),
+        // scaled to the filtered image as for white noise.
+        noise->second *= filters::gaussian_noise_gain(image.geometry, options.prefilter_sigma_mm);
+        result.noise_median = noise->first;
+        result.noise_sigma = noise->second;
+        const double floor = noise->first + options.noise_floor_k * noise->second;
+        if (options.noise_floor_k > 0.0 && floor > result.threshold) {
+          result.threshold = floor;
+          result.threshold_rule = "noise floor";
+        }
+        if (options.hysteresis_k > 0.0) {
+          seed_threshold = std::max(result.threshold, noise->first + options.hysteresis_k * noise->second);
+          result.seed_threshold = seed_threshold;
+          result.threshold_rule += " + hysteresis";
+        }
       }
     }
   }
@@ -312,6 +275,24 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     for (std::size_t c = 0; c < sizes.size(); ++c)
       if (seeded[c + 1] == 0) sizes[c] = 0;
   }
+  if (contrast.vesselness_max > 0.0 && options.min_tubular_fraction > 0.0) {
+    // Shape rule: the share of each component's voxels in tubular vesselness cells.
+    std::vector<std::int64_t> tubular(sizes.size() + 1, 0);
+    const VolumeF& v = contrast.vesselness;
+    const float level = float(options.tubular_vesselness * contrast.vesselness_max);
+    for (int k = lo[2]; k <= hi[2]; ++k)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int i = lo[0]; i <= hi[0]; ++i) {
+          const int c = label[std::size_t(mask.geometry.linear_index(i - lo[0], j - lo[1], k - lo[2]))];
+          if (c != 0 && v.at(i / contrast.factor[0], j / contrast.factor[1], k / contrast.factor[2]) >= level)
+            ++tubular[std::size_t(c)];
+        }
+    for (std::size_t c = 0; c < sizes.size(); ++c)
+      if (sizes[c] > 0 && double(tubular[c + 1]) < options.min_tubular_fraction * double(sizes[c])) {
+        if (double(sizes[c]) * g.spacing.prod() >= options.min_component_mm3) ++result.components_not_tubular;
+        sizes[c] = 0;
+      }
+  }
   const double voxel_mm3 = g.spacing.prod();
   std::vector<int> order(sizes.size());
   std::iota(order.begin(), order.end(), 0);
@@ -327,7 +308,9 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
   if (result.components_kept == 0) {
     std::ostringstream why;
     why << "no component of at least " << options.min_component_mm3 << " mm³ above the threshold "
-        << result.threshold << " (" << result.components_found << " smaller ones)";
+        << result.threshold << " (" << result.components_found << " found";
+    if (result.components_not_tubular > 0) why << ", " << result.components_not_tubular << " large but not tubular";
+    why << ")";
     return empty_result(result, why.str());
   }
   for (std::size_t v = 0; v < mask.data.size(); ++v) mask.data[v] = keep[std::size_t(label[v])];
@@ -354,6 +337,13 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
   if (result.branch_count == 0)
     return empty_result(result, "the kept components thin to isolated points (no branch)");
   result.status = VesselStatus::OK;
+  if (result.total_length_mm < options.few_vessels_mm) {
+    std::ostringstream few;
+    few << "few vessels: " << result.branch_count << " branches, " << result.total_length_mm << " mm in all (less than "
+        << options.few_vessels_mm << " mm)";
+    result.warnings.push_back(few.str());
+  }
+  for (const std::string& w : result.warnings) logger().warn("vessel extraction: {}", w);
   std::ostringstream summary;
   summary << "threshold " << result.threshold << " (" << result.threshold_rule << "), "
           << result.components_kept << "/" << result.components_found << " components, "

@@ -1,18 +1,22 @@
 #pragma once
 /// @file
-/// @brief Vessel centrelines from an angiogram (MRA) or a power-Doppler volume: Gaussian
-/// pre-filter → histogram threshold raised to a robust noise floor → connected components above
-/// a minimum size → exact distance transform (radii) → topological thinning → skeleton graph →
-/// spur pruning → removal of pieces too short for their calibre (blobs) → smoothing → resampling.
-/// Positions in world RAS mm, radii in mm.
+/// @brief Vessel centrelines from an angiogram (MRA, CTA; raw, skull-stripped or
+/// background-suppressed; any integer or float range) or a power-Doppler volume: Gaussian
+/// pre-filter → threshold from the vessels' own contrast above the background, never below a
+/// robust noise floor (vessel_threshold.hpp) → connected components above a minimum size and
+/// tubular enough (Frangi vesselness: skin, fat and other plates go) → exact distance transform
+/// (radii) → topological thinning → skeleton graph → spur pruning → removal of pieces too short
+/// for their calibre (blobs) → smoothing → resampling. Positions in world RAS mm, radii in mm.
 
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "imaging/io/volume.hpp"
 #include "imaging/vessels/histogram_threshold.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
+#include "imaging/vessels/vessel_threshold.hpp"
 
 namespace brainshift::imaging {
 
@@ -20,8 +24,19 @@ namespace brainshift::imaging {
 struct VesselExtractionOptions {
   /// Intensity threshold (image units; vessels are ≥ it). NaN: chosen by `threshold_method`.
   double threshold = std::numeric_limits<double>::quiet_NaN();
-  /// Automatic threshold rule; when TISSUE_PEAK finds none, Otsu is used (and reported).
-  ThresholdMethod threshold_method = ThresholdMethod::TISSUE_PEAK;
+  /// Automatic threshold rule. VESSEL_CONTRAST: vessel_threshold.hpp. TISSUE_PEAK / OTSU (the
+  /// former rules, for comparison): from the histogram, raised to the noise floor below; when
+  /// TISSUE_PEAK finds none, Otsu is used (and reported).
+  ThresholdMethod threshold_method = ThresholdMethod::VESSEL_CONTRAST;
+  /// VESSEL_CONTRAST settings (vesselness scales and grid, seed level, contrast fraction).
+  VesselContrastOptions contrast;
+  /// VESSEL_CONTRAST: a kept component must have at least this share of its voxels in cells of
+  /// vesselness ≥ tubular_vesselness × the maximum (plates such as the scalp's fat have none
+  /// away from their rims); 0: no shape rule on components.
+  double min_tubular_fraction = 0.1;
+  double tubular_vesselness = 0.1;
+  /// A result whose total length is below this is reported with a "few vessels" warning, mm.
+  double few_vessels_mm = 50.0;
   /// TISSUE_PEAK: the count, relative to the tissue peak's, below which the tail starts.
   double tail_fraction = 0.02;
   HistogramOptions histogram;
@@ -30,12 +45,12 @@ struct VesselExtractionOptions {
   /// several voxels, so a filter of about one voxel averages the noise down (≈ 1/6 of its
   /// standard deviation at σ = 1 voxel) and barely moves a tube's axis.
   double prefilter_sigma_mm = 0.6;
-  /// Noise floor: the threshold is raised to at least median + noise_floor_k × σ̂ of the
-  /// (pre-filtered) image, σ̂ = 1.4826 × MAD over the voxels above the image minimum (the
-  /// minimum itself is masked-out background, e.g. outside an ultrasound field of view). Vessels
-  /// are a sparse bright tail, so median and MAD describe the tissue/noise. 0: no floor.
+  /// TISSUE_PEAK / OTSU noise floor (VESSEL_CONTRAST has its own, contrast.noise_floor_k): the
+  /// threshold is raised to at least median + noise_floor_k × σ̂, σ̂ = 1.4826 × MAD of the raw
+  /// image over the voxels above its minimum, scaled by the pre-filter's white-noise gain.
+  /// Vessels are a sparse bright tail, so median and MAD describe the tissue/noise. 0: no floor.
   double noise_floor_k = 8.0;
-  /// Hysteresis (Canny): a component is kept only when it reaches median + hysteresis_k × σ̂;
+  /// Hysteresis (Canny): a component is kept only when it reaches background + hysteresis_k × σ̂;
   /// 0: no hysteresis.
   double hysteresis_k = 0.0;
   /// 26-connected components smaller than this are noise, mm³ (20 mm³ ≈ 6 mm of a 1 mm-radius
@@ -73,8 +88,13 @@ struct VesselExtractionResult {
   std::string message;                          ///< why EMPTY; a one-line summary when OK
   VesselGraph graph;                            ///< world RAS mm; empty when EMPTY
   double threshold = std::numeric_limits<double>::quiet_NaN();  ///< intensity used
-  std::string threshold_rule;  ///< "given", "tissue peak", "Otsu", "Otsu (fallback)" or "noise floor"; "+ hysteresis" when seeded
-  double noise_median = std::numeric_limits<double>::quiet_NaN();  ///< of the filtered image
+  std::string threshold_rule;  ///< "given", "vessel contrast", "tissue peak", "Otsu", "Otsu (fallback)" or "noise floor"; "+ hysteresis" when seeded
+  double noise_median = std::numeric_limits<double>::quiet_NaN();  ///< background level b
+  double vessel_level = std::numeric_limits<double>::quiet_NaN();  ///< L (VESSEL_CONTRAST)
+  bool background_suppressed = false;           ///< VESSEL_CONTRAST found a suppressed background
+  double masked_fraction = 0.0;                 ///< share of finite voxels at the image minimum
+  int components_not_tubular = 0;               ///< dropped by the tubular-fraction rule
+  std::vector<std::string> warnings;            ///< weak but usable input (weak contrast, few vessels)
   double noise_sigma = std::numeric_limits<double>::quiet_NaN();   ///< 1.4826 × MAD
   double seed_threshold = std::numeric_limits<double>::quiet_NaN();  ///< hysteresis seeds
   std::int64_t non_finite_voxels = 0;           ///< NaN/inf voxels, treated as background

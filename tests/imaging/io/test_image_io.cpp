@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "expect_error.hpp"
+#include "imaging/io/image_frame.hpp"
 #include "temp_folder.hpp"
 
 namespace brainshift::imaging {
@@ -271,6 +272,49 @@ TEST(ImageIoErrors, NonFiniteSpacingAndZeroSizeAreRefused) {
   ImageGeometry bad = oblique_geometry();
   bad.spacing[1] = std::numeric_limits<double>::infinity();
   expect_error([&] { write_volume(dir / "inf.nii", VolumeF(bad)); }, {"inf.nii", "spacing"});
+}
+
+TEST(ImageIoHeaders, SinglePrecisionDirectionIsReorthonormalisedAndNoted) {
+  const tests::TempFolder dir;
+  for (const std::string ext : {".nii.gz", ".nrrd", ".mha"}) {
+    SCOPED_TRACE(ext);
+    // The TOF file: a float32 sform orthonormal only to 1.3e-6.
+    ImageGeometry g = oblique_geometry();
+    g.direction(0, 1) += 1.3e-6;
+    ASSERT_GT(orthonormality_error(g.direction), direction_note_level);
+    write_volume(dir / ("float" + ext), random_volume(g, 1));
+    std::string note;
+    const VolumeF v = read_volume(dir / ("float" + ext), &note);
+    EXPECT_NE(note.find("float" + ext), std::string::npos) << note;
+    EXPECT_NE(note.find("re-orthonormalised"), std::string::npos) << note;
+    // Mended to an exact rotation (double rounding), which moves no voxel centre by more than
+    // ≈ 1.3e-6 × the grid's extent (< 1e-4 mm here).
+    EXPECT_LT(orthonormality_error(v.geometry.direction), 1e-12);
+    EXPECT_GT(v.geometry.direction.determinant(), 0.0);
+    ImageGeometry expected = g;
+    expect_same_world(v.geometry, expected);
+
+    // A clean rotation stored in float is only rounded: no note.
+    write_volume(dir / ("clean" + ext), random_volume(oblique_geometry(), 1));
+    std::string clean_note = "unset";
+    (void)read_volume(dir / ("clean" + ext), &clean_note);
+    EXPECT_TRUE(clean_note.empty()) << clean_note;
+  }
+}
+
+TEST(ImageIoHeaders, RealShearAndSingularDirectionsAreStillErrors) {
+  const tests::TempFolder dir;
+  const std::string head = "NRRD0004\ntype: float\ndimension: 3\nspace: RAS\n";
+  // 1e-3 of shear (0.06°): ten times the single-precision allowance.
+  write_text(dir / "small_shear.nrrd", head + "sizes: 1 1 1\nspace directions: (1,0,0) (0.001,1,0) (0,0,1)\n"
+                                              "encoding: raw\n\nxxxx");
+  expect_error([&] { read_volume(dir / "small_shear.nrrd"); }, {"small_shear.nrrd", "not orthonormal"});
+  write_text(dir / "singular.nrrd", head + "sizes: 1 1 1\nspace directions: (1,0,0) (1,0,0) (0,0,1)\n"
+                                           "encoding: raw\n\nxxxx");
+  expect_error([&] { read_volume(dir / "singular.nrrd"); }, {"singular.nrrd", "singular"});
+  ImageGeometry sheared = oblique_geometry();
+  sheared.direction(0, 1) += 2e-4;
+  expect_error([&] { write_volume(dir / "sheared.nii", VolumeF(sheared)); }, {"sheared.nii", "orthonormal"});
 }
 
 TEST(ImageIoErrors, LabelOutsideTheFourValuesIsNamed) {

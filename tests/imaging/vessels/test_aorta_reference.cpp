@@ -149,10 +149,11 @@ TEST_F(AortaReference, SkeletonMatchesVmtkCenterline) {
                 vmtk_to_ours.within_limit_fraction(2 * voxel));
   logger().warn("aorta: ours (inside VMTK lumen, {:.0f} mm) → VMTK mean {:.2f} p95 {:.2f} max {:.2f} mm",
                 0.25 * double(inside.size()), ours_to_vmtk.mean, ours_to_vmtk.p95, ours_to_vmtk.max);
-  // Measured (Release, default options): VMTK→ours mean 0.69, p95 1.65, max 2.06 mm, 96.3 %
-  // within 2 voxels; ours→VMTK inside its lumen mean 1.56, p95 5.75 mm (side-branch stubs, see
-  // distances_within_lumen()). Bounds: the brief's aim (mean ≤ 1 voxel) for VMTK→ours, and the
-  // measured values plus ≈ 20 % margin.
+  // Measured (Release, default options, vessel-contrast threshold 1090): VMTK→ours mean 0.58,
+  // p95 1.18, max 2.00 mm, 98.7 % within 2 voxels; ours→VMTK inside its lumen mean 0.99, p95
+  // 3.75 mm (side-branch stubs, see distances_within_lumen()). With the former tissue-peak rule:
+  // 0.69, 1.65, 2.06 mm, 96.3 %; 1.56, 5.75 mm. Bounds: the brief's aim (mean ≤ 1 voxel) for
+  // VMTK→ours, and the former figures plus ≈ 20 % margin (both rules must pass).
   EXPECT_LE(vmtk_to_ours.mean, voxel);
   EXPECT_LE(vmtk_to_ours.p95, 2.0);
   EXPECT_GE(vmtk_to_ours.within_limit_fraction(2 * voxel), 0.93) << "main branches found";
@@ -162,6 +163,57 @@ TEST_F(AortaReference, SkeletonMatchesVmtkCenterline) {
   // inside VMTK's lumen is at least 80 % of VMTK's (two lines sharing their trunk, so VMTK's
   // summed length over-counts the shared part).
   EXPECT_GT(0.25 * double(inside.size()), 0.8 * 0.5 * vmtk.total_length());
+}
+
+/// The aorta as a background-suppressed angiogram: every voxel below `level` set to 0, the rest
+/// mapped linearly onto 100–254 and rounded to uint8 values, as the TOF file.
+VolumeF suppressed_uint8(const VolumeF& image, float level) {
+  const float top = *std::max_element(image.data.begin(), image.data.end());
+  VolumeF out = image;
+  for (float& v : out.data)
+    v = v < level ? 0.0F : std::round(100.0F + 154.0F * (v - level) / (top - level));
+  return out;
+}
+
+TEST_F(AortaReference, BackgroundSuppressedUint8AortaGivesTheSameSkeleton) {
+  const VolumeF image = read_volume(data_dir() / "aorta.mha");
+  const VesselGraph vmtk = read_skeleton_vtp(data_dir() / "aorta-centerline.vtp");
+  const VesselExtractionResult original = extract_vessels(image);
+  ASSERT_EQ(original.status, VesselStatus::OK) << original.message;
+  // The level is the one the data gave on the original (its vessel threshold): the scanner's
+  // suppression removes the background and keeps the vessels.
+  const VolumeF suppressed = suppressed_uint8(image, float(original.threshold));
+  const auto zero = std::count(suppressed.data.begin(), suppressed.data.end(), 0.0F);
+  logger().warn("suppressed aorta: level {:.0f}, {:.1f} % of voxels 0", original.threshold,
+                100.0 * double(zero) / double(suppressed.data.size()));
+  ASSERT_GE(double(zero) / double(suppressed.data.size()), 0.95);
+  const VesselExtractionResult r = extract_vessels(suppressed);
+  ASSERT_EQ(r.status, VesselStatus::OK) << r.message;
+  logger().warn("suppressed aorta: {}", r.message);
+  // The threshold lies inside the kept range (above the zeroed background, at most the maximum).
+  EXPECT_GT(r.threshold, 0.0);
+  EXPECT_LE(r.threshold, 254.0);
+  // Same skeleton: both ways, within the original's lumen scale.
+  const Stats to_original = stats(distances(r.graph, original.graph));
+  const Stats from_original = stats(distances(original.graph, r.graph));
+  const Stats vmtk_to_ours = stats(distances(vmtk, r.graph));
+  constexpr double voxel = 0.878906;  // mm, in-plane spacing
+  logger().warn("suppressed aorta: → original mean {:.2f} p95 {:.2f} mm; original → it mean {:.2f} p95 {:.2f} mm; "
+                "VMTK → it mean {:.2f} p95 {:.2f} mm; lengths {:.0f} / {:.0f} mm",
+                to_original.mean, to_original.p95, from_original.mean, from_original.p95, vmtk_to_ours.mean,
+                vmtk_to_ours.p95, r.total_length_mm, original.total_length_mm);
+  // Measured (Release): → original mean 0.61, p95 2.61 mm; original → it mean 0.57, p95 2.17 mm;
+  // lengths 845 / 837 mm. The differences are junction corners and branch ends that move by a
+  // voxel or two (the pre-filter sees a zero background instead of tissue). Bounds: mean within
+  // a voxel, p95 within 4 voxels, length within 10 %.
+  EXPECT_LE(to_original.mean, voxel);
+  EXPECT_LE(to_original.p95, 4.0 * voxel);
+  EXPECT_LE(from_original.mean, voxel);
+  EXPECT_LE(from_original.p95, 4.0 * voxel);
+  EXPECT_NEAR(r.total_length_mm, original.total_length_mm, 0.1 * original.total_length_mm);
+  // VMTK's traced vessels are found as in the original test.
+  EXPECT_LE(vmtk_to_ours.mean, voxel);
+  EXPECT_LE(vmtk_to_ours.p95, 2.0);
 }
 
 }  // namespace

@@ -126,7 +126,11 @@ TEST(VesselExtraction, ShortBumpIsPrunedAsASpur) {
 TEST(VesselExtraction, EmptyInputsGiveAnEmptyGraphWithAReason) {
   const VesselExtractionResult constant = extract_vessels(VolumeF(unit_grid({8, 8, 8}), 1, 5.0f));
   EXPECT_EQ(constant.status, VesselStatus::EMPTY);
-  EXPECT_NE(constant.message.find("fewer than two distinct"), std::string::npos) << constant.message;
+  EXPECT_NE(constant.message.find("no tubular structure"), std::string::npos) << constant.message;
+  VesselExtractionOptions histogram;
+  histogram.threshold_method = ThresholdMethod::OTSU;
+  const VesselExtractionResult flat = extract_vessels(VolumeF(unit_grid({8, 8, 8}), 1, 5.0f), histogram);
+  EXPECT_NE(flat.message.find("fewer than two distinct"), std::string::npos) << flat.message;
   EXPECT_TRUE(constant.graph.branches.empty());
 
   const VesselExtractionResult dark =
@@ -171,8 +175,15 @@ TEST(VesselExtraction, TissuePeakThresholdSeparatesNoisyBackgroundFromVessels) {
   for (float& v : image.data) v += tissue(rng);
   VesselExtractionOptions options;
   options.resample_step_mm = 2.5;
+  options.threshold_method = ThresholdMethod::TISSUE_PEAK;  // the former rule, still available
   const VesselExtractionResult r = extract_vessels(image, options);
   ASSERT_EQ(r.status, VesselStatus::OK) << r.message;
+  // The vessel-contrast rule (the default) puts it at the half-maximum: (200 + 1100) / 2 ± noise.
+  const VesselExtractionResult c = extract_vessels(image);
+  ASSERT_EQ(c.status, VesselStatus::OK) << c.message;
+  EXPECT_EQ(c.threshold_rule, "vessel contrast");
+  EXPECT_NEAR(c.threshold, 650.0, 100.0) << c.message;  // vessel level taken from voxels near the axis
+  EXPECT_EQ(c.branch_count, 1);
   // The noise floor (median + 8 σ̂ of the tissue, σ̂ scaled by the pre-filter's white-noise
   // gain ≈ 0.3) and the tissue-peak rule land close together; either may win.
   EXPECT_TRUE(r.threshold_rule == "tissue peak" || r.threshold_rule == "noise floor") << r.threshold_rule;
@@ -323,6 +334,7 @@ TEST(VesselExtraction, NoisyDopplerGivesTheCleanCentrelines) {
   // Not void: without the pre-filter, noise floor and shape rule (the former pipeline), the
   // noise floor passes the threshold and the "vessels" are many times longer.
   VesselExtractionOptions former;
+  former.threshold_method = ThresholdMethod::TISSUE_PEAK;
   former.prefilter_sigma_mm = 0.0;
   former.noise_floor_k = 0.0;
   former.min_piece_length_mm = 0.0;

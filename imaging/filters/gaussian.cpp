@@ -1,0 +1,163 @@
+#include "imaging/filters/gaussian.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#include "imaging/filters/parallel.hpp"
+
+namespace brainshift::imaging::filters {
+namespace {
+
+/// One pass of `kernel` along `axis` of `data` (grid `n`, in place). Order 0 renormalises the
+/// weights at the faces; other orders repeat the face voxel.
+void filter_axis(std::vector<float>& data, const Eigen::Vector3i& n, int axis, const std::vector<double>& kernel,
+                 bool renormalise) {
+  const int r = int(kernel.size() / 2);
+  const int len = n[axis];
+  const std::int64_t stride[3] = {1, n[0], std::int64_t(n[0]) * n[1]};
+  const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
+  // Lines in parallel, chunked by the slowest-varying other axis.
+  parallel_for(n[a2], [&](int q0, int q1) {
+    std::vector<double> line(std::size_t(len + 2 * r));
+    std::vector<float> out(static_cast<std::size_t>(len));
+    for (int q = q0; q < q1; ++q)
+      for (int p = 0; p < n[a1]; ++p) {
+        const std::int64_t start = std::int64_t(p) * stride[a1] + std::int64_t(q) * stride[a2];
+        const std::int64_t step = stride[axis];
+        // Padded copy: face voxels repeated (used by the derivative passes).
+        for (int t = -r; t < len + r; ++t)
+          line[std::size_t(t + r)] = data[std::size_t(start + std::clamp(t, 0, len - 1) * step)];
+        for (int t = 0; t < len; ++t) {
+          double sum = 0.0;
+          if (renormalise && (t < r || t >= len - r)) {
+            double weight = 0.0;
+            for (int d = std::max(-r, -t); d <= std::min(r, len - 1 - t); ++d) {
+              sum += kernel[std::size_t(d + r)] * line[std::size_t(t + d + r)];
+              weight += kernel[std::size_t(d + r)];
+            }
+            sum /= weight;
+          } else {
+            const double* x = &line[std::size_t(t)];
+            for (int d = 0; d <= 2 * r; ++d) sum += kernel[std::size_t(d)] * x[d];
+          }
+          out[std::size_t(t)] = float(sum);
+        }
+        for (int t = 0; t < len; ++t) data[std::size_t(start + t * step)] = out[std::size_t(t)];
+      }
+  });
+}
+
+}  // namespace
+
+std::vector<double> gaussian_kernel(double s, int order) {
+  BS_VERIFY(order >= 0 && order <= 2, "Gaussian kernel order must be 0, 1 or 2, got " << order);
+  if (!(s >= 0.05)) return {};
+  const int r = std::max(1, int(std::ceil(3.0 * s)));
+  std::vector<double> g(std::size_t(2 * r + 1));
+  double sum = 0.0;
+  for (int t = -r; t <= r; ++t) sum += g[std::size_t(t + r)] = std::exp(-0.5 * t * t / (s * s));
+  for (double& w : g) w /= sum;
+  if (order == 0) return g;
+  std::vector<double> k(g.size());
+  for (int t = -r; t <= r; ++t) {
+    const double w = g[std::size_t(t + r)];
+    k[std::size_t(t + r)] = order == 1 ? -t / (s * s) * w : (double(t) * t / (s * s * s * s) - 1.0 / (s * s)) * w;
+  }
+  // Exact moments on the sampled, truncated kernel: Σ t·k = −1 (order 1); Σ k = 0 and
+  // Σ t²·k = 2 (order 2), so ramps and parabolas are differentiated exactly.
+  if (order == 1) {
+    double m1 = 0.0;
+    for (int t = -r; t <= r; ++t) m1 += t * k[std::size_t(t + r)];
+    for (double& w : k) w /= -m1;
+  } else {
+    double m0 = 0.0;
+    for (const double w : k) m0 += w;
+    for (int t = -r; t <= r; ++t) k[std::size_t(t + r)] -= m0 * g[std::size_t(t + r)];
+    double m2 = 0.0;
+    for (int t = -r; t <= r; ++t) m2 += double(t) * t * k[std::size_t(t + r)];
+    for (double& w : k) w *= 2.0 / m2;
+  }
+  return k;
+}
+
+VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<int, 3>& order) {
+  BS_VERIFY(image.components == 1, "Gaussian filter needs a one-component volume, got " << image.components);
+  BS_VERIFY(sigma_mm >= 0.0 && std::isfinite(sigma_mm), "Gaussian filter σ must be ≥ 0 and finite, got " << sigma_mm);
+  for (const int o : order) BS_VERIFY(o >= 0 && o <= 2, "Gaussian derivative order must be 0, 1 or 2, got " << o);
+  BS_VERIFY(image.data.size() == std::size_t(image.geometry.voxel_count()),
+            "Gaussian filter: volume holds " << image.data.size() << " values for " << image.geometry.voxel_count()
+                                             << " voxels");
+  VolumeF out = image;
+  bool any_non_finite = false;
+  for (float& v : out.data)
+    if (!std::isfinite(v)) {
+      v = 0.0F;
+      any_non_finite = true;
+    }
+  const Eigen::Vector3i& n = image.geometry.size;
+  for (int axis = 0; axis < 3; ++axis) {
+    const double s = sigma_mm / image.geometry.spacing[axis];
+    std::vector<double> kernel = n[axis] >= 2 ? gaussian_kernel(s, order[std::size_t(axis)]) : std::vector<double>{};
+    if (kernel.empty() && order[std::size_t(axis)] > 0) {
+      // Narrow or absent smoothing: central differences (zero on a one-voxel axis).
+      kernel = order[std::size_t(axis)] == 1 ? std::vector<double>{0.5, 0.0, -0.5} : std::vector<double>{1.0, -2.0, 1.0};
+      if (n[axis] < 2) kernel = {0.0, 0.0, 0.0};
+    }
+    if (kernel.empty()) continue;
+    if (order[std::size_t(axis)] == 1) std::reverse(kernel.begin(), kernel.end());  // correlation → convolution
+    for (double& w : kernel) w /= (order[std::size_t(axis)] == 0 ? 1.0 : std::pow(image.geometry.spacing[axis], order[std::size_t(axis)]));
+    filter_axis(out.data, n, axis, kernel, order[std::size_t(axis)] == 0);
+  }
+  if (any_non_finite)
+    for (std::size_t v = 0; v < out.data.size(); ++v)
+      if (!std::isfinite(image.data[v])) out.data[v] = image.data[v];
+  return out;
+}
+
+double gaussian_noise_gain(const ImageGeometry& g, double sigma_mm) {
+  double gain = 1.0;
+  if (!(sigma_mm > 0.0)) return gain;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (g.size[axis] < 2) continue;
+    const std::vector<double> k = gaussian_kernel(sigma_mm / g.spacing[axis], 0);
+    double sum2 = 0.0;
+    for (const double w : k) sum2 += w * w;
+    if (!k.empty()) gain *= std::sqrt(sum2);
+  }
+  return gain;
+}
+
+VolumeF downsample(const VolumeF& image, const Eigen::Vector3i& factor, bool maximum) {
+  BS_VERIFY(image.components == 1, "downsampling needs a one-component volume, got " << image.components);
+  BS_VERIFY(factor.minCoeff() >= 1, "downsampling factors must be ≥ 1, got " << factor.transpose());
+  const ImageGeometry& g = image.geometry;
+  ImageGeometry c = g;
+  for (int a = 0; a < 3; ++a) {
+    c.size[a] = (g.size[a] + factor[a] - 1) / factor[a];
+    c.spacing[a] = g.spacing[a] * factor[a];
+  }
+  // Block (0,0,0) covers input voxels 0 … f−1: its centre is at index (f − 1)/2.
+  c.origin = g.index_to_world(0.5 * (factor.cast<double>() - Vector3d::Ones()));
+  VolumeF out(c, 1, 0.0F);
+  std::vector<float> count(out.data.size(), 0.0F);
+  for (int k = 0; k < g.size[2]; ++k)
+    for (int j = 0; j < g.size[1]; ++j) {
+      const std::int64_t row = c.linear_index(0, j / factor[1], k / factor[2]);
+      const float* in = &image.data[std::size_t(g.linear_index(0, j, k))];
+      for (int i = 0; i < g.size[0]; ++i) {
+        const float v = in[i];
+        if (!std::isfinite(v)) continue;
+        const std::size_t o = std::size_t(row + i / factor[0]);
+        if (maximum) out.data[o] = count[o] == 0.0F ? v : std::max(out.data[o], v);
+        else out.data[o] += v;
+        count[o] += 1.0F;
+      }
+    }
+  if (!maximum)
+    for (std::size_t o = 0; o < out.data.size(); ++o)
+      if (count[o] > 0.0F) out.data[o] /= count[o];
+  return out;
+}
+
+}  // namespace brainshift::imaging::filters
