@@ -24,6 +24,10 @@
 //       Speed against error on the phantom cases (baselines rigid_only and prescribed_displacement) and
 //       sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and constraint
 //       sets: DIR/{results.csv, results.json, results.md, pareto.png}.
+//   brainshift extract footprint --bmode B.nii.gz [--probe-direction X,Y,Z] --out FOOTPRINT.vtp
+//                                [--report REPORT.json]
+//       The probe footprint of one B-mode volume (points, normals into the tissue), to check an
+//       input before registering; the beam is estimated from the swept region unless given.
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv
 //                       [--gravity 0,0,-9810] [--linear] [--max-iterations 200]
 //                       [--tolerance 1e-6] [--write-unconverged] --out result.vtu
@@ -45,6 +49,7 @@
 #include "cmd_bench.hpp"
 #include "cmd_demo.hpp"
 #include "cmd_evaluate.hpp"
+#include "cmd_extract_footprint.hpp"
 #include "cmd_phantom.hpp"
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
@@ -73,6 +78,10 @@ int main(int argc, char** argv) {
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
   apps::BenchArgs bench_args;
   const CLI::App* bench = apps::add_bench_command(app, bench_args);
+  CLI::App* extract = app.add_subcommand("extract", "Run one extraction alone (check an input before registering)");
+  extract->require_subcommand(1);
+  apps::ExtractFootprintArgs extract_footprint_args;
+  const CLI::App* extract_footprint = apps::add_extract_footprint_command(*extract, extract_footprint_args);
 
   try {
     app.parse(argc, argv);
@@ -94,6 +103,7 @@ int main(int argc, char** argv) {
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
+    if (extract_footprint->parsed()) return apps::run_extract_footprint(extract_footprint_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;
