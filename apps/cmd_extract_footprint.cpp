@@ -1,21 +1,21 @@
 #include "cmd_extract_footprint.hpp"
 
+#include "intraop_footprint.hpp"
+#include "progress.hpp"
+
+#include "core/config.hpp"
+#include "core/error.hpp"
+#include "imaging/footprint/footprint_io.hpp"
+#include "imaging/io/atomic_write.hpp"
+
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <ostream>
 #include <sstream>
-
-#include <nlohmann/json.hpp>
-
-#include "core/config.hpp"
-#include "core/error.hpp"
-#include "imaging/footprint/footprint_io.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "intraop_footprint.hpp"
-#include "progress.hpp"
 
 namespace brainshift::apps {
 namespace {
@@ -44,11 +44,16 @@ Vector3d parse_direction(const std::string& text) {
 }  // namespace
 
 CLI::App* add_extract_footprint_command(CLI::App& extract, ExtractFootprintArgs& args) {
-  CLI::App* c = extract.add_subcommand("footprint", "Probe footprint (contact points and normals) of a B-mode volume");
-  c->add_option("--bmode", args.bmode, "B-mode volume (0 outside the swept region); any grid orientation")->required();
+  CLI::App* c = extract.add_subcommand(
+      "footprint", "Probe footprint (contact points and normals) of a B-mode volume");
+  c->add_option("--bmode", args.bmode,
+                "B-mode volume (0 outside the swept region); any grid orientation")
+      ->required();
   c->add_option("--probe-direction", args.probe_direction,
-                "beam direction X,Y,Z (world RAS, from the probe into the tissue); default: estimated from the data");
-  c->add_option("--out", args.out, "FOOTPRINT.vtp: points (RAS mm) with the point array 'normals' (into the tissue)")
+                "beam direction X,Y,Z (world RAS, from the probe into the tissue); default: "
+                "estimated from the data");
+  c->add_option("--out", args.out,
+                "FOOTPRINT.vtp: points (RAS mm) with the point array 'normals' (into the tissue)")
       ->required();
   c->add_option("--report", args.report, "REPORT.json");
   return c;
@@ -62,7 +67,9 @@ int run_extract_footprint(const ExtractFootprintArgs& args, std::ostream& out) {
   if (args.report) imaging::verify_writable(*args.report);
   progress.stage("reading " + args.bmode.string() + " and finding the contact band");
   const IntraopFootprint f = footprint_from_bmode(args.bmode, direction);
-  BS_VERIFY(f.found, args.bmode.string() << ": " << f.report.value("message", std::string("no contact band found")));
+  BS_VERIFY(f.found, args.bmode.string()
+                         << ": "
+                         << f.report.value("message", std::string("no contact band found")));
   nlohmann::json report = f.report;
   report["seconds"] = progress.seconds();
   imaging::write_footprint_vtp(args.out, f.points, f.normals);
@@ -76,10 +83,11 @@ int run_extract_footprint(const ExtractFootprintArgs& args, std::ostream& out) {
   const auto& d = report["probe_direction"];
   out << "footprint of " << args.bmode.string() << ": " << f.points.rows() << " points over "
       << report["width_mm"].get<double>() << " x " << report["elevation_mm"].get<double>()
-      << " mm, contrast " << report["contrast"].get<double>() << ", probe direction (" << d[0].get<double>() << ", "
-      << d[1].get<double>() << ", " << d[2].get<double>() << ") " << report["direction_source"].get<std::string>()
-      << (f.warnings.empty() ? "" : ", " + std::to_string(f.warnings.size()) + " warning(s)") << " -> "
-      << args.out.string() << "\n";
+      << " mm, contrast " << report["contrast"].get<double>() << ", probe direction ("
+      << d[0].get<double>() << ", " << d[1].get<double>() << ", " << d[2].get<double>() << ") "
+      << report["direction_source"].get<std::string>()
+      << (f.warnings.empty() ? "" : ", " + std::to_string(f.warnings.size()) + " warning(s)")
+      << " -> " << args.out.string() << "\n";
   return 0;
 }
 

@@ -20,7 +20,8 @@ namespace brainshift::apps {
 
 struct ExtractFootprintArgs {
   std::filesystem::path bmode;
-  std::optional<std::string> probe_direction;  ///< "X,Y,Z", world RAS, from the probe into the tissue
+  std::optional<std::string>
+      probe_direction;  ///< "X,Y,Z", world RAS, from the probe into the tissue
   std::filesystem::path out;
   std::optional<std::filesystem::path> report;
 };

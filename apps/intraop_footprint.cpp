@@ -1,25 +1,30 @@
 #include "intraop_footprint.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include "core/error.hpp"
 #include "imaging/footprint/freehand_footprint.hpp"
 #include "imaging/io/image_io.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 namespace brainshift::apps {
 namespace {
 
-nlohmann::json vector_json(const Vector3d& v) { return nlohmann::json::array({v.x(), v.y(), v.z()}); }
+nlohmann::json vector_json(const Vector3d& v) {
+  return nlohmann::json::array({v.x(), v.y(), v.z()});
+}
 
-nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+nlohmann::json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
 
 }  // namespace
 
-IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode, const std::optional<Vector3d>& direction) {
+IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
+                                      const std::optional<Vector3d>& direction) {
   const imaging::VolumeF b = imaging::read_volume(bmode);
-  BS_VERIFY(b.components == 1, bmode.string() << ": expected a scalar B-mode volume, got " << b.components
-                                              << " components");
+  BS_VERIFY(b.components == 1, bmode.string() << ": expected a scalar B-mode volume, got "
+                                              << b.components << " components");
   imaging::FreehandFootprint r;
   try {
     r = imaging::extract_freehand_footprint(b, direction);
@@ -31,8 +36,9 @@ IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode, const 
   f.points = r.footprint.points;
   f.normals = r.footprint.normals;
   f.warnings = r.warnings;
-  const double deepest =
-      r.face_distance_mm.empty() ? 0.0 : *std::max_element(r.face_distance_mm.begin(), r.face_distance_mm.end());
+  const double deepest = r.face_distance_mm.empty() ? 0.0
+                                                    : *std::max_element(r.face_distance_mm.begin(),
+                                                                        r.face_distance_mm.end());
   f.report = {{"file", bmode.string()},
               {"status", f.found ? "ok" : "no_band"},
               {"message", r.footprint.message},

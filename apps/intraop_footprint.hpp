@@ -6,20 +6,20 @@
 /// axes do not matter, so freehand volumes on oblique grids work as our probe-aligned phantoms
 /// do), or the direction is given (from the tracked probe: world RAS, into the tissue).
 
+#include "core/config.hpp"
+
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
-#include "core/config.hpp"
-
 namespace brainshift::apps {
 
 struct IntraopFootprint {
-  MatrixX3d points;   ///< #P×3 world RAS mm
-  MatrixX3d normals;  ///< #P×3 unit, into the tissue
+  MatrixX3d points;    ///< #P×3 world RAS mm
+  MatrixX3d normals;   ///< #P×3 unit, into the tissue
   bool found = false;  ///< a contact band was found (else no points; report.message says why)
   std::vector<std::string> warnings;  ///< doubts about a footprint that was found (small, deep, …)
   /// file, status ("ok" / "no_band"), message, points, probe_direction, direction_source

@@ -147,8 +147,8 @@ imaging::VolumeF make_bmode(const Probe& probe, const imaging::LabelVolume& labe
         if (surface < 0.0 && labels.at(i, j, k) != imaging::BACKGROUND && probe.in_field_of_view(p))
           surface = depth;
         double value = echo * speckle.at(i, j, k) / mean * std::exp(-options.attenuation * depth);
-        if (surface >= 0.0 && surface <= options.contact_gap && depth - surface < options.band_thickness &&
-            labels.at(i, j, k) != imaging::BACKGROUND)
+        if (surface >= 0.0 && surface <= options.contact_gap &&
+            depth - surface < options.band_thickness && labels.at(i, j, k) != imaging::BACKGROUND)
           value = std::max(value, options.band * (0.9 + 0.1 * speckle.at(i, j, k) / mean));
         image.at(i, j, k) = float(std::clamp(255.0 * value, 0.0, 255.0));
       }

@@ -53,7 +53,7 @@ struct BmodeOptions {
   /// below the surface, mm. Real B-mode (RESECT, 17 volumes): a band about 2 mm thick (FWHM 1.5-
   /// 2.5 mm) at the top of the sector, its echo 1.5-3.7 × the tissue's below (median 2.4).
   double band_thickness = 2.0;
-  double band = 1.0;         ///< brightness of the contact band, in [0, 1] (≈ 2.2 × brain)
+  double band = 1.0;  ///< brightness of the contact band, in [0, 1] (≈ 2.2 × brain)
   /// The band is drawn where the brain surface lies within this depth below the face (in
   /// contact, or under a thin film of saline or gel), mm.
   double contact_gap = 3.0;

@@ -1,13 +1,13 @@
 #include "imaging/footprint/beam_direction.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <sstream>
 #include <vector>
-
-#include "core/error.hpp"
-#include "core/logger.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -108,7 +108,9 @@ struct Frustum {
   double lo = 0.0, hi = 0.0;
   std::array<std::array<double, 2>, 4> edge{};  // (a, b): a + b t
   double iou = -1.0;
-  [[nodiscard]] double at(int e, double t) const { return edge[std::size_t(e)][0] + edge[std::size_t(e)][1] * t; }
+  [[nodiscard]] double at(int e, double t) const {
+    return edge[std::size_t(e)][0] + edge[std::size_t(e)][1] * t;
+  }
   [[nodiscard]] double width(double t) const { return std::max(0.0, at(1, t) - at(0, t)); }
   [[nodiscard]] double height(double t) const { return std::max(0.0, at(3, t) - at(2, t)); }
 };
@@ -155,14 +157,15 @@ Frustum fit_frustum(const Cloud& c, const Vector3d& d, double slab) {
     }
     for (int e = 0; e < 4; ++e) f.edge[std::size_t(e)] = fits[std::size_t(e)].solve();
     double model = 0.0;
-    for (int s = 0; s < nb; ++s) model += f.width((s + 0.5) * slab) * f.height((s + 0.5) * slab) * slab;
+    for (int s = 0; s < nb; ++s)
+      model += f.width((s + 0.5) * slab) * f.height((s + 0.5) * slab) * slab;
     std::size_t inside = 0;
     for (std::size_t p = 0; p < t.size(); ++p) {
       const double ts = t[p] - lo;
       const double pu = f.u.dot(c.points[p]);
       const double pv = f.v.dot(c.points[p]);
-      if (ts >= 0.0 && ts <= hi - lo && pu >= f.at(0, ts) && pu <= f.at(1, ts) && pv >= f.at(2, ts) &&
-          pv <= f.at(3, ts))
+      if (ts >= 0.0 && ts <= hi - lo && pu >= f.at(0, ts) && pu <= f.at(1, ts) &&
+          pv >= f.at(2, ts) && pv <= f.at(3, ts))
         ++inside;
     }
     const double region = double(c.points.size()) * c.voxel_mm3;
@@ -181,7 +184,8 @@ Frustum refine(const Cloud& c, Frustum f, double slab) {
       const Vector3d a = f.d.unitOrthogonal();
       const Vector3d b = f.d.cross(a);
       for (const Vector3d& dir : {a, Vector3d(-a), b, Vector3d(-b)}) {
-        const Frustum g = fit_frustum(c, (f.d + std::tan(step * kPi / 180.0) * dir).normalized(), slab);
+        const Frustum g =
+            fit_frustum(c, (f.d + std::tan(step * kPi / 180.0) * dir).normalized(), slab);
         if (g.iou > f.iou + 1e-4) {
           f = g;
           improved = true;
@@ -224,8 +228,9 @@ BeamEstimate estimate_beam(const VolumeF& bmode, const std::optional<Vector3d>& 
     BS_VERIFY(given->allFinite() && given->norm() > 1e-9,
               "the probe direction must be a finite non-zero vector, got " << given->transpose());
   const Cloud c = swept_cloud(bmode, o.max_points);
-  BS_VERIFY(c.swept >= 100, "no swept region: " << c.swept
-                                                << " voxels are finite and non-zero (at least 100 needed)");
+  BS_VERIFY(
+      c.swept >= 100,
+      "no swept region: " << c.swept << " voxels are finite and non-zero (at least 100 needed)");
 
   Frustum f;
   if (given) {
@@ -290,9 +295,10 @@ BeamEstimate estimate_beam(const VolumeF& bmode, const std::optional<Vector3d>& 
   r.far_elevation_mm = swap ? f.width(span) : f.height(span);
   r.face_centre = c.mean + f.lo * f.d + 0.5 * (f.at(0, 0.0) + f.at(1, 0.0)) * f.u +
                   0.5 * (f.at(2, 0.0) + f.at(3, 0.0)) * f.v;
-  logger().info("beam: direction ({:.3f}, {:.3f}, {:.3f}) {}, fan fit {:.3f}, near end {:.1f} x {:.1f} mm",
-                r.direction.x(), r.direction.y(), r.direction.z(), r.given ? "given" : "estimated",
-                r.fan_fit, r.near_width_mm, r.near_elevation_mm);
+  logger().info(
+      "beam: direction ({:.3f}, {:.3f}, {:.3f}) {}, fan fit {:.3f}, near end {:.1f} x {:.1f} mm",
+      r.direction.x(), r.direction.y(), r.direction.z(), r.given ? "given" : "estimated", r.fan_fit,
+      r.near_width_mm, r.near_elevation_mm);
   return r;
 }
 

@@ -25,12 +25,12 @@
 /// With a given direction only steps 2–3's frustum is fitted (its fit still reported).
 /// Distances in mm, directions unit vectors, world RAS.
 
+#include "core/config.hpp"
+#include "imaging/io/volume.hpp"
+
 #include <cstdint>
 #include <optional>
 #include <string>
-
-#include "core/config.hpp"
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::imaging {
 
@@ -45,18 +45,18 @@ struct BeamOptions {
 
 /// The beam and the swept region's frustum, world RAS mm.
 struct BeamEstimate {
-  Vector3d direction = Vector3d::UnitZ();  ///< unit, from the probe into the tissue
-  Vector3d lateral = Vector3d::UnitX();    ///< unit, ⊥ direction: the axis of most widening
-  Vector3d elevation = Vector3d::UnitY();  ///< direction × lateral
-  Vector3d face_centre = Vector3d::Zero(); ///< centre of the frustum's narrow end, mm
-  double near_width_mm = 0.0;      ///< frustum extent along `lateral` at the narrow end
-  double near_elevation_mm = 0.0;  ///< … along `elevation`
-  double far_width_mm = 0.0;       ///< … along `lateral` at the wide end
-  double far_elevation_mm = 0.0;   ///< … along `elevation` at the wide end
-  double depth_mm = 0.0;           ///< extent of the swept region along `direction`
-  double fan_fit = 0.0;            ///< intersection over union, frustum vs swept region, [0, 1]
-  bool given = false;              ///< the direction came from the caller
-  std::int64_t swept_voxels = 0;   ///< voxels that are finite and non-zero
+  Vector3d direction = Vector3d::UnitZ();   ///< unit, from the probe into the tissue
+  Vector3d lateral = Vector3d::UnitX();     ///< unit, ⊥ direction: the axis of most widening
+  Vector3d elevation = Vector3d::UnitY();   ///< direction × lateral
+  Vector3d face_centre = Vector3d::Zero();  ///< centre of the frustum's narrow end, mm
+  double near_width_mm = 0.0;               ///< frustum extent along `lateral` at the narrow end
+  double near_elevation_mm = 0.0;           ///< … along `elevation`
+  double far_width_mm = 0.0;                ///< … along `lateral` at the wide end
+  double far_elevation_mm = 0.0;            ///< … along `elevation` at the wide end
+  double depth_mm = 0.0;                    ///< extent of the swept region along `direction`
+  double fan_fit = 0.0;           ///< intersection over union, frustum vs swept region, [0, 1]
+  bool given = false;             ///< the direction came from the caller
+  std::int64_t swept_voxels = 0;  ///< voxels that are finite and non-zero
 };
 
 /// Finds the beam direction and the probe face of a B-mode volume (see the file comment), or

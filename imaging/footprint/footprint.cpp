@@ -548,13 +548,11 @@ FootprintResult extract_footprint(const VolumeF& bmode, const ProbePose& pose,
   r.patch_rays = int(patch.size());
   r.patch_area_mm2 = double(patch.size()) * grid.step * grid.step;
   if (!patch.empty()) {
-    const auto [i_lo, i_hi] = std::minmax_element(patch.begin(), patch.end(), [&](int a, int b) {
-      return a % grid.nu < b % grid.nu;
-    });
+    const auto [i_lo, i_hi] = std::minmax_element(
+        patch.begin(), patch.end(), [&](int a, int b) { return a % grid.nu < b % grid.nu; });
     r.patch_width_mm = grid.x(*i_hi % grid.nu) - grid.x(*i_lo % grid.nu);
-    const auto [j_lo, j_hi] = std::minmax_element(patch.begin(), patch.end(), [&](int a, int b) {
-      return a / grid.nu < b / grid.nu;
-    });
+    const auto [j_lo, j_hi] = std::minmax_element(
+        patch.begin(), patch.end(), [&](int a, int b) { return a / grid.nu < b / grid.nu; });
     r.patch_elevation_mm = grid.y(*j_hi / grid.nu) - grid.y(*j_lo / grid.nu);
   }
   if (patch.empty() || r.patch_area_mm2 < o.min_patch_area_mm2) {

@@ -79,7 +79,8 @@ struct FootprintOptions {
   double band_search_mm = 3.0;  ///< BAND_CENTRE: how far past the crossing to look, > 0
   /// Missing samples at the start of a ray are outside the swept region, in front of the probe
   /// face (freehand volumes, 0 outside the sector): a crossing right after them is the band.
-  /// Otherwise (default) a crossing right after missing data is refused (the band may be in the gap).
+  /// Otherwise (default) a crossing right after missing data is refused (the band may be in the
+  /// gap).
   bool leading_missing_is_outside = false;
   /// Adjacent rays (8-neighbours) belong to one patch when their depths differ by at most this:
   /// at the default grid step, surfaces up to ≈ 55° from the face plane stay one patch.

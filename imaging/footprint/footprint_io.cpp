@@ -1,5 +1,8 @@
 #include "imaging/footprint/footprint_io.hpp"
 
+#include "core/error.hpp"
+#include "imaging/io/polydata_io.hpp"
+
 #include <vtkCellArray.h>
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
@@ -8,14 +11,12 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 
-#include "core/error.hpp"
-#include "imaging/io/polydata_io.hpp"
-
 namespace brainshift::imaging {
 
 void write_footprint_vtp(const std::filesystem::path& path, const MatrixX3d& points,
                          const MatrixX3d& normals) {
-  BS_VERIFY(points.rows() == normals.rows(), path.string() << ": " << points.rows() << " footprint points but "
+  BS_VERIFY(points.rows() == normals.rows(), path.string() << ": " << points.rows()
+                                                           << " footprint points but "
                                                            << normals.rows() << " normals");
   BS_VERIFY(points.allFinite() && normals.allFinite(),
             path.string() << ": non-finite footprint points or normals");

@@ -3,9 +3,9 @@
 /// @brief Footprint point sets as VTK XML polydata (.vtp): one vertex cell per point, world RAS
 /// mm, and the point-data array `normals` (3 components, unit, pointing into the tissue).
 
-#include <filesystem>
-
 #include "core/config.hpp"
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 
@@ -16,7 +16,8 @@ struct FootprintPoints {
 };
 
 /// Writes the footprint atomically (nothing half-written under `path`).
-/// \throws brainshift::Error naming the path: mismatched sizes, non-finite values, or a failed write.
+/// \throws brainshift::Error naming the path: mismatched sizes, non-finite values, or a failed
+/// write.
 void write_footprint_vtp(const std::filesystem::path& path, const MatrixX3d& points,
                          const MatrixX3d& normals);
 

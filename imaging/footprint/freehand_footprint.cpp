@@ -1,12 +1,12 @@
 #include "imaging/footprint/freehand_footprint.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
-
-#include "core/error.hpp"
-#include "core/logger.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -44,7 +44,8 @@ double disc_mean(const VolumeF& image, const Vector3d& p, const Vector3d& d, con
         if (a * a + b * b > radius * radius) continue;
         const Vector3d q = p + s * d + a * u + b * v;
         const Vector3d c = image.geometry.world_to_index(q);
-        const int i = int(std::lround(c.x())), j = int(std::lround(c.y())), k = int(std::lround(c.z()));
+        const int i = int(std::lround(c.x())), j = int(std::lround(c.y())),
+                  k = int(std::lround(c.z()));
         if (!image.geometry.contains_index(i, j, k)) continue;
         const float x = image.at(i, j, k);
         if (!(std::isfinite(x) && x != 0.0F)) continue;
@@ -153,9 +154,10 @@ FreehandFootprint extract_freehand_footprint(const VolumeF& bmode,
   const double median_contrast = sorted[sorted.size() / 2];
   r.footprint.contrast = median_contrast;
   if (median_contrast < o.min_band_contrast) {
-    r.footprint = no_band_result(r.footprint, "band contrast " + fixed(median_contrast, 2) +
-                                                  " (band echo over the tissue 3-15 mm below) is below " +
-                                                  fixed(o.min_band_contrast, 2));
+    r.footprint =
+        no_band_result(r.footprint, "band contrast " + fixed(median_contrast, 2) +
+                                        " (band echo over the tissue 3-15 mm below) is below " +
+                                        fixed(o.min_band_contrast, 2));
     return r;
   }
   // Points far below the edge of the swept region are not where the probe touched.
@@ -172,14 +174,16 @@ FreehandFootprint extract_freehand_footprint(const VolumeF& bmode,
     ++kept;
   }
   if (kept == 0) {
-    r.footprint = no_band_result(r.footprint, "the bright echo lies " + fixed(deepest) +
-                                                  " mm or less below the near edge of the swept region, more than " +
-                                                  fixed(o.max_face_distance_mm) + " mm: not a contact band");
+    r.footprint = no_band_result(
+        r.footprint, "every bright echo found lies more than " + fixed(o.max_face_distance_mm) +
+                         " mm (up to " + fixed(deepest) +
+                         " mm) below the near edge of the swept region: not a contact band");
     return r;
   }
   if (kept < r.footprint.points.rows())
-    r.warnings.push_back(std::to_string(r.footprint.points.rows() - kept) + " footprint point(s) dropped: up to " +
-                         fixed(deepest) + " mm below the near edge of the swept region (more than " +
+    r.warnings.push_back(std::to_string(r.footprint.points.rows() - kept) +
+                         " footprint point(s) dropped: up to " + fixed(deepest) +
+                         " mm below the near edge of the swept region (more than " +
                          fixed(o.max_face_distance_mm) + " mm)");
   r.footprint.points = points.topRows(kept);
   r.footprint.normals = normals.topRows(kept);

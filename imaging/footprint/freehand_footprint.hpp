@@ -16,12 +16,12 @@
 /// narrow patch (a face is 10–40 mm wide), dropped points, or a region that fits a fan poorly.
 /// World RAS, mm.
 
+#include "imaging/footprint/beam_direction.hpp"
+#include "imaging/footprint/footprint.hpp"
+
 #include <optional>
 #include <string>
 #include <vector>
-
-#include "imaging/footprint/beam_direction.hpp"
-#include "imaging/footprint/footprint.hpp"
 
 namespace brainshift::imaging {
 
@@ -44,7 +44,7 @@ struct FreehandFootprintOptions {
   /// Points deeper below the swept region's edge are not the contact: dropped (a warning); none
   /// left is no band. The band lies 0-3 mm below it on RESECT.
   double max_face_distance_mm = 5.0;
-  double min_fan_fit = 0.5;         ///< a worse fan fit (estimated beam) is a warning
+  double min_fan_fit = 0.5;  ///< a worse fan fit (estimated beam) is a warning
   /// Empty when valid, else what is wrong.
   [[nodiscard]] std::string validate() const;
 };
@@ -61,7 +61,7 @@ struct FreehandFootprint {
   std::vector<double> band_contrast;  ///< per point: band echo over the tissue 3-15 mm below
   /// The patch's smaller extent (the probe face's width; a sweep's length is the larger one).
   double width_mm = 0.0;
-  double elevation_mm = 0.0;  ///< the patch's larger extent
+  double elevation_mm = 0.0;          ///< the patch's larger extent
   std::vector<std::string> warnings;  ///< one line each
 };
 

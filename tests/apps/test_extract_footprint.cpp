@@ -2,14 +2,13 @@
 // direction, warnings, and the bad-input contract (one-line error naming the file, nothing
 // half-written).
 #include "cli_helpers.hpp"
-#include "imaging/footprint/synthetic_fan.hpp"
 
 #include "imaging/footprint/footprint_io.hpp"
+#include "imaging/footprint/synthetic_fan.hpp"
 #include "imaging/io/image_io.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <fstream>
 #include <sstream>
@@ -17,7 +16,9 @@
 namespace brainshift {
 namespace {
 
-nlohmann::json read_json(const std::filesystem::path& p) { return nlohmann::json::parse(read_all(p)); }
+nlohmann::json read_json(const std::filesystem::path& p) {
+  return nlohmann::json::parse(read_all(p));
+}
 
 std::string vector_arg(const Vector3d& v) {
   std::ostringstream s;
@@ -33,8 +34,8 @@ TEST(ExtractFootprint, WritesPointsNormalsAndTheReport) {
   imaging::write_volume(bmode, s.image);
   const auto vtp = dir.path() / "footprint.vtp";
   const auto report = dir.path() / "report.json";
-  const CliRun r = run_brainshift(dir, "extract footprint --bmode " + q(bmode) + " --out " + q(vtp) +
-                                           " --report " + q(report));
+  const CliRun r = run_brainshift(
+      dir, "extract footprint --bmode " + q(bmode) + " --out " + q(vtp) + " --report " + q(report));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("footprint of"), std::string::npos) << r.out;
   const imaging::FootprintPoints f = imaging::read_footprint_vtp(vtp);
@@ -42,17 +43,19 @@ TEST(ExtractFootprint, WritesPointsNormalsAndTheReport) {
   const Vector3d beam = s.frame.col(2);
   for (Eigen::Index p = 0; p < f.points.rows(); ++p) {
     EXPECT_NEAR(f.normals.row(p).norm(), 1.0, 1e-9);  // unit normals
-    EXPECT_GT(f.normals.row(p).dot(beam.transpose()), 0.99);  // into the tissue: along the beam (< 8°)
+    EXPECT_GT(f.normals.row(p).dot(beam.transpose()),
+              0.99);  // into the tissue: along the beam (< 8°)
   }
   const nlohmann::json j = read_json(report);
-  for (const char* key : {"points", "probe_direction", "direction_source", "contrast", "width_mm", "seconds",
-                          "warnings", "file"})
+  for (const char* key : {"points", "probe_direction", "direction_source", "contrast", "width_mm",
+                          "seconds", "warnings", "file"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["points"].get<int>(), f.points.rows());
   EXPECT_EQ(j["direction_source"], "estimated");
   const Vector3d d(j["probe_direction"][0].get<double>(), j["probe_direction"][1].get<double>(),
                    j["probe_direction"][2].get<double>());
-  EXPECT_GT(d.dot(beam), std::cos(3.0 * tests::kFanPi / 180.0));  // within 3° (test_imaging_footprint)
+  EXPECT_GT(d.dot(beam),
+            std::cos(3.0 * tests::kFanPi / 180.0));  // within 3° (test_imaging_footprint)
   EXPECT_TRUE(j["warnings"].empty()) << j["warnings"].dump();
 }
 
@@ -64,8 +67,8 @@ TEST(ExtractFootprint, TakesTheGivenProbeDirection) {
   const auto report = dir.path() / "report.json";
   const CliRun r =
       run_brainshift(dir, "extract footprint --bmode " + q(bmode) + " --probe-direction " +
-                              vector_arg(2.0 * Vector3d(s.frame.col(2))) + " --out " + q(dir.path() / "f.vtp") +
-                              " --report " + q(report));
+                              vector_arg(2.0 * Vector3d(s.frame.col(2))) + " --out " +
+                              q(dir.path() / "f.vtp") + " --report " + q(report));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const nlohmann::json j = read_json(report);
   EXPECT_EQ(j["direction_source"], "given");
@@ -119,12 +122,15 @@ TEST(ExtractFootprint, BadInputsAreOneLineErrorsAndWriteNothing) {
   // A missing file, a malformed and a zero direction.
   r = run_brainshift(dir, "extract footprint --bmode " + q(dir.path() / "absent.nii.gz") + outputs);
   expect_one_line_error(r, "absent.nii.gz");
-  r = run_brainshift(dir, "extract footprint --bmode " + q(no_band) + " --probe-direction 1,2" + outputs);
+  r = run_brainshift(
+      dir, "extract footprint --bmode " + q(no_band) + " --probe-direction 1,2" + outputs);
   expect_one_line_error(r, "--probe-direction");
-  r = run_brainshift(dir, "extract footprint --bmode " + q(no_band) + " --probe-direction 0,0,0" + outputs);
+  r = run_brainshift(
+      dir, "extract footprint --bmode " + q(no_band) + " --probe-direction 0,0,0" + outputs);
   expect_one_line_error(r, "zero length");
   // An output folder that does not exist: refused before the work.
-  r = run_brainshift(dir, "extract footprint --bmode " + q(no_band) + " --out " + q(dir.path() / "nope" / "f.vtp"));
+  r = run_brainshift(dir, "extract footprint --bmode " + q(no_band) + " --out " +
+                              q(dir.path() / "nope" / "f.vtp"));
   expect_one_line_error(r, "nope");
 
   EXPECT_FALSE(std::filesystem::exists(vtp));

@@ -5,12 +5,13 @@
 /// randomly rotated grid, 0 outside, Rayleigh-speckled tissue inside and a bright near-field
 /// band (what the RESECT volumes show: a band ≈ 2 mm thick at about twice the tissue's echo).
 
+#include "random_rotation.hpp"
+
+#include "imaging/io/volume.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
-
-#include "imaging/io/volume.hpp"
-#include "random_rotation.hpp"
 
 namespace brainshift::tests {
 
@@ -23,8 +24,8 @@ struct Fan {
   double elevation = 30.0;     // elevation extent at the face
   double tilt_deg = 0.0;       // elevation widening (a tilted sweep), 0: translation
   double depth = 50.0;
-  double band_mm = 2.0;        // bright near-field band
-  double band_echo = 2.0;      // its mean echo over the tissue's
+  double band_mm = 2.0;    // bright near-field band
+  double band_echo = 2.0;  // its mean echo over the tissue's
   [[nodiscard]] bool inside(const Vector3d& q) const {
     if (q.z() < 0.0 || q.z() > depth) return false;
     const double half_w = 0.5 * near_width + q.z() * std::tan(half_angle_deg * kFanPi / 180.0);
@@ -49,8 +50,10 @@ inline Scene render(const Fan& fan, unsigned seed) {
   imaging::ImageGeometry g;
   g.direction = random_rotation(rng);
   g.spacing = Vector3d::Constant(0.8);
-  const double reach = 0.5 * fan.near_width + fan.depth * std::tan(fan.half_angle_deg * kFanPi / 180.0) + 2.0;
-  const double reach_e = 0.5 * fan.elevation + fan.depth * std::tan(fan.tilt_deg * kFanPi / 180.0) + 2.0;
+  const double reach =
+      0.5 * fan.near_width + fan.depth * std::tan(fan.half_angle_deg * kFanPi / 180.0) + 2.0;
+  const double reach_e =
+      0.5 * fan.elevation + fan.depth * std::tan(fan.tilt_deg * kFanPi / 180.0) + 2.0;
   Vector3d lo = Vector3d::Constant(1e300), hi = -lo;
   for (int corner = 0; corner < 8; ++corner) {
     const Vector3d q((corner & 1) ? reach : -reach, (corner & 2) ? reach_e : -reach_e,
@@ -66,7 +69,8 @@ inline Scene render(const Fan& fan, unsigned seed) {
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i) {
-        const Vector3d q = s.frame.transpose() * (g.index_to_world(Vector3d(i, j, k)) - s.face_centre);
+        const Vector3d q =
+            s.frame.transpose() * (g.index_to_world(Vector3d(i, j, k)) - s.face_centre);
         if (!fan.inside(q)) continue;
         const double mean = q.z() < fan.band_mm ? fan.band_echo : 1.0;
         const double rayleigh = std::hypot(normal(rng), normal(rng)) / 1.2533;  // mean 1

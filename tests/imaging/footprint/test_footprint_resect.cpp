@@ -20,17 +20,19 @@ namespace {
 
 const std::vector<int> kCases = {1, 2, 3, 4, 5, 6, 8, 12, 14, 15, 16, 18, 23, 24, 25, 26, 27};
 
-std::filesystem::path resect_dir() { return std::filesystem::path(tests::shared_data_dir) / "resect"; }
+std::filesystem::path resect_dir() {
+  return std::filesystem::path(tests::shared_data_dir) / "resect";
+}
 
 /// What makes a footprint plausible (the issue's "at the near-field edge of the swept region,
 /// normals into the tissue", the brief's "a probe face is ~10-40 mm wide"), checked here
 /// independently of the library's own warnings:
 constexpr double kMaxEdgeDistanceMm = 4.0;  // every point within 4 mm of the swept region's
                                             // edge, going back along the beam (band ≈ 1-3 mm in)
-constexpr double kNearEndShare = 0.2;  // … and in the first 20 % of the region's depth
-constexpr double kMinWidthMm = 10.0;   // patch width: a probe face is 10–40 mm wide,
-constexpr double kMaxWidthMm = 45.0;   // + one 5 mm margin for the sector's slight widening
-constexpr double kMinBeamCos = 0.5;    // normals within 60° of the beam …
+constexpr double kNearEndShare = 0.2;       // … and in the first 20 % of the region's depth
+constexpr double kMinWidthMm = 10.0;        // patch width: a probe face is 10–40 mm wide,
+constexpr double kMaxWidthMm = 45.0;        // + one 5 mm margin for the sector's slight widening
+constexpr double kMinBeamCos = 0.5;         // normals within 60° of the beam …
 // … and towards the bulk: n · (centroid − p) > 0, with the centroid of the swept voxels.
 
 struct Swept {
@@ -81,7 +83,8 @@ VolumeF without_band(const VolumeF& v, const Vector3d& beam) {
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i)
-        if (v.at(i, j, k) != 0.0F && edge_distance(v, g.index_to_world(Vector3d(i, j, k)), beam) < 4.0)
+        if (v.at(i, j, k) != 0.0F &&
+            edge_distance(v, g.index_to_world(Vector3d(i, j, k)), beam) < 4.0)
           out.at(i, j, k) = 0.0F;
   return out;
 }
@@ -91,14 +94,17 @@ TEST(FootprintResect, PlausibleFootprintOnAtLeast13Of17Volumes) {
     GTEST_SKIP() << "real data absent: " << resect_dir() << " (RESECT B-mode volumes)";
   int plausible = 0;
   int without_band_found = 0;
-  std::printf("[ measured ] case  points  width  elev  contrast  fan_fit  edge_max  near_share  ok | no-band contrast\n");
+  std::printf(
+      "[ measured ] case  points  width  elev  contrast  fan_fit  edge_max  near_share  ok | "
+      "no-band contrast\n");
   for (const int c : kCases) {
     const auto file = resect_dir() / ("Case" + std::to_string(c) + ".nii.gz");
     ASSERT_TRUE(std::filesystem::exists(file)) << file;
     const VolumeF v = read_volume(file);
     const FreehandFootprint r = extract_freehand_footprint(v);
     const Vector3d beam = r.beam.direction;
-    bool ok = r.footprint.status == FootprintStatus::OK && r.width_mm >= kMinWidthMm && r.width_mm <= kMaxWidthMm;
+    bool ok = r.footprint.status == FootprintStatus::OK && r.width_mm >= kMinWidthMm &&
+              r.width_mm <= kMaxWidthMm;
     double edge_max = 0.0, share_max = 0.0;
     if (r.footprint.status == FootprintStatus::OK) {
       const Swept s = swept_region(v, beam);
@@ -109,22 +115,24 @@ TEST(FootprintResect, PlausibleFootprintOnAtLeast13Of17Volumes) {
         const double share = (beam.dot(x) - s.t_min) / (s.t_max - s.t_min);
         edge_max = std::max(edge_max, edge);
         share_max = std::max(share_max, share);
-        ok = ok && edge <= kMaxEdgeDistanceMm && share <= kNearEndShare && n.dot(beam) >= kMinBeamCos &&
-             n.dot(s.centroid - x) > 0.0;
+        ok = ok && edge <= kMaxEdgeDistanceMm && share <= kNearEndShare &&
+             n.dot(beam) >= kMinBeamCos && n.dot(s.centroid - x) > 0.0;
       }
     }
     plausible += ok ? 1 : 0;
     // The same volume without its band, along the beam found: no footprint expected.
     const FreehandFootprint nb = extract_freehand_footprint(without_band(v, beam), beam);
     without_band_found += nb.footprint.status == FootprintStatus::OK ? 1 : 0;
-    std::printf("[ measured ] %4d  %6td  %5.1f  %4.1f  %8.2f  %7.3f  %8.2f  %10.3f  %s | %s %.2f\n", c,
-                r.footprint.points.rows(), r.width_mm, r.elevation_mm, r.footprint.contrast, r.beam.fan_fit,
-                edge_max, share_max, ok ? "yes" : "NO ", nb.footprint.status == FootprintStatus::OK ? "found" : "none ",
+    std::printf("[ measured ] %4d  %6td  %5.1f  %4.1f  %8.2f  %7.3f  %8.2f  %10.3f  %s | %s %.2f\n",
+                c, r.footprint.points.rows(), r.width_mm, r.elevation_mm, r.footprint.contrast,
+                r.beam.fan_fit, edge_max, share_max, ok ? "yes" : "NO ",
+                nb.footprint.status == FootprintStatus::OK ? "found" : "none ",
                 nb.footprint.contrast);
     if (!ok) std::printf("[ measured ]       %s\n", r.footprint.message.c_str());
   }
-  std::printf("[ measured ] plausible footprints on %d of %zu volumes; %d footprint(s) without the band\n",
-              plausible, kCases.size(), without_band_found);
+  std::printf(
+      "[ measured ] plausible footprints on %d of %zu volumes; %d footprint(s) without the band\n",
+      plausible, kCases.size(), without_band_found);
   // The issue: "a plausible footprint on at least 13 of 17".
   EXPECT_GE(plausible, 13);
   // With the band cut away, the contrast rule must refuse nearly all: at most 3 of 17 slip

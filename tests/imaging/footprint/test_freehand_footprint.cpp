@@ -4,12 +4,12 @@
 // a bright near-field band about 2 mm thick at twice the tissue's echo), and the phantom's
 // B-mode (data_synth), whose grid does follow the probe.
 #include "expect_error.hpp"
-#include "imaging/footprint/synthetic_fan.hpp"
 
 #include "data_synth/images/probe.hpp"
 #include "data_synth/images/ultrasound_images.hpp"
 #include "imaging/footprint/beam_direction.hpp"
 #include "imaging/footprint/freehand_footprint.hpp"
+#include "imaging/footprint/synthetic_fan.hpp"
 
 #include <gtest/gtest.h>
 
@@ -21,8 +21,8 @@ namespace brainshift::imaging {
 namespace {
 
 using tests::Fan;
-using tests::Scene;
 using tests::render;
+using tests::Scene;
 constexpr double kPi = 3.14159265358979323846;
 double degrees(double cosine) { return std::acos(std::clamp(cosine, -1.0, 1.0)) * 180.0 / kPi; }
 
@@ -34,9 +34,10 @@ constexpr double kMaxBeamDeg = 3.0;
 
 void expect_beam(const BeamEstimate& b, const Scene& s, const Fan& fan) {
   const Vector3d beam = s.frame.col(2);
-  std::cout << "[ measured ] beam off by " << degrees(b.direction.dot(beam)) << " deg, lateral off by "
-            << degrees(std::abs(b.lateral.dot(s.frame.col(0)))) << " deg, fan fit " << b.fan_fit
-            << ", near end " << b.near_width_mm << " x " << b.near_elevation_mm << " mm\n";
+  std::cout << "[ measured ] beam off by " << degrees(b.direction.dot(beam))
+            << " deg, lateral off by " << degrees(std::abs(b.lateral.dot(s.frame.col(0))))
+            << " deg, fan fit " << b.fan_fit << ", near end " << b.near_width_mm << " x "
+            << b.near_elevation_mm << " mm\n";
   EXPECT_LE(degrees(b.direction.dot(beam)), kMaxBeamDeg);
   EXPECT_LE(degrees(std::abs(b.lateral.dot(s.frame.col(0)))), 5.0);  // the widening axis
   const Vector3d off = b.face_centre - s.face_centre;
@@ -142,11 +143,12 @@ TEST(FreehandFootprint, ThePhantomBmodeYieldsAFootprintAlongItsProbeAxis) {
   for (int k = 0; k < grid.size[2]; ++k)
     for (int j = 0; j < grid.size[1]; ++j)
       for (int i = 0; i < grid.size[0]; ++i)
-        if ((grid.index_to_world(Vector3d(i, j, k)) - ball).norm() <= radius) labels.at(i, j, k) = BRAIN;
+        if ((grid.index_to_world(Vector3d(i, j, k)) - ball).norm() <= radius)
+          labels.at(i, j, k) = BRAIN;
   const VolumeF bmode = data_synth::make_bmode(probe, labels, data_synth::BmodeOptions{});
   const FreehandFootprint r = extract_freehand_footprint(bmode);
-  std::cout << "[ measured ] phantom: beam off by " << degrees(r.beam.direction.dot(axis)) << " deg; "
-            << r.footprint.message << "\n";
+  std::cout << "[ measured ] phantom: beam off by " << degrees(r.beam.direction.dot(axis))
+            << " deg; " << r.footprint.message << "\n";
   // The field of view is a truncated cone (radius 15 mm, 40° half angle): a frustum; 3° as above.
   EXPECT_LE(degrees(r.beam.direction.dot(axis)), kMaxBeamDeg);
   ASSERT_EQ(r.footprint.status, FootprintStatus::OK) << r.footprint.message;
