@@ -27,6 +27,10 @@
 //   brainshift extract vessels --image FILE --out SKELETON.vtp [--report REPORT.json] [--png MIP.png]
 //       One extraction alone, to check an input: the vessel skeleton of an MRA, CTA or power
 //       Doppler (as prepare writes vessels.vtp), a report and a maximum-intensity projection.
+//   brainshift extract footprint --bmode B.nii.gz [--probe-direction X,Y,Z] --out FOOTPRINT.vtp
+//                                [--report REPORT.json]
+//       The probe footprint of one B-mode volume (points, normals into the tissue), to check an
+//       input before registering; the beam is estimated from the swept region unless given.
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv
 //                       [--gravity 0,0,-9810] [--linear] [--max-iterations 200]
 //                       [--tolerance 1e-6] [--write-unconverged] --out result.vtu
@@ -49,6 +53,7 @@
 #include "cmd_demo.hpp"
 #include "cmd_evaluate.hpp"
 #include "cmd_extract.hpp"
+#include "cmd_extract_footprint.hpp"
 #include "cmd_phantom.hpp"
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
@@ -81,6 +86,8 @@ int main(int argc, char** argv) {
   CLI::App* extract = apps::add_extract_command(app);
   apps::ExtractVesselsArgs extract_vessels_args;
   const CLI::App* extract_vessels = apps::add_extract_vessels_command(*extract, extract_vessels_args);
+  apps::ExtractFootprintArgs extract_footprint_args;
+  const CLI::App* extract_footprint = apps::add_extract_footprint_command(*extract, extract_footprint_args);
 
   try {
     app.parse(argc, argv);
@@ -103,6 +110,7 @@ int main(int argc, char** argv) {
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
     if (extract_vessels->parsed()) return apps::run_extract_vessels(extract_vessels_args, std::cout);
+    if (extract_footprint->parsed()) return apps::run_extract_footprint(extract_footprint_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;

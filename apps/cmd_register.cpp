@@ -42,7 +42,7 @@ CLI::App* add_register_command(CLI::App& app, RegisterArgs& args) {
   CLI::App* c = app.add_subcommand("register", "Register a prepared model to intra-operative ultrasound");
   c->add_option("--model", args.model, "MODEL folder from brainshift prepare")->required();
   c->add_option("--doppler", args.doppler, "power-Doppler volume (vessels)")->required();
-  c->add_option("--bmode", args.bmode, "B-mode volume (probe footprint; k axis along the beam, k = 0 at the probe)");
+  c->add_option("--bmode", args.bmode, "B-mode volume (probe footprint; the beam is estimated from the swept region, any grid orientation)");
   c->add_option("--mri", args.mri, "pre-operative MRI to warp (same grid as the model's labels)");
   c->add_option("--init", args.init, "rigid start: rigid or identity (default: the scene's)")
       ->check(CLI::IsMember({"rigid", "identity"}));

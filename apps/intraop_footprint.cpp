@@ -1,37 +1,60 @@
 #include "intraop_footprint.hpp"
 
+#include "core/error.hpp"
+#include "imaging/footprint/freehand_footprint.hpp"
+#include "imaging/io/image_io.hpp"
+
 #include <algorithm>
 #include <cmath>
 
-#include "core/error.hpp"
-#include "imaging/footprint/footprint.hpp"
-#include "imaging/io/image_io.hpp"
-
 namespace brainshift::apps {
+namespace {
 
-IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode) {
+nlohmann::json vector_json(const Vector3d& v) {
+  return nlohmann::json::array({v.x(), v.y(), v.z()});
+}
+
+nlohmann::json number_or_null(double v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+}
+
+}  // namespace
+
+IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
+                                      const std::optional<Vector3d>& direction) {
   const imaging::VolumeF b = imaging::read_volume(bmode);
-  BS_VERIFY(b.components == 1, bmode.string() << ": expected a scalar B-mode volume, got " << b.components
-                                              << " components");
-  const auto& g = b.geometry;
-  imaging::ProbePose pose;
-  pose.face_centre = g.index_to_world(Vector3d(0.5 * (g.size[0] - 1), 0.5 * (g.size[1] - 1), 0.0));
-  pose.axis = g.direction.col(2);
-  pose.lateral = Vector3d(g.direction.col(0));
-  imaging::FootprintOptions options;
-  // Rays over the probe face only: the central 30 mm (a typical face; the image is wider than
-  // the face and shows the brain surface curving away beyond it, which is not a contact).
-  options.aperture_width_mm = std::min(30.0, (g.size[0] - 1) * g.spacing[0]);
-  options.aperture_elevation_mm = std::min(30.0, (g.size[1] - 1) * g.spacing[1]);
-  const imaging::FootprintResult r = imaging::extract_footprint(b, pose, options);
+  BS_VERIFY(b.components == 1, bmode.string() << ": expected a scalar B-mode volume, got "
+                                              << b.components << " components");
+  imaging::FreehandFootprint r;
+  try {
+    r = imaging::extract_freehand_footprint(b, direction);
+  } catch (const Error& e) {
+    throw Error(bmode.string() + ": " + e.what(), e.where());
+  }
   IntraopFootprint f;
-  f.points = r.points;
-  f.normals = r.normals;
+  f.found = r.footprint.status == imaging::FootprintStatus::OK;
+  f.points = r.footprint.points;
+  f.normals = r.footprint.normals;
+  f.warnings = r.warnings;
+  const double deepest = r.face_distance_mm.empty() ? 0.0
+                                                    : *std::max_element(r.face_distance_mm.begin(),
+                                                                        r.face_distance_mm.end());
   f.report = {{"file", bmode.string()},
-              {"status", r.status == imaging::FootprintStatus::OK ? "ok" : "no_band"},
-              {"message", r.message},
-              {"points", r.points.rows()},
-              {"threshold", std::isfinite(r.threshold) ? nlohmann::json(r.threshold) : nlohmann::json(nullptr)}};
+              {"status", f.found ? "ok" : "no_band"},
+              {"message", r.footprint.message},
+              {"points", r.footprint.points.rows()},
+              {"probe_direction", vector_json(r.beam.direction)},
+              {"direction_source", r.beam.given ? "given" : "estimated"},
+              {"probe_lateral", vector_json(r.beam.lateral)},
+              {"face_centre", vector_json(r.beam.face_centre)},
+              {"fan_fit", r.beam.fan_fit},
+              {"near_end_mm", {r.beam.near_width_mm, r.beam.near_elevation_mm}},
+              {"contrast", r.footprint.contrast},
+              {"threshold", number_or_null(r.footprint.threshold)},
+              {"width_mm", r.width_mm},
+              {"elevation_mm", r.elevation_mm},
+              {"face_distance_mm", deepest},
+              {"warnings", r.warnings}};
   return f;
 }
 

@@ -1,27 +1,37 @@
 #pragma once
 /// @file
-/// @brief The probe footprint from a tracked B-mode volume file. Convention (what navigation
-/// systems and our phantoms write): the volume's k axis is the beam direction, into the tissue,
-/// and its first slice (k = 0) is at or above the probe face; i and j span the face. The probe
-/// pose is therefore read from the image header: face centre = centre of slice k = 0, axis =
-/// third direction column, lateral = first.
+/// @brief The probe footprint from a tracked B-mode volume file, for `register --bmode`, `bench`
+/// and `extract footprint`. The beam direction and the probe face come from the data
+/// (imaging/footprint/beam_direction.hpp: the narrow end of the swept fan is the face; the grid's
+/// axes do not matter, so freehand volumes on oblique grids work as our probe-aligned phantoms
+/// do), or the direction is given (from the tracked probe: world RAS, into the tissue).
 
-#include <filesystem>
+#include "core/config.hpp"
 
 #include <nlohmann/json.hpp>
 
-#include "core/config.hpp"
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace brainshift::apps {
 
 struct IntraopFootprint {
-  MatrixX3d points;   ///< #P×3 world RAS mm
-  MatrixX3d normals;  ///< #P×3 unit, into the tissue
+  MatrixX3d points;    ///< #P×3 world RAS mm
+  MatrixX3d normals;   ///< #P×3 unit, into the tissue
+  bool found = false;  ///< a contact band was found (else no points; report.message says why)
+  std::vector<std::string> warnings;  ///< doubts about a footprint that was found (small, deep, …)
+  /// file, status ("ok" / "no_band"), message, points, probe_direction, direction_source
+  /// ("given" / "estimated"), fan_fit, contrast, threshold, width_mm, elevation_mm,
+  /// face_distance_mm (largest), warnings.
   nlohmann::json report;
 };
 
-/// \throws brainshift::Error naming the file when it cannot be read or is not scalar. No band
-/// found is not an error: no points, and the report says why.
-IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode);
+/// \throws brainshift::Error naming the file when it cannot be read, is not scalar or has no
+/// swept (non-zero) region. No band found is not an error here: no points, and the report says
+/// why (`extract footprint` makes it one).
+IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
+                                      const std::optional<Vector3d>& direction = {});
 
 }  // namespace brainshift::apps

@@ -24,8 +24,8 @@ std::string DopplerOptions::validate() const {
 
 std::string BmodeOptions::validate() const {
   std::ostringstream s;
-  if (!(attenuation >= 0.0 && band_thickness >= 0.0 && speckle_blur >= 0.0))
-    s << "attenuation, band_thickness and speckle_blur must be >= 0";
+  if (!(attenuation >= 0.0 && band_thickness >= 0.0 && speckle_blur >= 0.0 && contact_gap >= 0.0))
+    s << "attenuation, band_thickness, contact_gap and speckle_blur must be >= 0";
   return s.str();
 }
 
@@ -128,9 +128,13 @@ imaging::VolumeF make_bmode(const Probe& probe, const imaging::LabelVolume& labe
   for (const float v : speckle.data) mean += v;
   mean /= double(speckle.data.size());
   imaging::VolumeF image(grid, 1, 0.0F);
-  for (int k = 0; k < grid.size[2]; ++k)
-    for (int j = 0; j < grid.size[1]; ++j)
-      for (int i = 0; i < grid.size[0]; ++i) {
+  // The grid's k axis is the beam: along each beam line (i, j), the first tissue voxel is the
+  // brain surface; within `contact_gap` of the face it carries the interface echo, a band
+  // `band_thickness` deep below it.
+  for (int j = 0; j < grid.size[1]; ++j)
+    for (int i = 0; i < grid.size[0]; ++i) {
+      double surface = -1.0;  // depth of the brain surface on this beam line, < 0: none yet
+      for (int k = 0; k < grid.size[2]; ++k) {
         const Vector3d p = grid.index_to_world(Vector3d(i, j, k));
         const double depth = probe.depth_of(p);
         double echo = options.fluid;
@@ -140,11 +144,15 @@ imaging::VolumeF make_bmode(const Probe& probe, const imaging::LabelVolume& labe
           case imaging::VENTRICLES: echo = options.ventricles; break;
           default: break;
         }
+        if (surface < 0.0 && labels.at(i, j, k) != imaging::BACKGROUND && probe.in_field_of_view(p))
+          surface = depth;
         double value = echo * speckle.at(i, j, k) / mean * std::exp(-options.attenuation * depth);
-        if (depth <= options.band_thickness && labels.at(i, j, k) != imaging::BACKGROUND)
+        if (surface >= 0.0 && surface <= options.contact_gap &&
+            depth - surface < options.band_thickness && labels.at(i, j, k) != imaging::BACKGROUND)
           value = std::max(value, options.band * (0.9 + 0.1 * speckle.at(i, j, k) / mean));
         image.at(i, j, k) = float(std::clamp(255.0 * value, 0.0, 255.0));
       }
+    }
   mask_field_of_view(image, probe);
   return image;
 }

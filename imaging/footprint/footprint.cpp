@@ -212,10 +212,13 @@ double choose_threshold(const std::vector<float>& finite, const FootprintOptions
 double band_depth(const float* f, const RayGrid& grid, double threshold,
                   const FootprintOptions& o) {
   int k = 0;
+  while (k < grid.nd && !std::isfinite(f[k])) ++k;
+  const int first = k;  // first sample with data
   while (k < grid.nd && !(f[k] >= threshold)) ++k;
   // None, or right after missing data: the band may lie in the gap, and a deeper crossing would
-  // be tissue, so the ray has no band.
-  if (k == grid.nd || (k > 0 && !std::isfinite(f[k - 1])))
+  // be tissue, so the ray has no band (unless the gap is the outside in front of the face).
+  const bool leading = o.leading_missing_is_outside && k == first;
+  if (k == grid.nd || (k > 0 && !std::isfinite(f[k - 1]) && !leading))
     return std::numeric_limits<double>::quiet_NaN();
   if (o.depth_rule == FootprintDepthRule::THRESHOLD_CROSSING) {
     if (k == 0) return grid.depth(0);
@@ -544,6 +547,14 @@ FootprintResult extract_footprint(const VolumeF& bmode, const ProbePose& pose,
   const std::vector<int> patch = largest_patch(depth, grid, o.max_depth_jump_mm, r.patches);
   r.patch_rays = int(patch.size());
   r.patch_area_mm2 = double(patch.size()) * grid.step * grid.step;
+  if (!patch.empty()) {
+    const auto [i_lo, i_hi] = std::minmax_element(
+        patch.begin(), patch.end(), [&](int a, int b) { return a % grid.nu < b % grid.nu; });
+    r.patch_width_mm = grid.x(*i_hi % grid.nu) - grid.x(*i_lo % grid.nu);
+    const auto [j_lo, j_hi] = std::minmax_element(
+        patch.begin(), patch.end(), [&](int a, int b) { return a / grid.nu < b / grid.nu; });
+    r.patch_elevation_mm = grid.y(*j_hi / grid.nu) - grid.y(*j_lo / grid.nu);
+  }
   if (patch.empty() || r.patch_area_mm2 < o.min_patch_area_mm2) {
     std::ostringstream s;
     s << "the largest patch covers " << r.patch_area_mm2 << " mm² of the face, below "

@@ -77,6 +77,11 @@ struct FootprintOptions {
 
   FootprintDepthRule depth_rule = FootprintDepthRule::BAND_CENTRE;
   double band_search_mm = 3.0;  ///< BAND_CENTRE: how far past the crossing to look, > 0
+  /// Missing samples at the start of a ray are outside the swept region, in front of the probe
+  /// face (freehand volumes, 0 outside the sector): a crossing right after them is the band.
+  /// Otherwise (default) a crossing right after missing data is refused (the band may be in the
+  /// gap).
+  bool leading_missing_is_outside = false;
   /// Adjacent rays (8-neighbours) belong to one patch when their depths differ by at most this:
   /// at the default grid step, surfaces up to ≈ 55° from the face plane stay one patch.
   double max_depth_jump_mm = 1.0;
@@ -114,6 +119,8 @@ struct FootprintResult {
   int patches = 0;                   ///< depth-continuous patches of such rays
   int patch_rays = 0;                ///< rays of the largest patch
   double patch_area_mm2 = 0.0;       ///< its area on the face
+  double patch_width_mm = 0.0;       ///< its extent along the lateral direction u (ray centres)
+  double patch_elevation_mm = 0.0;   ///< its extent along the elevation direction v
   int lattice_nodes = 0;             ///< lattice nodes on the patch
   int nodes_skipped = 0;             ///< of those, too few or degenerate fit points
   std::int64_t missing_samples = 0;  ///< ray samples outside the volume or among NaN voxels
