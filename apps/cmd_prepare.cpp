@@ -31,6 +31,9 @@ namespace {
 /// Vessel points outside the mesh within this distance are moved onto it; farther ones are dropped
 /// (cortical vessels lie on the pial surface and in the sulci, on or just outside the brain).
 constexpr double vessel_snap_mm = 5.0;
+/// Less kept centreline than this (mm) is a weak input, warned about (the phantoms have ≈ 600 mm,
+/// a Doppler sector sees ≈ 100–300 mm of it).
+constexpr double weak_vessels_mm = 100.0;
 
 /// Below this labelled volume (labels 1–3, mL) the label volume is not a brain: an adult brain is
 /// ≈ 1,200 mL, the phantoms ≈ 1,100 mL, a 27 mm cube 20 mL.
@@ -198,18 +201,24 @@ int run_prepare(const PrepareArgs& args, std::ostream& out) {
     if (2 * fit.dropped > fit.points)
       warn(std::to_string(fit.dropped) + " of the " + std::to_string(fit.points) + " vessel points of " +
            args.mra.string() + " are farther than " + mm(vessel_snap_mm) + " mm from the brain mesh and were dropped");
+    if (fit.graph.total_length() < weak_vessels_mm)
+      warn("only " + mm(fit.graph.total_length()) + " mm of vessels from " + args.mra.string() + " in the brain (" +
+           std::to_string(fit.graph.branches.size()) + " branches): few points to register on");
   } else {
     warn("no vessels in " + args.mra.string() + " (" + vessels.message + "); registration will need footprint data");
   }
   const imaging::VesselGraph& skeleton = fit.graph;
 
   // Default scene, then the user's options merged over it (RFC 7386 merge patch).
+  const nlohmann::json default_fixed = {{"nodes", "fixed.csv"}};
+  const nlohmann::json default_craniotomy = {{"centre_mm", vector_json(craniotomy.centre)},
+                                             {"radius_mm", craniotomy.radius_mm}};
   nlohmann::json scene = {
       {"version", 1},
       {"mesh", "mesh.vtu"},
-      {"fixed", {{"nodes", "fixed.csv"}}},
+      {"fixed", default_fixed},
       {"collision_surface", "surface.vtp"},
-      {"craniotomy", {{"centre_mm", vector_json(craniotomy.centre)}, {"radius_mm", craniotomy.radius_mm}}},
+      {"craniotomy", default_craniotomy},
       {"constraints", {{"vessels", true}, {"footprint", true}, {"dura", "none"}, {"landmarks", false}}},
       {"rigid", {{"enabled", true}}}};
   if (!skeleton.branches.empty()) scene["vessels"] = "vessels.vtp";
@@ -273,6 +282,12 @@ int run_prepare(const PrepareArgs& args, std::ostream& out) {
                                {"mean_snap_mm", fit.mean_snap_mm}}},
                              {"warnings", warnings}};
   if (args.mri) manifest["inputs"]["mri"] = input_entry(*args.mri);
+  // What --scene-options replaced is what the model uses: say so.
+  const nlohmann::json none;
+  if (scene.value("craniotomy", none) != default_craniotomy)
+    manifest["craniotomy"] = {{"scene", scene.value("craniotomy", none)}, {"rule", "given by --scene-options"}};
+  if (scene.value("fixed", none) != default_fixed)
+    manifest["fixed"] = {{"scene", scene.value("fixed", none)}, {"rule", "given by --scene-options"}};
 
   progress.stage("writing the model");
   write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
