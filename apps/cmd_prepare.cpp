@@ -2,22 +2,25 @@
 
 #include <CLI/CLI.hpp>
 
+#include <array>
 #include <chrono>
 #include <fstream>
+#include <sstream>
 #include <iostream>
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/compliance_cache.hpp"
-#include "core/mapping/tet_locator.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 #include "imaging/io/skeleton_io.hpp"
 #include "imaging/io/surface_io.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
-#include "imaging/meshing/decimate_surface.hpp"
+#include "imaging/meshing/collision_surface.hpp"
 #include "imaging/meshing/label_mesher.hpp"
+#include "imaging/meshing/model_defaults.hpp"
+#include "imaging/meshing/skeleton_in_mesh.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
 #include "model_folder.hpp"
 #include "progress.hpp"
@@ -25,33 +28,80 @@
 namespace brainshift::apps {
 namespace {
 
-/// The parts of the skeleton that lie in the mesh (≤ 2 mm outside): each branch is cut into
-/// runs of such points; runs of ≥ 2 points become branches.
-imaging::VesselGraph inside_mesh(const imaging::VesselGraph& g, const core::TetMesh& mesh) {
-  const core::TetLocator locator(mesh.nodes(), mesh.tets());
-  imaging::VesselGraph out;
-  auto add_node = [&out](const Vector3d& p, double r) {
-    out.nodes.push_back({p, r});
-    return static_cast<index_t>(out.nodes.size() - 1);
-  };
-  for (const auto& b : g.branches) {
-    std::size_t i = 0;
-    while (i < b.points.size()) {
-      while (i < b.points.size() && !locator.locate(b.points[i], 1.5)) ++i;
-      std::size_t j = i;
-      while (j < b.points.size() && locator.locate(b.points[j], 1.5)) ++j;
-      if (j - i >= 2) {
-        imaging::VesselGraph::Branch nb;
-        nb.points.assign(b.points.begin() + static_cast<std::ptrdiff_t>(i), b.points.begin() + static_cast<std::ptrdiff_t>(j));
-        nb.radius.assign(b.radius.begin() + static_cast<std::ptrdiff_t>(i), b.radius.begin() + static_cast<std::ptrdiff_t>(j));
-        nb.from = add_node(nb.points.front(), nb.radius.front());
-        nb.to = add_node(nb.points.back(), nb.radius.back());
-        out.branches.push_back(std::move(nb));
-      }
-      i = j;
-    }
+/// Vessel points outside the mesh within this distance are moved onto it; farther ones are dropped
+/// (cortical vessels lie on the pial surface and in the sulci, on or just outside the brain).
+constexpr double vessel_snap_mm = 5.0;
+/// Less kept centreline than this (mm) is a weak input, warned about (the phantoms have ≈ 600 mm,
+/// a Doppler sector sees ≈ 100–300 mm of it).
+constexpr double weak_vessels_mm = 100.0;
+
+/// Below this labelled volume (labels 1–3, mL) the label volume is not a brain: an adult brain is
+/// ≈ 1,200 mL, the phantoms ≈ 1,100 mL, a 27 mm cube 20 mL.
+constexpr double min_brain_ml = 10.0;
+
+/// Voxels of each label value.
+std::array<std::int64_t, 256> count_labels(const imaging::LabelVolume& labels) {
+  std::array<std::int64_t, 256> n{};
+  for (auto v : labels.data) ++n[v];
+  return n;
+}
+
+/// The label volume's checks before meshing: not empty, only labels 0–3, some brain (label 1),
+/// at least min_brain_ml of it.
+void verify_labels(const std::filesystem::path& path, const imaging::LabelVolume& labels,
+                   const std::array<std::int64_t, 256>& n) {
+  BS_VERIFY(!labels.empty() && labels.geometry.voxel_count() > 0, path.string() << ": empty label volume (no voxel)");
+  for (int v = 4; v < 256; ++v)
+    BS_VERIFY(n[std::size_t(v)] == 0, path.string() << ": label value " << v << " (" << n[std::size_t(v)]
+                                                    << " voxels); allowed: 0 background, 1 brain, 2 tumour, 3 ventricles");
+  BS_VERIFY(n[0] < labels.geometry.voxel_count(),
+            path.string() << ": no brain in it (every voxel is background, label 0)");
+  BS_VERIFY(n[1] > 0, path.string() << ": no brain in it (no voxel has label 1; " << n[2] << " tumour and " << n[3]
+                                    << " ventricle voxels)");
+  const double ml = double(n[1] + n[2] + n[3]) * labels.geometry.spacing.prod() / 1000.0;
+  BS_VERIFY(ml >= min_brain_ml, path.string() << ": the labelled brain is only " << ml << " mL ("
+                                              << n[1] + n[2] + n[3] << " voxels of " << labels.geometry.spacing.prod()
+                                              << " mm³); an adult brain is ≈ 1,200 mL (wrong labels or voxel size?)");
+}
+
+/// Materials by label and how many tetrahedra carry each.
+nlohmann::json materials_json(const imaging::MeshingOptions& o, const std::vector<std::uint8_t>& tet_label) {
+  std::array<std::int64_t, 4> tets{};
+  for (auto l : tet_label) ++tets[std::min<std::size_t>(l, 3)];
+  return {{"brain", {{"youngs_modulus_kpa", o.brain_youngs_modulus}, {"tets", tets[1]}}},
+          {"tumour", {{"youngs_modulus_kpa", o.tumour_youngs_modulus}, {"tets", tets[2]}}},
+          {"ventricles",
+           {{"youngs_modulus_kpa", o.ventricle_youngs_modulus},
+            {"model", o.ventricles == imaging::VentricleModel::CAVITY ? "cavity" : "soft material"},
+            {"tets", tets[3]}}},
+          {"poisson_ratio", o.poisson_ratio}};
+}
+
+/// Σ a · (b × c) / 6 over the triangles: the enclosed volume, mL (mm³ / 1000) for outward normals.
+double enclosed_ml(const constraints::SurfaceMesh& s) {
+  double v = 0.0;
+  for (index_t f = 0; f < s.triangles.rows(); ++f) {
+    const Vector3d a = s.vertices.row(s.triangles(f, 0)), b = s.vertices.row(s.triangles(f, 1)),
+                   c = s.vertices.row(s.triangles(f, 2));
+    v += a.dot(b.cross(c)) / 6.0;
   }
-  return out;
+  return v / 1000.0;
+}
+
+double mesh_ml(const core::TetMesh& mesh) {
+  double v = 0.0;
+  for (index_t t = 0; t < mesh.num_tets(); ++t) v += mesh.signed_volume(t);
+  return v / 1000.0;
+}
+
+nlohmann::json vector_json(const Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+/// Up to 3 significant decimals, for messages.
+std::string mm(double x) {
+  std::ostringstream s;
+  s.precision(3);
+  s << x;
+  return s.str();
 }
 
 nlohmann::json input_entry(const std::filesystem::path& p) {
@@ -80,9 +130,8 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   verify_output_folder(args.out);
   progress.stage("reading the label volume");
   const imaging::LabelVolume labels = imaging::read_labels(args.labels);
-  std::int64_t brain = 0;
-  for (auto v : labels.data) brain += v != 0;
-  BS_VERIFY(brain > 0, args.labels.string() << ": no brain in it (every voxel is background, label 0)");
+  const std::array<std::int64_t, 256> label_voxels = count_labels(labels);
+  verify_labels(args.labels, labels, label_voxels);
   const imaging::VolumeF mra = imaging::read_volume(args.mra);
   BS_VERIFY(mra.components == 1, args.mra.string() << ": expected a scalar image, got " << mra.components
                                                    << " components");
@@ -93,23 +142,45 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
               args.mra.string() << ": does not overlap the label volume (different patient or frame?)");
   }
   if (args.mri) (void)imaging::read_volume(*args.mri);  // readable and sane
+  std::vector<std::string> warnings;
+  const auto warn = [&](const std::string& w) {
+    warnings.push_back(w);
+    progress.stage("warning: " + w);
+  };
 
   progress.stage("meshing the labels (CGAL)");
-  const imaging::MeshingResult meshed = imaging::mesh_labels(
-      labels, args.mesh_refinement == 1.0 ? imaging::MeshingOptions::coarse()
-                                          : imaging::MeshingOptions::refined(args.mesh_refinement));
+  const imaging::MeshingOptions meshing = args.mesh_refinement == 1.0
+                                              ? imaging::MeshingOptions::coarse()
+                                              : imaging::MeshingOptions::refined(args.mesh_refinement);
+  imaging::MeshingResult meshed;
+  try {
+    meshed = imaging::mesh_labels(labels, meshing);
+  } catch (const Error& e) {
+    BS_THROW(args.labels.string() << ": " << e.what());
+  }
   const core::TetMesh& mesh = meshed.mesh;
+  const double t_mesh = progress.seconds();
+  const auto t_surface_start = std::chrono::steady_clock::now();
+  progress.stage("collision surface, fixed region and craniotomy (" + std::to_string(mesh.num_nodes()) + " nodes, " +
+                 std::to_string(mesh.num_tets()) + " tetrahedra)");
   const imaging::MeshSurface outer = imaging::outer_boundary_surface(mesh);
-  // A boundary where thin parts touch along an edge cannot be decimated (edge collapses need a
-  // manifold); the full boundary is then the collision surface — slower to pair, same shape.
-  const index_t non_manifold = imaging::count_non_manifold_edges(outer.surface);
-  const constraints::SurfaceMesh surface =
-      non_manifold ? outer.surface : imaging::decimate_surface(outer.surface, args.surface_vertices);
-  if (non_manifold)
-    progress.stage("warning: the boundary is non-manifold at " + std::to_string(non_manifold) +
-                   " edges (thin parts touching); the collision surface is the full boundary (" +
-                   std::to_string(outer.surface.vertices.rows()) + " vertices), not decimated");
-  const std::vector<index_t> fixed = imaging::fixed_region_nodes(outer);
+  imaging::CollisionSurfaceOptions surface_options;
+  surface_options.target_vertices = args.surface_vertices;
+  const imaging::CollisionSurface collision = imaging::make_collision_surface(mesh, outer, surface_options);
+  const constraints::SurfaceMesh& surface = collision.surface;
+  const double t_surface = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_surface_start).count();
+  if (collision.wrapped)
+    progress.stage("the mesh boundary is non-manifold at " + std::to_string(collision.non_manifold_edges) + " edges and " +
+                   std::to_string(collision.non_manifold_vertices) + " vertices (thin parts touching): wrapped (alpha " +
+                   mm(surface_options.wrap_alpha_mm) + " mm) and decimated to " +
+                   std::to_string(surface.vertices.rows()) + " vertices");
+  if (collision.moved_vertices > 0)
+    progress.stage(std::to_string(collision.moved_vertices) + " collision-surface vertices were up to " +
+                   mm(collision.max_outside_mm) + " mm outside the mesh: moved onto it");
+  const imaging::FixedRegion fixed = imaging::default_fixed_region(outer);
+  const imaging::Craniotomy craniotomy = imaging::default_craniotomy(surface, mesh, meshed.tet_label);
+  progress.stage("fixed region: " + std::to_string(fixed.nodes.size()) + " " + fixed.rule);
+  progress.stage("craniotomy (default): " + craniotomy.rule);
 
   progress.stage("extracting the vessels from the MRA");
   // An MRA is not speckled: without the pre-filter (meant for Doppler noise) thin vessels are
@@ -117,20 +188,37 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   imaging::VesselExtractionOptions mra_options;
   mra_options.prefilter_sigma_mm = 0.0;
   const imaging::VesselExtractionResult vessels = imaging::extract_vessels(mra, mra_options);
-  const imaging::VesselGraph skeleton =
-      vessels.status == imaging::VesselStatus::OK ? inside_mesh(vessels.graph, mesh) : imaging::VesselGraph{};
+  imaging::SkeletonFit fit;
+  if (vessels.status == imaging::VesselStatus::OK) {
+    fit = imaging::fit_skeleton_to_mesh(vessels.graph, mesh, vessel_snap_mm);
+    BS_VERIFY(!fit.graph.branches.empty(),
+              args.mra.string() << ": none of its " << fit.points << " vessel points lies in the brain mesh or within "
+                                << vessel_snap_mm << " mm of it (different patient or frame?)");
+    progress.stage("vessels: " + std::to_string(fit.points) + " skeleton points, " + std::to_string(fit.inside) +
+                   " inside the mesh, " + std::to_string(fit.snapped) + " outside within " + mm(vessel_snap_mm) +
+                   " mm moved onto it (up to " + mm(fit.max_snap_mm) + " mm), " + std::to_string(fit.dropped) +
+                   " dropped (farther out, or alone)");
+    if (2 * fit.dropped > fit.points)
+      warn(std::to_string(fit.dropped) + " of the " + std::to_string(fit.points) + " vessel points of " +
+           args.mra.string() + " are farther than " + mm(vessel_snap_mm) + " mm from the brain mesh and were dropped");
+    if (fit.graph.total_length() < weak_vessels_mm)
+      warn("only " + mm(fit.graph.total_length()) + " mm of vessels from " + args.mra.string() + " in the brain (" +
+           std::to_string(fit.graph.branches.size()) + " branches): few points to register on");
+  } else {
+    warn("no vessels in " + args.mra.string() + " (" + vessels.message + "); registration will need footprint data");
+  }
+  const imaging::VesselGraph& skeleton = fit.graph;
 
   // Default scene, then the user's options merged over it (RFC 7386 merge patch).
-  Eigen::Index top = 0;
-  outer.surface.vertices.col(2).maxCoeff(&top);
+  const nlohmann::json default_fixed = {{"nodes", "fixed.csv"}};
+  const nlohmann::json default_craniotomy = {{"centre_mm", vector_json(craniotomy.centre)},
+                                             {"radius_mm", craniotomy.radius_mm}};
   nlohmann::json scene = {
       {"version", 1},
       {"mesh", "mesh.vtu"},
-      {"fixed", {{"nodes", "fixed.csv"}}},
+      {"fixed", default_fixed},
       {"collision_surface", "surface.vtp"},
-      {"craniotomy",
-       {{"centre_mm", {outer.surface.vertices(top, 0), outer.surface.vertices(top, 1), outer.surface.vertices(top, 2)}},
-        {"radius_mm", 30.0}}},
+      {"craniotomy", default_craniotomy},
       {"constraints", {{"vessels", true}, {"footprint", true}, {"dura", "none"}, {"landmarks", false}}},
       {"rigid", {{"enabled", true}}}};
   if (!skeleton.branches.empty()) scene["vessels"] = "vessels.vtp";
@@ -147,16 +235,66 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
                              {"version", model_version},
                              {"preop_grid", grid_to_json(labels.geometry)},
                              {"inputs", {{"labels", input_entry(args.labels)}, {"mra", input_entry(args.mra)}}},
-                             {"mesh", {{"nodes", mesh.num_nodes()}, {"tets", mesh.num_tets()}}},
-                             {"vessels", {{"branches", skeleton.branches.size()}, {"length_mm", skeleton.total_length()}}}};
+                             {"labels_ml",
+                              {{"brain", double(label_voxels[1]) * labels.geometry.spacing.prod() / 1000.0},
+                               {"tumour", double(label_voxels[2]) * labels.geometry.spacing.prod() / 1000.0},
+                               {"ventricles", double(label_voxels[3]) * labels.geometry.spacing.prod() / 1000.0}}},
+                             {"mesh",
+                              {{"nodes", mesh.num_nodes()},
+                               {"tets", mesh.num_tets()},
+                               {"volume_ml", mesh_ml(mesh)},
+                               {"min_dihedral_deg", meshed.quality.min_dihedral_deg},
+                               {"seconds", meshed.seconds}}},
+                             {"materials", materials_json(meshing, meshed.tet_label)},
+                             {"surface",
+                              {{"vertices", surface.vertices.rows()},
+                               {"triangles", surface.triangles.rows()},
+                               {"enclosed_volume_ml", enclosed_ml(surface)},
+                               {"requested_vertices", args.surface_vertices},
+                               {"boundary_vertices", collision.boundary_vertices},
+                               {"non_manifold_edges", collision.non_manifold_edges},
+                               {"non_manifold_vertices", collision.non_manifold_vertices},
+                               {"method", collision.wrapped ? "alpha wrap of the non-manifold boundary (alpha " +
+                                                                  mm(surface_options.wrap_alpha_mm) + " mm, offset " +
+                                                                  mm(surface_options.wrap_offset_mm) + " mm), decimated"
+                                                            : std::string("boundary decimated")},
+                               {"vertices_moved_onto_mesh", collision.moved_vertices},
+                               {"max_outside_mm", collision.max_outside_mm}}},
+                             {"fixed",
+                              {{"nodes", fixed.nodes.size()},
+                               {"down", vector_json(fixed.down)},
+                               {"height_mm", fixed.height_mm},
+                               {"extent_mm", fixed.extent_mm},
+                               {"rule", fixed.rule}}},
+                             {"craniotomy",
+                              {{"centre_mm", vector_json(craniotomy.centre)},
+                               {"radius_mm", craniotomy.radius_mm},
+                               {"rule", craniotomy.rule}}},
+                             {"vessels",
+                              {{"branches", skeleton.branches.size()},
+                               {"length_mm", skeleton.total_length()},
+                               {"points", fit.points},
+                               {"inside", fit.inside},
+                               {"snapped", fit.snapped},
+                               {"dropped", fit.dropped},
+                               {"snap_distance_mm", vessel_snap_mm},
+                               {"max_snap_mm", fit.max_snap_mm},
+                               {"mean_snap_mm", fit.mean_snap_mm}}},
+                             {"warnings", warnings}};
   if (args.mri) manifest["inputs"]["mri"] = input_entry(*args.mri);
+  // What --scene-options replaced is what the model uses: say so.
+  const nlohmann::json none;
+  if (scene.value("craniotomy", none) != default_craniotomy)
+    manifest["craniotomy"] = {{"scene", scene.value("craniotomy", none)}, {"rule", "given by --scene-options"}};
+  if (scene.value("fixed", none) != default_fixed)
+    manifest["fixed"] = {{"scene", scene.value("fixed", none)}, {"rule", "given by --scene-options"}};
 
   progress.stage("writing the model");
   write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
     imaging::write_tet_mesh(dir / "mesh.vtu", mesh);
     imaging::write_surface_vtp(dir / "surface.vtp", surface);
     if (!skeleton.branches.empty()) imaging::write_skeleton_vtp(dir / "vessels.vtp", skeleton);
-    imaging::write_node_list(dir / "fixed.csv", fixed);
+    imaging::write_node_list(dir / "fixed.csv", fixed.nodes);
     std::ofstream(dir / "scene.json") << scene.dump(2) << '\n';
     std::ofstream(dir / "model.json") << manifest.dump(2) << '\n';
     LoadedModel loaded;
@@ -181,12 +319,14 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
       cache["bytes"] = std::filesystem::file_size(dir / compliance_cache_file);
     }
     manifest["compliance"] = cache;
+    manifest["seconds"] = {{"mesh", t_mesh}, {"collision_surface", t_surface}, {"total", progress.seconds()}};
     std::ofstream(dir / "model.json") << manifest.dump(2) << '\n';
   });
   out << "prepared " << args.out.string() << ": " << mesh.num_nodes() << " nodes, " << mesh.num_tets()
-      << " tetrahedra, " << surface.vertices.rows() << " surface vertices, " << fixed.size() << " fixed nodes, "
+      << " tetrahedra, " << surface.vertices.rows() << " surface vertices, " << fixed.nodes.size() << " fixed nodes, "
       << skeleton.branches.size() << " vessel branches (" << static_cast<int>(skeleton.total_length())
-      << " mm) in " << progress.seconds() << " s\n";
+      << " mm; " << fit.snapped << " vessel points moved onto the mesh, " << fit.dropped << " dropped) in "
+      << progress.seconds() << " s\n";
   if (vessels.status != imaging::VesselStatus::OK)
     out << "warning: no vessels in the MRA (" << vessels.message << "); registration will need footprint data\n";
   return 0;

@@ -3,13 +3,19 @@
 /// @brief The MODEL folder written by `brainshift prepare` and read by `register` / `replay`:
 ///   scene.json      the registration scene (imaging/io/scene_io.hpp): names the files below
 ///   mesh.vtu        tetrahedral mesh with per-element materials (mm, RAS)
-///   surface.vtp     decimated collision surface (≈300 vertices)
-///   vessels.vtp     pre-operative vessel skeleton from the MRA (polylines, `radius`)
-///   fixed.csv       fixed (cerebellum-side) nodes
+///   surface.vtp     decimated collision surface (≈300 vertices; closed 2-manifold, also where the
+///                   mesh boundary is not: then its alpha wrap is decimated)
+///   vessels.vtp     pre-operative vessel skeleton from the MRA (polylines, `radius`), in the mesh:
+///                   points up to 5 mm outside moved onto it, farther ones dropped
+///   fixed.csv       fixed nodes: the inferior part (brain stem, lower cerebellum)
 ///   compliance.bin  cached compliance block K0⁻¹ on the constrained nodes
 ///                   (imaging/io/compliance_cache.hpp); optional, checked before use
-///   model.json      manifest: format name and version, the inputs (path, size, FNV-1a hash) and
-///                   the pre-operative image grid (to refuse images from another patient)
+///   model.json      manifest: format name and version, the inputs (path, size, FNV-1a hash), the
+///                   pre-operative image grid (to refuse images from another patient), and what
+///                   prepare chose and found: `labels_ml`, `mesh`, `materials`, `surface` (how it
+///                   was made), `fixed` and `craniotomy` (with the `rule` that chose them),
+///                   `vessels` (`points`, `inside`, `snapped`, `dropped`, `snap_distance_mm`),
+///                   `warnings`, `compliance`, `seconds`
 /// The folder is written under a temporary name and renamed, so it is complete or absent.
 
 #include <cstdint>
