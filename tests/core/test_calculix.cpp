@@ -8,6 +8,7 @@
 ///    corotational answer must be closer to NLGEOM than linear FEM is.
 /// Skipped when `ccx` is not on PATH (CI installs calculix-ccx, scripts/install_deps.sh).
 
+#include "calculix.hpp"
 #include "temp_folder.hpp"
 #include "tolerance.hpp"
 
@@ -17,29 +18,28 @@
 
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
-#include <iterator>
 #include <limits>
-#include <sstream>
 #include <string>
 #include <vector>
 
 namespace brainshift::core {
 namespace {
 
+using tests::calculix::ccx_available;
+using tests::calculix::max_nodal_difference;
+using tests::calculix::run_ccx;
+using tests::calculix::write_node_set;
+
 constexpr double kRadius = 20.0 * units::mm;
 constexpr double kLength = 80.0 * units::mm;
 // 8 cells across the diameter, 32 along the axis: 9·9·33 = 2,673 nodes, 12,288 tetrahedra.
 constexpr int kRadialCells = 8;
 constexpr int kAxialCells = 32;
-
-bool ccx_available() { return std::system("command -v ccx > /dev/null 2>&1") == 0; }
 
 /// The cylinder problem: mesh, fixed base (z = 0) and top face (z = length) nodes.
 struct Problem {
@@ -73,12 +73,6 @@ MatrixX3d solve_ours(const Problem& p, const Vector3d& top_displacement, bool co
   return result.displacement;
 }
 
-void write_node_set(std::ostream& out, const std::string& name, const std::vector<index_t>& nodes) {
-  out << "*NSET, NSET=" << name << "\n";
-  for (std::size_t k = 0; k < nodes.size(); ++k)
-    out << nodes[k] + 1 << ((k % 10 == 9 || k + 1 == nodes.size()) ? "\n" : ", ");
-}
-
 /// CalculiX input deck: C3D4 elements (our positive orientation is the Abaqus/ccx one: node 4 on
 /// the side of face 1-2-3 given by the right-hand rule), one linear elastic material (mm, mN, kPa
 /// = mN/mm²), base fixed, top translated; *STATIC with or without NLGEOM; displacements of all
@@ -90,15 +84,8 @@ void write_inp(const std::filesystem::path& file, const Problem& p,
   ASSERT_TRUE((m.youngs_modulus().array() == E).all() && (m.poisson_ratio().array() == nu).all())
       << "the deck writes one material";
   std::ofstream out(file);
-  out << std::setprecision(std::numeric_limits<double>::max_digits10);
-  out << "*HEADING\nbrainshift test_calculix cylinder\n*NODE, NSET=NALL\n";
-  for (index_t i = 0; i < m.num_nodes(); ++i)
-    out << i + 1 << ", " << m.nodes()(i, 0) << ", " << m.nodes()(i, 1) << ", " << m.nodes()(i, 2)
-        << "\n";
-  out << "*ELEMENT, TYPE=C3D4, ELSET=EALL\n";
-  for (index_t t = 0; t < m.num_tets(); ++t)
-    out << t + 1 << ", " << m.tets()(t, 0) + 1 << ", " << m.tets()(t, 1) + 1 << ", "
-        << m.tets()(t, 2) + 1 << ", " << m.tets()(t, 3) + 1 << "\n";
+  out << "*HEADING\nbrainshift test_calculix cylinder\n";
+  tests::calculix::write_mesh(out, m);
   write_node_set(out, "BASE", p.base);
   write_node_set(out, "TOP", p.top);
   out << "*MATERIAL, NAME=BRAIN\n*ELASTIC\n"
@@ -116,62 +103,6 @@ void write_inp(const std::filesystem::path& file, const Problem& p,
   for (int a = 0; a < 3; ++a)
     out << "TOP, " << a + 1 << ", " << a + 1 << ", " << top_displacement(a) << "\n";
   out << "*NODE PRINT, NSET=NALL\nU\n*END STEP\n";
-}
-
-/// Displacements of the last "displacements (vx,vy,vz)" block of a ccx .dat file (#N×3, mm);
-/// `time` receives that block's step time.
-MatrixX3d read_dat_displacements(const std::filesystem::path& file, index_t num_nodes,
-                                 double& time) {
-  std::ifstream in(file);
-  MatrixX3d u = MatrixX3d::Constant(num_nodes, 3, std::numeric_limits<double>::quiet_NaN());
-  time = std::numeric_limits<double>::quiet_NaN();
-  bool found = false, in_block = false;
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.find("displacements (vx,vy,vz)") != std::string::npos) {
-      found = in_block = true;
-      const auto pos = line.find("time");
-      time = pos == std::string::npos ? time : std::stod(line.substr(pos + 4));
-      u.setConstant(std::numeric_limits<double>::quiet_NaN());
-      continue;
-    }
-    if (!in_block) continue;
-    std::istringstream row(line);
-    long node = 0;
-    double x = 0, y = 0, z = 0;
-    if (!(row >> node >> x >> y >> z)) {
-      if (line.find_first_not_of(" \t\r") != std::string::npos) in_block = false;  // next header
-      continue;
-    }
-    if (node >= 1 && node <= num_nodes) u.row(node - 1) << x, y, z;
-  }
-  EXPECT_TRUE(found) << "no displacement block in " << file;
-  return u;
-}
-
-/// Runs ccx on `deck` (without extension) in `folder`, one thread, output to ccx.log; returns
-/// the displacements of the last printed increment and checks it ended at step time 1.
-MatrixX3d run_ccx(const std::filesystem::path& folder, const std::string& deck, index_t num_nodes,
-                  double& seconds) {
-  const std::string command = "cd '" + folder.string() + "' && OMP_NUM_THREADS=1 ccx -i " + deck +
-                              " > ccx_" + deck + ".log 2>&1";
-  const auto start = std::chrono::steady_clock::now();
-  const int rc = std::system(command.c_str());
-  seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::ifstream log(folder / ("ccx_" + deck + ".log"));
-  const std::string log_text((std::istreambuf_iterator<char>(log)),
-                             std::istreambuf_iterator<char>());
-  EXPECT_EQ(rc, 0) << "ccx failed:\n" << log_text;
-  EXPECT_EQ(log_text.find("*ERROR"), std::string::npos) << log_text;
-  double time = 0;
-  MatrixX3d u = read_dat_displacements(folder / (deck + ".dat"), num_nodes, time);
-  EXPECT_TRUE(tests::near(time, 1.0, 1e-9, 0.0)) << "ccx did not reach the end of the step";
-  EXPECT_TRUE(u.allFinite()) << "ccx printed no displacement for some nodes";
-  return u;
-}
-
-double max_nodal_difference(const MatrixX3d& a, const MatrixX3d& b) {
-  return (a - b).rowwise().norm().maxCoeff();
 }
 
 TEST(CalculixReference, LinearFemMatchesCalculixLinearC3D4) {

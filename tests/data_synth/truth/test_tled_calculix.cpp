@@ -1,0 +1,272 @@
+/// @file
+/// @brief Independent check of the phantoms' truth model: the TLED neo-Hookean explicit solver
+/// (tled_solver.hpp) against CalculiX (ccx) implicit static NLGEOM on the same tetrahedral mesh,
+/// with the same material, loads and supports:
+///  - a cube sheared and compressed by a prescribed top-face displacement (finite strain);
+///  - a clamped-clamped block sagging under its own weight (gravity, geometric and material
+///    non-linearity), without contact;
+///  - the same block with a frictionless rigid plane below it that stops the sag (contact).
+///
+/// Same discrete model on both sides, so the answers must agree far below the 1 mm registration
+/// target:
+///  - element: ccx C3D4 is the constant-strain linear tetrahedron with one integration point, as
+///    TLED's elements (deformation gradient from the shape gradients, total Lagrangian);
+///  - material: ccx *HYPERELASTIC, NEO HOOKE has U = C10 (Ī₁ − 3) + (J − 1)² / D1 (ccx manual,
+///    polynomial hyperelastic form, N = 1), ours W = μ/2 (Ī₁ − 3) + κ/2 (J − 1)²
+///    (neo_hookean.hpp), the same decoupled form, hence C10 = μ/2 and D1 = 2/κ;
+///  - loads: our nodal weights are sag_nodal_force's lumped quarter volumes; ccx integrates
+///    *DLOAD GRAV itself with *DENSITY (for a linear tetrahedron the consistent load is also
+///    ρ g V/4 per node), so brain_sag.cpp's load is checked too; both are dead loads;
+///  - contact: TLED projects escaped candidate nodes onto a rigid ellipsoid (frictionless,
+///    nodal); the plane is an ellipsoid flat enough to be a plane here (semi-axes 10⁶, 10⁶, 100
+///    mm: it rises by (x² + y²)·100/(2·10¹²) ≤ 1e-7 mm over the block). ccx uses one GAPUNI
+///    element per candidate node against a fixed ground node (nodal, frictionless, the gap
+///    direction is the plane's normal): the same node-to-plane formulation, enforced by a
+///    penalty (stiffness kGapStiffness: penetration = force / k ≤ 1e-6 mm here).
+/// What remains are the two solvers' stopping errors (TLED dynamic relaxation to its estimated
+/// error; ccx Newton with *CONTROLS tightened) and the 7 significant digits ccx prints: the
+/// tolerances below are set from those, with the measured differences in the comments.
+/// Skipped when `ccx` is not on PATH (CI installs calculix-ccx, scripts/install_deps.sh).
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calculix.hpp"
+#include "core/units.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+#include "data_synth/truth/brain_sag.hpp"
+#include "data_synth/truth/tled_solver.hpp"
+#include "temp_folder.hpp"
+#include "tolerance.hpp"
+
+namespace brainshift::data_synth {
+namespace {
+
+using tests::calculix::ccx_available;
+using tests::calculix::max_nodal_difference;
+using tests::calculix::run_ccx;
+using tests::calculix::write_node_set;
+
+/// GAPUNI penalty stiffness, mN/mm: nodal contact forces here are below 1 mN (a node carries
+/// ρ g V/4 ≈ 0.02 mN and the plane holds up the block's middle), so the penetration is ≤ 1e-6 mm.
+constexpr double kGapStiffness = 1e6;
+/// GAPUNI force at infinite clearance, mN (ccx's default 1e-3 mN would pull open-gap nodes by
+/// 5 % of a nodal weight): 1e-9 mN is 1e-7 of a nodal weight.
+constexpr double kGapOpenForce = 1e-9;
+/// TLED stopping tolerance, mm: a tenth of the agreement asserted below.
+constexpr double kTledTolerance = 1e-4;
+
+/// A prescribed-displacement group: all three components of `nodes` set to `displacement` (mm).
+struct Support {
+  std::string name;  ///< ccx node-set name
+  std::vector<index_t> nodes;
+  Vector3d displacement = Vector3d::Zero();
+};
+
+/// A frictionless rigid plane z = level (mm) below the candidate nodes (all at one height).
+struct Plane {
+  double level = 0.0;
+  std::vector<index_t> candidates;
+};
+
+/// One benchmark: mesh (uniform E, ν), supports, optional weight (−z) and optional plane.
+struct Bench {
+  core::TetMesh mesh;
+  std::vector<Support> supports;
+  bool gravity = false;  ///< the fully drained sag load: ρ_csf g along −z on every node
+  std::optional<Plane> plane;
+};
+
+std::vector<index_t> nodes_where(const core::TetMesh& m, auto&& pred) {
+  std::vector<index_t> out;
+  for (index_t i = 0; i < m.num_nodes(); ++i)
+    if (pred(Vector3d(m.nodes().row(i).transpose()))) out.push_back(i);
+  return out;
+}
+
+SagLoad full_weight() {
+  SagLoad load;
+  load.gravity_direction = {0.0, 0.0, -1.0};
+  load.drain_depth = 1e3;  // mm, more than any block here: every node loses its buoyancy
+  return load;
+}
+
+TledResult solve_tled(const Bench& b) {
+  TledProblem p;
+  if (b.gravity) p.external_force = sag_nodal_force(b.mesh, full_weight());
+  for (const Support& s : b.supports)
+    for (const index_t i : s.nodes) p.constraints.push_back({i, {true, true, true}, s.displacement});
+  if (b.plane) {
+    SkullContact c;
+    const Vector3d lo = b.mesh.nodes().colwise().minCoeff(), hi = b.mesh.nodes().colwise().maxCoeff();
+    constexpr double kFlat = 1e6, kDepth = 100.0;  // mm, see the file comment
+    c.skull.semi_axes = {kFlat, kFlat, kDepth};
+    c.skull.center = {0.5 * (lo.x() + hi.x()), 0.5 * (lo.y() + hi.y()), b.plane->level + kDepth};
+    c.candidate_nodes = b.plane->candidates;
+    p.contact = c;
+  }
+  TledOptions o;
+  o.error_tolerance = kTledTolerance;
+  o.max_iterations = 2'000'000;
+  const TledResult r = TledSolver(b.mesh).solve(p, o);
+  EXPECT_EQ(r.status, TledStatus::CONVERGED) << r.message;
+  return r;
+}
+
+/// The ccx deck of a bench: C3D4, NEO HOOKE (C10 = μ/2, D1 = 2/κ), supports, *DLOAD GRAV,
+/// GAPUNI elements to ground nodes on the plane; *STATIC NLGEOM with tight convergence controls.
+void write_deck(const std::filesystem::path& file, const Bench& b) {
+  const core::TetMesh& m = b.mesh;
+  const double E = m.youngs_modulus()(0), nu = m.poisson_ratio()(0);
+  ASSERT_TRUE((m.youngs_modulus().array() == E).all() && (m.poisson_ratio().array() == nu).all())
+      << "the deck writes one material";
+  const NeoHookean mat = NeoHookean::from_youngs(E, nu);
+  std::ofstream out(file);
+  out << "*HEADING\nbrainshift test_tled_calculix\n";
+  tests::calculix::write_mesh(out, m);
+  // ccx reads a number from at most 20 characters: 12 significant digits fit with sign and
+  // exponent (1e-12 relative, far below the differences checked here).
+  out << std::setprecision(12);
+  const index_t n = m.num_nodes();
+  if (b.plane) {
+    // Ground node n+1+k right below candidate k, fixed; GAPUNI from the candidate to it.
+    const double z0 = m.nodes()(b.plane->candidates.front(), 2);
+    out << "*NODE, NSET=GROUND\n";
+    for (std::size_t k = 0; k < b.plane->candidates.size(); ++k) {
+      const index_t i = b.plane->candidates[k];
+      ASSERT_NEAR(m.nodes()(i, 2), z0, 1e-12) << "one clearance: candidates at one height";
+      out << n + 1 + index_t(k) << ", " << m.nodes()(i, 0) << ", " << m.nodes()(i, 1) << ", "
+          << b.plane->level << "\n";
+    }
+    out << "*ELEMENT, TYPE=GAPUNI, ELSET=EGAP\n";
+    for (std::size_t k = 0; k < b.plane->candidates.size(); ++k)
+      out << m.num_tets() + 1 + index_t(k) << ", " << b.plane->candidates[k] + 1 << ", "
+          << n + 1 + index_t(k) << "\n";
+    // Clearance, direction from the candidate towards the plane (−z); ccx closes the gap when
+    // clearance + direction·(u_ground − u_node) reaches 0.
+    out << "*GAP, ELSET=EGAP\n"
+        << z0 - b.plane->level << ", 0., 0., -1., , " << kGapStiffness << ", " << kGapOpenForce
+        << "\n";
+  }
+  for (const Support& s : b.supports) write_node_set(out, s.name, s.nodes);
+  out << "*MATERIAL, NAME=BRAIN\n*HYPERELASTIC, NEO HOOKE\n"
+      << 0.5 * mat.mu << ", " << 2.0 / mat.kappa << "\n"
+      << "*DENSITY\n" << full_weight().csf_density << "\n"
+      << "*SOLID SECTION, ELSET=EALL, MATERIAL=BRAIN\n";
+  // Residual and correction controls 100x tighter than ccx's defaults (0.005, 0.01), so that
+  // ccx's own convergence error stays far below the differences bounded here.
+  out << "*STEP, NLGEOM, INC=1000\n*CONTROLS, PARAMETERS=FIELD\n5e-5, 1e-4\n"
+      << "*STATIC\n0.1, 1.0\n*BOUNDARY\n";
+  if (b.plane) out << "GROUND, 1, 3, 0.\n";
+  for (const Support& s : b.supports)
+    for (int a = 0; a < 3; ++a)
+      out << s.name << ", " << a + 1 << ", " << a + 1 << ", " << s.displacement(a) << "\n";
+  if (b.gravity) out << "*DLOAD\nEALL, GRAV, " << full_weight().gravity << ", 0., 0., -1.\n";
+  out << "*NODE PRINT, NSET=NALL\nU\n*END STEP\n";
+}
+
+struct Comparison {
+  TledResult tled;
+  MatrixX3d ccx;
+  double max_difference = 0.0;  ///< mm
+  double relative_l2 = 0.0;
+  double max_displacement = 0.0;  ///< of ccx's answer, mm
+};
+
+Comparison compare(const Bench& b, const std::string& name) {
+  Comparison c;
+  const tests::TempFolder folder;
+  write_deck(folder / (name + ".inp"), b);
+  double seconds = 0.0;
+  c.ccx = run_ccx(folder.path(), name, b.mesh.num_nodes(), seconds);
+  c.tled = solve_tled(b);
+  c.max_difference = max_nodal_difference(c.tled.displacement, c.ccx);
+  c.relative_l2 = tests::relative_difference(c.tled.displacement, c.ccx);
+  c.max_displacement = c.ccx.rowwise().norm().maxCoeff();
+  std::cout << "[tled vs ccx] " << name << ": " << b.mesh.num_nodes() << " nodes, "
+            << b.mesh.num_tets() << " tets; ccx " << seconds << " s; TLED " << c.tled.iterations
+            << " steps, " << c.tled.contact_nodes << " on the plane; max |u| "
+            << c.max_displacement << " mm; max nodal difference " << c.max_difference
+            << " mm, relative L2 " << c.relative_l2 << "\n";
+  return c;
+}
+
+/// Cube 20 mm, 5 cells a side; base fixed; top face moved 6 mm sideways and 4 mm down (30 %
+/// shear, 20 % compression).
+Bench sheared_cube() {
+  Bench b;
+  b.mesh = make_box_mesh({20.0, 20.0, 20.0}, {5, 5, 5});
+  b.supports.push_back({"BASE", nodes_where(b.mesh, [](const Vector3d& x) { return x.z() < 1e-9; }),
+                        Vector3d::Zero()});
+  b.supports.push_back({"TOP", nodes_where(b.mesh, [](const Vector3d& x) { return x.z() > 20.0 - 1e-9; }),
+                        Vector3d(6.0, 0.0, -4.0)});
+  return b;
+}
+
+constexpr double kSpan = 60.0, kWidth = 20.0, kDepth = 20.0;  // mm
+
+/// Block 60 × 20 × 20 mm (12 × 4 × 4 cells), both ends (x = 0, x = 60) clamped, own weight.
+Bench sagging_block() {
+  Bench b;
+  b.mesh = make_box_mesh({kSpan, kWidth, kDepth}, {12, 4, 4});
+  b.supports.push_back({"ENDS", nodes_where(b.mesh, [](const Vector3d& x) {
+                          return x.x() < 1e-9 || x.x() > kSpan - 1e-9;
+                        }),
+                        Vector3d::Zero()});
+  b.gravity = true;
+  return b;
+}
+
+/// Maximum nodal agreement asserted, mm. Measured differences are in each test; the bound is
+/// ten times TLED's stopping tolerance (its estimate is an upper bound of its error within a
+/// factor of a few, test_tled_solver.cpp) plus ccx's printed precision (7 digits of ≤ 10 mm
+/// displacements: 1e-5 mm) and, with contact, the penalty penetration (≤ 1e-6 mm).
+constexpr double kAgreement = 10.0 * kTledTolerance + 1e-5;
+
+TEST(TledCalculix, ShearedCubeMatchesCalculixNeoHookeNlgeom) {
+  if (!ccx_available()) GTEST_SKIP() << "ccx (CalculiX, Debian package calculix-ccx) not on PATH";
+  const Comparison c = compare(sheared_cube(), "shear");
+  EXPECT_GT(c.max_displacement, 7.0);  // the prescribed 7.2 mm: a finite-strain case
+  EXPECT_LE(c.max_difference, kAgreement);
+}
+
+TEST(TledCalculix, SaggingBlockMatchesCalculixWithoutContact) {
+  if (!ccx_available()) GTEST_SKIP() << "ccx (CalculiX, Debian package calculix-ccx) not on PATH";
+  const Comparison c = compare(sagging_block(), "sag");
+  EXPECT_GT(c.max_displacement, 3.0);  // large enough for the plane test below to bite
+  EXPECT_LE(c.max_difference, kAgreement);
+}
+
+TEST(TledCalculix, SaggingBlockOnARigidPlaneMatchesCalculixFrictionlessContact) {
+  if (!ccx_available()) GTEST_SKIP() << "ccx (CalculiX, Debian package calculix-ccx) not on PATH";
+  Bench b = sagging_block();
+  constexpr double kPlaneLevel = -2.0;  // mm below the bottom face: about half the free sag
+  b.plane = Plane{kPlaneLevel, nodes_where(b.mesh, [](const Vector3d& x) {
+                    return x.z() < 1e-9 && x.x() > 1e-9 && x.x() < kSpan - 1e-9;
+                  })};
+  const Comparison c = compare(b, "contact");
+  EXPECT_GT(c.tled.contact_nodes, 0);
+  // Neither answer goes through the plane (TLED: by projection, to the closest-point solver's
+  // 1e-6 mm; ccx: by the penalty, ≤ 1e-6 mm, plus its printed precision).
+  index_t ccx_on_plane = 0;
+  for (const index_t i : b.plane->candidates) {
+    const double z_tled = b.mesh.nodes()(i, 2) + c.tled.displacement(i, 2);
+    const double z_ccx = b.mesh.nodes()(i, 2) + c.ccx(i, 2);
+    EXPECT_GE(z_tled, kPlaneLevel - 1e-5) << "node " << i;
+    EXPECT_GE(z_ccx, kPlaneLevel - 1e-5) << "node " << i;
+    ccx_on_plane += z_ccx < kPlaneLevel + 1e-4 ? 1 : 0;
+  }
+  EXPECT_GT(ccx_on_plane, 0);
+  EXPECT_LE(c.max_difference, kAgreement);
+}
+
+}  // namespace
+}  // namespace brainshift::data_synth
