@@ -26,15 +26,20 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
   imaging::DisplacementFieldOptions slicer = fo;
   slicer.extension_mm = imaging::trilinear_support_mm(preop);
   f.intraop_to_preop = imaging::displacement_field(mesh, f.u_intra, preop, slicer);
-  // Where pre-operative content is now: the rigidly moved pre-operative grid and the deformed brain.
+  // Where pre-operative content is now: the pre-operative grid moved by the rigid part (its
+  // lattice, so no larger than the pre-operative grid unless the deformed brain leaves it) and
+  // the deformed brain.
+  imaging::ImageGeometry moved = preop;
+  moved.origin = f.intraop_from_model * preop.origin;
+  moved.direction = f.intraop_from_model.linear() * preop.direction;
   MatrixX3d now(8 + mesh.num_nodes(), 3);
   for (int c = 0; c < 8; ++c) {
     const Vector3d ijk((c & 1) ? preop.size[0] - 1 : 0, (c & 2) ? preop.size[1] - 1 : 0,
                        (c & 4) ? preop.size[2] - 1 : 0);
-    now.row(c) = (f.intraop_from_model * preop.index_to_world(ijk)).transpose();
+    now.row(c) = moved.index_to_world(ijk).transpose();
   }
   now.bottomRows(mesh.num_nodes()) = mesh.nodes() + f.u_intra;
-  const imaging::ImageGeometry intra = imaging::covering_grid(preop, now, /*margin_mm=*/0.0);
+  const imaging::ImageGeometry intra = imaging::covering_grid(moved, now, /*margin_mm=*/0.0);
   f.preop_to_intraop = imaging::inverse_displacement_field(mesh, f.u_intra, intra, slicer);
 
   if (mri) {

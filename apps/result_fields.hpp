@@ -14,8 +14,9 @@
 /// (the Slicer files are converted to LPS when written):
 /// - forward, on the pre-operative grid: d(X) = φ(X) − X (displacement.nii.gz; with the extension
 ///   below also intraop_to_preop.nrrd, which moves intra-operative content onto the MRI);
-/// - resampling (ITK / Slicer sense, "transform from parent"), on a grid covering the
-///   intra-operative brain and everything of the pre-operative grid: v(y) = φ⁻¹(y) − y, so
+/// - resampling (ITK / Slicer sense, "transform from parent"), on the pre-operative grid moved by
+///   the rigid part (oblique if it rotates), grown where needed to cover the deformed brain:
+///   v(y) = φ⁻¹(y) − y, so
 ///   y + v(y) is the pre-operative point now at y (preop_to_intraop.nrrd: applied to pre-operative
 ///   content, it shows it where it is now).
 /// The Slicer fields extend the brain's map trilinear_support_mm() beyond the mesh, so that
@@ -35,7 +36,7 @@ struct ResultFields {
   MatrixX3d u_intra;                     ///< #N×3: φ(X_n) − X_n at the mesh nodes, mm
   imaging::VolumeF displacement;         ///< d = φ(X) − X on the pre-op grid (displacement.nii.gz)
   imaging::VolumeF intraop_to_preop;     ///< d on the pre-op grid, extended beyond the brain
-  imaging::VolumeF preop_to_intraop;     ///< v = φ⁻¹(y) − y on a grid over the intra-op brain
+  imaging::VolumeF preop_to_intraop;     ///< v = φ⁻¹(y) − y on the moved pre-op grid (above)
   std::optional<imaging::VolumeF> warped_mri;  ///< the MRI pulled through φ⁻¹ (with an MRI)
 };
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/logger.hpp"
+#include "core/mesh/boundary.hpp"
 
 namespace brainshift::imaging {
 
@@ -210,7 +211,17 @@ VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world
   std::vector<PreparedTet> wide;
   std::vector<float> outside_by(0);  // per voxel: how far outside its writer it is (0: inside)
   if (margin_mm > 0.0) {
+    // Only tetrahedra touching the boundary can be nearest to a voxel outside the mesh (an inner
+    // one's extension reaches only voxels inside other tetrahedra): dilate just those.
     wide = prepare_all(mesh, q, values, nodes_world, g.size, margin_mm, margin_mm / g.spacing.minCoeff());
+    std::vector<bool> on_boundary(std::size_t(mesh.num_nodes()), false);
+    const core::TriangleMatrix faces = core::boundary_faces(mesh);
+    for (Eigen::Index f = 0; f < faces.size(); ++f) on_boundary[std::size_t(faces.data()[f])] = true;
+    for (index_t t = 0; t < mesh.num_tets(); ++t) {
+      bool touches = false;
+      for (int a = 0; a < 4; ++a) touches = touches || on_boundary[std::size_t(mesh.tets()(t, a))];
+      if (!touches) wide[std::size_t(t)].empty = true;
+    }
     outside_by.assign(std::size_t(g.voxel_count()), std::numeric_limits<float>::infinity());
   }
   for_slabs(g.size[2], threads, [&](int k0, int k1) {

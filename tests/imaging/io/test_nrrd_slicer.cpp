@@ -1,0 +1,75 @@
+// NRRD volumes as 3D Slicer writes them for its command-line modules (the storage nodes: teem's
+// header with comment lines, `space: left-posterior-superior`, oblique `space directions`, gzip
+// data, key:=value pairs, short voxels for label maps) read into world RAS.
+
+#include <gtest/gtest.h>
+
+#include <zlib.h>
+
+#include <cstdint>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "imaging/io/image_io.hpp"
+#include "temp_folder.hpp"
+
+namespace brainshift::imaging {
+namespace {
+
+std::string gzip(const std::string& raw) {
+  z_stream z{};
+  EXPECT_EQ(deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  std::string out(deflateBound(&z, uLong(raw.size())) + 64, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(raw.data()));
+  z.avail_in = uInt(raw.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = uInt(out.size());
+  EXPECT_EQ(deflate(&z, Z_FINISH), Z_STREAM_END);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+TEST(NrrdFromSlicer, AGzipShortLabelMapInObliqueLpsReadsIntoRasWithItsLabels) {
+  const tests::TempFolder dir;
+  // 2 × 3 × 2 voxels, labels 0…3 (short, as Slicer stores label maps).
+  std::vector<std::int16_t> labels = {0, 1, 2, 3, 1, 1, 0, 2, 2, 3, 3, 0};
+  const std::string raw(reinterpret_cast<const char*>(labels.data()), labels.size() * sizeof(std::int16_t));
+  // Oblique axes (i along −P, j along L: a 90° turn about S, as after hardening a transform in
+  // Slicer) with anisotropic spacing.
+  const std::string header =
+      "NRRD0004\n"
+      "# Complete NRRD file format specification at:\n"
+      "# http://teem.sourceforge.net/nrrd/format.html\n"
+      "type: short\n"
+      "dimension: 3\n"
+      "space: left-posterior-superior\n"
+      "sizes: 2 3 2\n"
+      "space directions: (0,-0.5,0) (0.75,0,0) (0,0,1.2)\n"
+      "kinds: domain domain domain\n"
+      "endian: little\n"
+      "encoding: gzip\n"
+      "space units: \"mm\" \"mm\" \"mm\"\n"
+      "space origin: (60,80,-30)\n"
+      "ITK_InputFilterName:=NrrdImageIO\n"
+      "\n";
+  {
+    std::ofstream out(dir / "labels.nrrd", std::ios::binary);
+    out << header << gzip(raw);
+  }
+  const LabelVolume v = read_labels(dir / "labels.nrrd");
+  ASSERT_EQ(v.geometry.size, Eigen::Vector3i(2, 3, 2));
+  for (int k = 0; k < 2; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 2; ++i) EXPECT_EQ(int(v.at(i, j, k)), labels[std::size_t((k * 3 + j) * 2 + i)]);
+  // Voxel (i, j, k) lies at LPS (60, 80, −30) + i (0, −0.5, 0) + j (0.75, 0, 0) + k (0, 0, 1.2);
+  // RAS negates the first two coordinates. Exact up to rounding of the parsed decimals.
+  constexpr double TOL = 1e-12;
+  EXPECT_LT((v.geometry.index_to_world({0, 0, 0}) - Vector3d(-60, -80, -30)).norm(), TOL);
+  EXPECT_LT((v.geometry.index_to_world({1, 0, 0}) - Vector3d(-60, -79.5, -30)).norm(), TOL);
+  EXPECT_LT((v.geometry.index_to_world({0, 2, 1}) - Vector3d(-61.5, -80, -28.8)).norm(), TOL);
+}
+
+}  // namespace
+}  // namespace brainshift::imaging
