@@ -78,6 +78,7 @@ double fan_score(const Cloud& c, const Vector3d& d) {
     lo = std::min(lo, d.dot(p));
     hi = std::max(hi, d.dot(p));
   }
+  if (!(hi - lo > 1.0)) return -1e300;  // (nearly) flat along d: a plane of voxels, no fan
   const int nb = std::max(4, int((hi - lo) / 2.0));
   std::vector<double> n(std::size_t(nb), 0.0), c1(std::size_t(nb), 0.0), c2(std::size_t(nb), 0.0);
   for (const auto& p : c.points) {

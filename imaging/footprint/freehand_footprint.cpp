@@ -132,7 +132,16 @@ FreehandFootprint extract_freehand_footprint(const VolumeF& bmode,
     r.warnings.push_back("the swept region fits a fan poorly (" + fixed(b.fan_fit, 2) + " < " +
                          fixed(o.min_fan_fit, 2) +
                          "): the estimated beam direction may be wrong; give the probe direction");
-  if (r.footprint.status != FootprintStatus::OK) return r;
+  if (b.given && b.far_width_mm * b.far_elevation_mm < b.near_width_mm * b.near_elevation_mm)
+    r.warnings.push_back(
+        "the swept region narrows along the given probe direction (" +
+        fixed(b.near_width_mm * b.near_elevation_mm, 0) + " to " +
+        fixed(b.far_width_mm * b.far_elevation_mm, 0) +
+        " mm2 across): is it reversed? It must point from the probe into the tissue");
+  if (r.footprint.status != FootprintStatus::OK) {
+    for (const auto& w : r.warnings) logger().warn("footprint: {}", w);
+    return r;
+  }
 
   // The patch's smaller extent is the probe face's width; the larger one the sweep's length.
   r.width_mm = std::min(r.footprint.patch_width_mm, r.footprint.patch_elevation_mm);

@@ -114,6 +114,28 @@ TEST(FreehandFootprint, WithoutABandThereIsNoFootprint) {
   EXPECT_EQ(r.footprint.points.rows(), 0);
 }
 
+TEST(FreehandFootprint, AReversedGivenDirectionIsAWarning) {
+  const Scene s = render(Fan{}, 19u);
+  const FreehandFootprint r = extract_freehand_footprint(s.image, Vector3d(-s.frame.col(2)));
+  bool reversed = false;
+  for (const auto& w : r.warnings) reversed = reversed || w.find("reversed") != std::string::npos;
+  EXPECT_TRUE(reversed) << r.footprint.message;
+}
+
+TEST(FreehandFootprint, APlanarVolumeIsNoFootprintButNoCrash) {
+  // One slice of a fan (a 2-D sector stored as a volume): no NaN and no exception.
+  Scene s = render(Fan{}, 29u);
+  const auto& g = s.image.geometry;
+  for (int k = 0; k < g.size[2]; ++k)
+    if (k != g.size[2] / 2)
+      for (int j = 0; j < g.size[1]; ++j)
+        for (int i = 0; i < g.size[0]; ++i) s.image.at(i, j, k) = 0.0F;
+  const FreehandFootprint r = extract_freehand_footprint(s.image);
+  EXPECT_TRUE(r.beam.direction.allFinite());
+  EXPECT_TRUE(r.footprint.points.allFinite());
+  EXPECT_TRUE(r.footprint.normals.allFinite());
+}
+
 TEST(FreehandFootprint, ANarrowFaceIsASmallFootprintWarning) {
   Fan fan;
   fan.near_width = 6.0;  // a phased array's narrow aperture
