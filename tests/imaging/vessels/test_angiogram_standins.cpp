@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 #include "angiogram_standins.hpp"
@@ -135,6 +136,33 @@ TEST(AngiogramStandIns, NoisyAngiogramGivesItsEightTubesNotMetresOfNoise) {
   const VesselExtractionResult old = extract_vessels(a.image, former);
   logger().warn("noisy angiogram, former rule: {}", old.message);
   EXPECT_GT(old.total_length_mm, 10.0 * a.length()) << old.message;
+}
+
+TEST(AngiogramStandIns, WeakContrastIsExtractedWithAWarning) {
+  // A 56 mm tube of radius 3 mm, 100 above tissue 200 with white noise σ 40 (after the 0.6 mm
+  // pre-filter ≈ 14): the half-maximum (≈ 250) lies within 4 σ̂ of the tissue, so the threshold
+  // is raised to the noise floor and the result says the contrast is weak.
+  const auto tube = [](float contrast) {
+    ImageGeometry g;
+    g.size = {72, 48, 48};
+    VolumeF image = tests::draw_tubes(g, {{{8, 24, 24}, {64, 24, 24}}}, 3.0, 200.0F + contrast, 200.0F);
+    std::mt19937 rng(41);
+    std::normal_distribution<float> noise(0.0F, 40.0F);
+    for (float& v : image.data) v += noise(rng);
+    return image;
+  };
+  const VesselExtractionResult weak = extract_vessels(tube(100.0F));
+  ASSERT_EQ(weak.status, VesselStatus::OK) << weak.message;
+  EXPECT_EQ(weak.threshold_rule, "noise floor");
+  ASSERT_FALSE(weak.warnings.empty());
+  EXPECT_NE(weak.warnings.front().find("weak vessel contrast"), std::string::npos) << weak.warnings.front();
+  EXPECT_EQ(weak.branch_count, 1);
+  EXPECT_GT(weak.total_length_mm, 56.0 - 2 * 3.0);  // the axis less a radius at each end
+  // With 140 above the tissue the half-maximum clears the noise floor: no warning.
+  const VesselExtractionResult clear = extract_vessels(tube(140.0F));
+  ASSERT_EQ(clear.status, VesselStatus::OK) << clear.message;
+  EXPECT_EQ(clear.threshold_rule, "vessel contrast");
+  EXPECT_TRUE(clear.warnings.empty());
 }
 
 TEST(AngiogramStandIns, PureNoiseHasNoVessels) {
