@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <iostream>
 
@@ -104,6 +105,79 @@ std::string mm(double x) {
   return s.str();
 }
 
+nlohmann::json surface_json(const imaging::CollisionSurface& c, const imaging::CollisionSurfaceOptions& o) {
+  const std::string method = c.wrapped ? "alpha wrap of the non-manifold boundary (alpha " + mm(o.wrap_alpha_mm) +
+                                             " mm, offset " + mm(o.wrap_offset_mm) + " mm), decimated"
+                                       : std::string("boundary decimated");
+  return {{"vertices", c.surface.vertices.rows()},
+          {"triangles", c.surface.triangles.rows()},
+          {"enclosed_volume_ml", enclosed_ml(c.surface)},
+          {"requested_vertices", o.target_vertices},
+          {"boundary_vertices", c.boundary_vertices},
+          {"non_manifold_edges", c.non_manifold_edges},
+          {"non_manifold_vertices", c.non_manifold_vertices},
+          {"method", method},
+          {"vertices_moved_onto_mesh", c.moved_vertices},
+          {"max_outside_mm", c.max_outside_mm}};
+}
+
+nlohmann::json fixed_json(const imaging::FixedRegion& f) {
+  return {{"nodes", f.nodes.size()},
+          {"down", vector_json(f.down)},
+          {"height_mm", f.height_mm},
+          {"extent_mm", f.extent_mm},
+          {"rule", f.rule}};
+}
+
+nlohmann::json craniotomy_json(const imaging::Craniotomy& c) {
+  return {{"centre_mm", vector_json(c.centre)}, {"radius_mm", c.radius_mm}, {"rule", c.rule}};
+}
+
+nlohmann::json vessels_json(const imaging::SkeletonFit& fit) {
+  return {{"branches", fit.graph.branches.size()},
+          {"length_mm", fit.graph.total_length()},
+          {"points", fit.points},
+          {"inside", fit.inside},
+          {"snapped", fit.snapped},
+          {"dropped", fit.dropped},
+          {"snap_distance_mm", vessel_snap_mm},
+          {"max_snap_mm", fit.max_snap_mm},
+          {"mean_snap_mm", fit.mean_snap_mm}};
+}
+
+/// The MRA's vessel skeleton fitted to the mesh (skeleton_in_mesh.hpp), with its progress lines
+/// and warnings. \throws brainshift::Error naming the MRA when it has vessels but none near the mesh.
+imaging::SkeletonFit mra_vessels(const std::filesystem::path& path, const imaging::VolumeF& mra,
+                                 const core::TetMesh& mesh, const Progress& progress,
+                                 const std::function<void(const std::string&)>& warn) {
+  progress.stage("extracting the vessels from the MRA");
+  // An MRA is not speckled: without the pre-filter (meant for Doppler noise) thin vessels are
+  // kept (phantom recall 0.97 vs 0.91 with it, precision unchanged).
+  imaging::VesselExtractionOptions mra_options;
+  mra_options.prefilter_sigma_mm = 0.0;
+  const imaging::VesselExtractionResult vessels = imaging::extract_vessels(mra, mra_options);
+  imaging::SkeletonFit fit;
+  if (vessels.status == imaging::VesselStatus::OK) {
+    fit = imaging::fit_skeleton_to_mesh(vessels.graph, mesh, vessel_snap_mm);
+    BS_VERIFY(!fit.graph.branches.empty(),
+              path.string() << ": none of its " << fit.points << " vessel points lies in the brain mesh or within "
+                            << vessel_snap_mm << " mm of it (different patient or frame?)");
+    progress.stage("vessels: " + std::to_string(fit.points) + " skeleton points, " + std::to_string(fit.inside) +
+                   " inside the mesh, " + std::to_string(fit.snapped) + " outside within " + mm(vessel_snap_mm) +
+                   " mm moved onto it (up to " + mm(fit.max_snap_mm) + " mm), " + std::to_string(fit.dropped) +
+                   " dropped (farther out, or alone)");
+    if (2 * fit.dropped > fit.points)
+      warn(std::to_string(fit.dropped) + " of the " + std::to_string(fit.points) + " vessel points of " +
+           path.string() + " are farther than " + mm(vessel_snap_mm) + " mm from the brain mesh and were dropped");
+    if (fit.graph.total_length() < weak_vessels_mm)
+      warn("only " + mm(fit.graph.total_length()) + " mm of vessels from " + path.string() + " in the brain (" +
+           std::to_string(fit.graph.branches.size()) + " branches): few points to register on");
+  } else {
+    warn("no vessels in " + path.string() + " (" + vessels.message + "); registration will need footprint data");
+  }
+  return fit;
+}
+
 nlohmann::json input_entry(const std::filesystem::path& p) {
   return {{"path", std::filesystem::absolute(p).string()},
           {"bytes", std::filesystem::file_size(p)},
@@ -182,31 +256,7 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   progress.stage("fixed region: " + std::to_string(fixed.nodes.size()) + " " + fixed.rule);
   progress.stage("craniotomy (default): " + craniotomy.rule);
 
-  progress.stage("extracting the vessels from the MRA");
-  // An MRA is not speckled: without the pre-filter (meant for Doppler noise) thin vessels are
-  // kept (phantom recall 0.97 vs 0.91 with it, precision unchanged).
-  imaging::VesselExtractionOptions mra_options;
-  mra_options.prefilter_sigma_mm = 0.0;
-  const imaging::VesselExtractionResult vessels = imaging::extract_vessels(mra, mra_options);
-  imaging::SkeletonFit fit;
-  if (vessels.status == imaging::VesselStatus::OK) {
-    fit = imaging::fit_skeleton_to_mesh(vessels.graph, mesh, vessel_snap_mm);
-    BS_VERIFY(!fit.graph.branches.empty(),
-              args.mra.string() << ": none of its " << fit.points << " vessel points lies in the brain mesh or within "
-                                << vessel_snap_mm << " mm of it (different patient or frame?)");
-    progress.stage("vessels: " + std::to_string(fit.points) + " skeleton points, " + std::to_string(fit.inside) +
-                   " inside the mesh, " + std::to_string(fit.snapped) + " outside within " + mm(vessel_snap_mm) +
-                   " mm moved onto it (up to " + mm(fit.max_snap_mm) + " mm), " + std::to_string(fit.dropped) +
-                   " dropped (farther out, or alone)");
-    if (2 * fit.dropped > fit.points)
-      warn(std::to_string(fit.dropped) + " of the " + std::to_string(fit.points) + " vessel points of " +
-           args.mra.string() + " are farther than " + mm(vessel_snap_mm) + " mm from the brain mesh and were dropped");
-    if (fit.graph.total_length() < weak_vessels_mm)
-      warn("only " + mm(fit.graph.total_length()) + " mm of vessels from " + args.mra.string() + " in the brain (" +
-           std::to_string(fit.graph.branches.size()) + " branches): few points to register on");
-  } else {
-    warn("no vessels in " + args.mra.string() + " (" + vessels.message + "); registration will need footprint data");
-  }
+  const imaging::SkeletonFit fit = mra_vessels(args.mra, mra, mesh, progress, warn);
   const imaging::VesselGraph& skeleton = fit.graph;
 
   // Default scene, then the user's options merged over it (RFC 7386 merge patch).
@@ -246,40 +296,10 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
                                {"min_dihedral_deg", meshed.quality.min_dihedral_deg},
                                {"seconds", meshed.seconds}}},
                              {"materials", materials_json(meshing, meshed.tet_label)},
-                             {"surface",
-                              {{"vertices", surface.vertices.rows()},
-                               {"triangles", surface.triangles.rows()},
-                               {"enclosed_volume_ml", enclosed_ml(surface)},
-                               {"requested_vertices", args.surface_vertices},
-                               {"boundary_vertices", collision.boundary_vertices},
-                               {"non_manifold_edges", collision.non_manifold_edges},
-                               {"non_manifold_vertices", collision.non_manifold_vertices},
-                               {"method", collision.wrapped ? "alpha wrap of the non-manifold boundary (alpha " +
-                                                                  mm(surface_options.wrap_alpha_mm) + " mm, offset " +
-                                                                  mm(surface_options.wrap_offset_mm) + " mm), decimated"
-                                                            : std::string("boundary decimated")},
-                               {"vertices_moved_onto_mesh", collision.moved_vertices},
-                               {"max_outside_mm", collision.max_outside_mm}}},
-                             {"fixed",
-                              {{"nodes", fixed.nodes.size()},
-                               {"down", vector_json(fixed.down)},
-                               {"height_mm", fixed.height_mm},
-                               {"extent_mm", fixed.extent_mm},
-                               {"rule", fixed.rule}}},
-                             {"craniotomy",
-                              {{"centre_mm", vector_json(craniotomy.centre)},
-                               {"radius_mm", craniotomy.radius_mm},
-                               {"rule", craniotomy.rule}}},
-                             {"vessels",
-                              {{"branches", skeleton.branches.size()},
-                               {"length_mm", skeleton.total_length()},
-                               {"points", fit.points},
-                               {"inside", fit.inside},
-                               {"snapped", fit.snapped},
-                               {"dropped", fit.dropped},
-                               {"snap_distance_mm", vessel_snap_mm},
-                               {"max_snap_mm", fit.max_snap_mm},
-                               {"mean_snap_mm", fit.mean_snap_mm}}},
+                             {"surface", surface_json(collision, surface_options)},
+                             {"fixed", fixed_json(fixed)},
+                             {"craniotomy", craniotomy_json(craniotomy)},
+                             {"vessels", vessels_json(fit)},
                              {"warnings", warnings}};
   if (args.mri) manifest["inputs"]["mri"] = input_entry(*args.mri);
   // What --scene-options replaced is what the model uses: say so.
@@ -327,8 +347,7 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
       << skeleton.branches.size() << " vessel branches (" << static_cast<int>(skeleton.total_length())
       << " mm; " << fit.snapped << " vessel points moved onto the mesh, " << fit.dropped << " dropped) in "
       << progress.seconds() << " s\n";
-  if (vessels.status != imaging::VesselStatus::OK)
-    out << "warning: no vessels in the MRA (" << vessels.message << "); registration will need footprint data\n";
+  for (const std::string& w : warnings) out << "warning: " << w << '\n';
   return 0;
 }
 

@@ -23,7 +23,8 @@ constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surfac
                                           index_t target_vertices = 300);
 
 /// Edges shared by more than two triangles: where parts of a closed boundary touch along an edge
-/// (thin structures one element wide). decimate_surface() refuses such a surface.
+/// (thin structures one element wide). decimate_surface() refuses such a surface;
+/// make_collision_surface() (collision_surface.hpp) wraps it first.
 index_t count_non_manifold_edges(const constraints::SurfaceMesh& surface);
 
 }  // namespace brainshift::imaging

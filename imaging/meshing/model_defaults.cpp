@@ -26,7 +26,8 @@ FixedRegion default_fixed_region(const MeshSurface& outer, const Vector3d& down,
   std::ostringstream s;
   s << "boundary nodes within " << r.height_mm << " mm of the lowest point along (" << r.down.x() << ", "
     << r.down.y() << ", " << r.down.z() << ") (max(" << min_height_mm << " mm, " << fraction * 100.0
-    << " % of the " << r.extent_mm << " mm extent)): the inferior part (brain stem, lower cerebellum)";
+    << " % of the " << r.extent_mm << " mm extent)): the inferior part of the brain (on an adult brain the "
+       "brain stem and the lower cerebellum)";
   r.rule = s.str();
   return r;
 }

@@ -28,8 +28,9 @@ struct FixedRegion {
 /// The lowest slab of the brain: the outer-boundary nodes within h of the lowest point along
 /// `down`, h = max(min_height_mm, fraction · extent). With the defaults, h = 15 mm on the
 /// phantoms (93 mm tall: flattened base and its rim) and ≈ 24 mm on an adult brain (≈ 150 mm
-/// from the brain stem's cut end to the vertex: the brain stem and the lower cerebellum, which
-/// sit in the posterior fossa and the foramen magnum, far from a craniotomy).
+/// from the brain stem's cut end to the vertex: on ICBM152 the brain stem, the lower half of the
+/// cerebellum and the tips of the temporal poles, which rest on the skull base, in the posterior
+/// fossa and the foramen magnum, far from a craniotomy).
 /// @param[in] outer          outer_boundary_surface() of the mesh.
 /// @param[in] down           caudal direction, world; need not be unit, ≠ 0.
 /// @param[in] fraction       of the extent along `down`, in [0, 1].

@@ -43,7 +43,6 @@ TEST(DefaultCraniotomy, IsOverTheTumourWhenThereIsOneElseAtTheTop) {
   // Tumour tetrahedra around (40, 30, 20): the nearest surface vertex to their centroid, which
   // lies on the right-anterior-superior side, not at the top.
   std::vector<std::uint8_t> label(std::size_t(ball.num_tets()), BRAIN);
-  Vector3d centroid = Vector3d::Zero();
   for (index_t t = 0; t < ball.num_tets(); ++t) {
     Vector3d c = Vector3d::Zero();
     for (int k = 0; k < 4; ++k) c += ball.nodes().row(ball.tets()(t, k)).transpose() / 4.0;
