@@ -68,8 +68,6 @@ Session open_session(const std::filesystem::path& model_dir) {
   }
   s.model = std::make_unique<constraints::RegistrationModel>(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
                                                               compliance);
-  if (sc.options.shift_search.enabled && sc.options.shift_load_basis)
-    (void)s.model->load_response();  // model-only work, done before the Doppler arrives
   s.seconds_load = since(t0);
   const auto& op = s.model->mechanics().compliance();
   std::string status = op.cache_status();
@@ -145,16 +143,28 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
   j["timing"] = {{"rigid", r.seconds.rigid},           {"pairing", r.seconds.pairing},
                  {"free_motion", r.seconds.free_motion}, {"delassus", r.seconds.delassus},
                  {"pgs", r.seconds.pgs},               {"correction", r.seconds.correction},
+                 {"noise", r.seconds.noise},
                  {"registration", r.seconds.total}};
   j["history"] = nlohmann::json::array();
   for (const auto& h : r.history)
     j["history"].push_back({{"vessel_pairs", h.vessel_pairs},   {"footprint_pairs", h.footprint_pairs},
                             {"dura_rows", h.dura_rows},         {"rows", h.rows},
                             {"max_increment_mm", h.max_increment_mm}, {"pgs_iterations", h.pgs_iterations},
-                            {"pgs_residual", h.pgs_residual},   {"pgs_stop", h.pgs_stop},
+                            {"pgs_residual", h.pgs_residual},   {"pgs_stop", constraints::to_string(h.pgs_stop)},
                             {"pairing_changed", h.pairing_changed}, {"pairing_frozen", h.pairing_frozen},
                             {"trust_radius_mm", h.trust_radius_mm}, {"seconds", h.seconds},
-                            {"diagnosis", h.diagnosis}});
+                            {"stage", constraints::to_string(h.stage)}, {"pairing", constraints::to_string(h.pairing)},
+                            {"trust", constraints::to_string(h.trust)}, {"finite", h.finite},
+                            {"vessel_compliance_ratio", h.vessel_compliance_ratio}, {"diagnosis", h.diagnosis}});
+  j["stages"] = nlohmann::json::array();
+  for (const auto& st : r.stages)
+    j["stages"].push_back({{"stage", constraints::to_string(st.kind)}, {"stop", constraints::to_string(st.stop)},
+                           {"first_iteration", st.first_iteration}, {"iterations", st.iterations},
+                           {"vessel_compliance_ratio", st.vessel_compliance_ratio}});
+  j["noise"] = {{"valid", r.noise.valid}, {"vessel_compliance_ratio", r.noise.ratio},
+                {"scatter_mm", r.noise.sigma_mm}, {"effective_dof", r.noise.effective_dof},
+                {"rows", r.noise.rows}, {"message", r.noise.message}};
+  j["cold_retry"] = r.cold_retry;
   j["max_displacement_mm"] = r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
   return j;
 }

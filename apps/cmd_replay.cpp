@@ -64,7 +64,9 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
         latency.push_back(seconds);
         entry.update({{"status", r.converged ? "ok" : "not_converged"},
                       {"iterations", r.iterations},
+                      {"stop", constraints::to_string(r.stop)},
                       {"stop_reason", r.stop_reason},
+                      {"cold_retry", r.cold_retry},
                       {"latency_s", seconds},
                       {"warm_start", previous.has_value()}});
         if (!r.converged) ++unconverged;

@@ -4,12 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <map>
-
-#include <set>
-#include <utility>
 
 #include "constraints/registration/pairing.hpp"
+#include "constraints/registration/registration_stage.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 
@@ -19,29 +16,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-using PairKey = std::array<std::int64_t, 3>;  // (set, point, feature)
-using LambdaKey = std::array<std::int64_t, 3>;  // (set, feature, row within the group)
-
-/// Warm-start key of every row: (set, feature, position of the row within its group).
-std::vector<LambdaKey> lambda_keys(const ConstraintRows& rows) {
-  std::vector<LambdaKey> keys;
-  keys.reserve(static_cast<std::size_t>(rows.size()));
-  for (index_t i = 0, k = 0; i < rows.size(); ++i) {
-    k = (i > 0 && rows[i].group == rows[i - 1].group) ? k + 1 : 0;
-    keys.push_back({static_cast<std::int64_t>(rows[i].set), rows[i].feature, k});
-  }
-  return keys;
-}
-
-std::vector<index_t> block_nodes_of(const core::TetMesh& mesh, const core::BarycentricMapping& a,
-                                    const core::BarycentricMapping& b) {
-  std::set<index_t> nodes;
-  for (const auto* m : {&a, &b})
-    for (index_t t : m->tet())
-      for (int k = 0; k < 4; ++k) nodes.insert(mesh.tets()(t, k));
-  return {nodes.begin(), nodes.end()};
-}
-
 MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p) {
   MatrixX3d out(p.rows(), 3);
   for (Eigen::Index i = 0; i < p.rows(); ++i) out.row(i) = (T * Vector3d(p.row(i).transpose())).transpose();
@@ -50,28 +24,6 @@ MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p) {
 
 MatrixX3d rotated(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> n) {
   return n.rows() == 0 ? MatrixX3d(0, 3) : MatrixX3d(n * T.linear().transpose());
-}
-
-/// The pairs of one kind for this iteration: fresh (pair + filter) or frozen (same features).
-std::vector<Pair> make_pairs(const FeatureIndex& index, ConstRef<MatrixX3d> points,
-                             const std::vector<Pair>* frozen, const std::vector<Vector3d>& directions,
-                             const std::vector<index_t>& tet_of_feature, double max_distance,
-                             const FilterOptions& filter, FilterReport* report) {
-  if (frozen) {
-    std::vector<Pair> pairs;
-    pairs.reserve(frozen->size());
-    for (const Pair& f : *frozen) {
-      Pair p = index.closest_on(f.feature, points.row(f.point).transpose());
-      p.point = f.point;
-      pairs.push_back(p);
-    }
-    return pairs;
-  }
-  std::vector<Pair> pairs = index.pair(points, max_distance);
-  std::vector<index_t> tets;
-  tets.reserve(pairs.size());
-  for (const Pair& p : pairs) tets.push_back(tet_of_feature[static_cast<std::size_t>(p.feature)]);
-  return filter_pairs(std::move(pairs), directions, tets, filter, report);
 }
 
 /// The tetrahedron a feature belongs to for subsampling: that of its first vertex.
@@ -99,26 +51,6 @@ Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double mar
   for (const auto& seg : s.segments)
     if (inside(seg[0]) && inside(seg[1])) out.segments.push_back(seg);
   return out.segments.empty() ? s : out;
-}
-
-/// Stage 2 after the bulk shift: a point that found no feature within the refinement distance
-/// keeps the feature it was given in stage 1 (unless another point took that feature). Without
-/// it, points drop out one after the other — the model relaxes towards the rest shape where it
-/// loses rows, which moves more points out of reach — until nothing holds the shift.
-void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held, const FeatureIndex& index,
-                     ConstRef<MatrixX3d> points) {
-  std::set<index_t> paired, taken;
-  for (const Pair& p : pairs) {
-    paired.insert(p.point);
-    taken.insert(p.feature);
-  }
-  for (const Pair& h : held)
-    if (!paired.count(h.point) && !taken.count(h.feature)) {
-      Pair p = index.closest_on(h.feature, points.row(h.point).transpose());
-      p.point = h.point;
-      pairs.push_back(p);
-    }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.point < b.point; });
 }
 
 /// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of
@@ -167,6 +99,9 @@ std::string RegistrationOptions::validate() const {
   if (auto e = footprint_filter.validate(); !e.empty()) return "footprint filter: " + e;
   if (auto e = dura.validate(); !e.empty()) return e;
   if (auto e = step.pgs.validate(); !e.empty()) return e;
+  if (auto e = noise.validate(); !e.empty()) return e;
+  if (min_vessel_pairs < 0) return "min_vessel_pairs must be ≥ 0";
+  if (!(max_scatter_mm > 0)) return "max_scatter_mm must be > 0";
   if (start == RigidStart::RIGID)
     if (auto e = rigid.validate(); !e.empty()) return "rigid: " + e;
   for (double r : step.compliance_ratio)
@@ -196,43 +131,48 @@ std::string to_string(RegistrationStop stop) {
     case RegistrationStop::MAX_ITERATIONS: return "max_iterations";
     case RegistrationStop::NO_DATA: return "no_data";
     case RegistrationStop::NOT_SETTLING: return "not_settling";
+    case RegistrationStop::DIVERGED: return "diverged";
+    case RegistrationStop::INSUFFICIENT_DATA: return "insufficient_data";
   }
   BS_UNREACHABLE();
 }
 
-RegistrationModel::RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
-                                     Skeleton skeleton, SurfaceMesh surface, const ComplianceOptions& compliance)
-    : m_skeleton(std::move(skeleton)), m_surface(std::move(surface)) {
-  const auto t0 = Clock::now();
-  m_skeleton_map = core::BarycentricMapping(mesh, m_skeleton.points);
-  m_surface_map = core::BarycentricMapping(mesh, m_surface.vertices);
-  if (m_surface.triangles.rows() > 0)
-    m_rest_surface = std::make_unique<FeatureIndex>(FeatureIndex::triangles(m_surface.vertices, m_surface.triangles));
-  m_rest_normals = vertex_normals(m_surface);
-  m_mechanics = std::make_unique<ConstrainedModel>(mesh, fixed_nodes,
-                                                   block_nodes_of(mesh, m_skeleton_map, m_surface_map), compliance);
-  m_seconds_prepare = seconds_since(t0);
-}
-
-RegistrationModel::~RegistrationModel() = default;
-
-const std::array<MatrixX3d, 3>& RegistrationModel::load_response() {
-  if (!m_load_response) {
-    const core::TetMesh& rest = mesh();
-    StepOptions o;
-    o.mechanics = Mechanics::LINEAR;
-    std::array<MatrixX3d, 3> response;
-    for (int k = 0; k < 3; ++k) {
-      o.gravity = 9810.0 * Vector3d::Unit(k);
-      response[static_cast<std::size_t>(k)] = m_mechanics->step(rest.nodes(), ConstraintRows{}, o).x - rest.nodes();
-    }
-    m_load_response = std::move(response);
+std::string to_string(StageKind kind) {
+  switch (kind) {
+    case StageKind::HELD: return "held";
+    case StageKind::FREE: return "free";
+    case StageKind::SMOOTH: return "smooth";
   }
-  return *m_load_response;
+  BS_UNREACHABLE();
 }
 
-Stencil RegistrationModel::skeleton_stencil(index_t i) const { return MappedVertices{&mesh(), &m_skeleton_map}.stencil(i); }
-Stencil RegistrationModel::surface_stencil(index_t i) const { return MappedVertices{&mesh(), &m_surface_map}.stencil(i); }
+std::string to_string(PairingMode mode) {
+  switch (mode) {
+    case PairingMode::FRESH: return "fresh";
+    case PairingMode::HELD: return "held";
+    case PairingMode::FROZEN: return "frozen";
+  }
+  BS_UNREACHABLE();
+}
+
+std::string to_string(TrustDecision d) {
+  switch (d) {
+    case TrustDecision::NONE: return "none";
+    case TrustDecision::GROW: return "grow";
+    case TrustDecision::SHRINK: return "shrink";
+  }
+  BS_UNREACHABLE();
+}
+
+std::string to_string(StageStop stop) {
+  switch (stop) {
+    case StageStop::SETTLED: return "settled";
+    case StageStop::ITERATION_CAP: return "iteration_cap";
+    case StageStop::NOT_SETTLING: return "not_settling";
+    case StageStop::DIVERGED: return "diverged";
+  }
+  BS_UNREACHABLE();
+}
 
 RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options) {
   const bool footprint =
@@ -257,42 +197,15 @@ RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& d
   return rigid;
 }
 
-RegistrationResult register_model(RegistrationModel& model, const IntraopData& data,
-                                  const RegistrationOptions& options, const RegistrationResult* initial) {
-  const std::string invalid = options.validate();
-  BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
-  const auto t_start = Clock::now();
+namespace {
+
+/// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
+/// options, the warm start (`initial`, may be null) and whether vessels are used; outputs:
+/// res.rigid, res.shift, res.seconds.rigid and the per-point basis of the bulk shift.
+void run_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options,
+               const RegistrationResult* initial, bool vessels, RegistrationResult& res,
+               std::vector<Matrix3d>& shift_basis) {
   const core::TetMesh& mesh = model.mesh();
-  RegistrationResult res;
-  res.positions = initial ? initial->positions : mesh.nodes();
-  BS_VERIFY(res.positions.rows() == mesh.num_nodes() && res.positions.allFinite(),
-            "initial positions must be finite, one row per node (" << mesh.num_nodes() << ")");
-  BS_VERIFY(data.vessel_points.allFinite() && data.footprint_points.allFinite() &&
-                data.footprint_normals.allFinite() && data.landmark_targets.allFinite() &&
-                data.landmark_model_points.allFinite(),
-            "intra-operative points contain NaN or infinity");
-  BS_VERIFY(data.footprint_normals.rows() == 0 || data.footprint_normals.rows() == data.footprint_points.rows(),
-            "footprint normals: " << data.footprint_normals.rows() << " for " << data.footprint_points.rows()
-                                  << " points");
-  BS_VERIFY(data.landmark_targets.rows() == data.landmark_model_points.rows(),
-            "landmarks: " << data.landmark_model_points.rows() << " model points but "
-                          << data.landmark_targets.rows() << " targets");
-
-  const MappedVertices skel{&mesh, &model.skeleton_mapping()};
-  const MappedVertices surf{&mesh, &model.surface_mapping()};
-  const bool vessels = options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
-  const bool footprint =
-      options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
-  const bool landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
-  const bool dura = options.dura.mode != DuraOptions::Mode::NONE && model.rest_surface_index() != nullptr;
-  if (!vessels && !footprint && !landmarks) {
-    res.displacement = res.positions - mesh.nodes();
-    res.stop = RegistrationStop::NO_DATA;
-    res.stop_reason = no_data_reason(data, model, options);
-    res.seconds.total = seconds_since(t_start);
-    return res;
-  }
-
   // Rigid start: the intra-operative points are mapped into the model frame once.
   if (initial) {
     res.rigid = initial->rigid;
@@ -304,7 +217,6 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.rigid.converged = true;
     res.rigid.stop_reason = "identity (no rigid initialisation requested)";
   }
-  std::vector<Matrix3d> shift_basis;
   if (vessels && !initial && options.shift_search.enabled) {
     const auto t0 = Clock::now();
     const ShiftSearchOptions& so = options.shift_search;
@@ -334,180 +246,239 @@ RegistrationResult register_model(RegistrationModel& model, const IntraopData& d
     res.seconds.rigid += seconds_since(t0);
     logger().debug("shift search: {}", res.shift.message);
   }
-  const Eigen::Isometry3d& T = res.rigid.transform;
-  const MatrixX3d vessel_pts = transformed(T, data.vessel_points);
-  // Stage 1 (bulk shift accepted): pairs made at the shifted points, held until settled.
-  bool shift_stage = res.shift.accepted;
-  int shift_stage_end = 0;
-  const MatrixX3d footprint_pts = transformed(T, data.footprint_points);
-  const MatrixX3d footprint_nrm = rotated(T, data.footprint_normals);
-  const MatrixX3d landmark_tgt = transformed(T, data.landmark_targets);
-  const core::BarycentricMapping landmark_map =
-      landmarks ? core::BarycentricMapping(mesh, data.landmark_model_points) : core::BarycentricMapping();
-  const MappedVertices lmk{&mesh, &landmark_map};
+}
 
-  const std::vector<Vector3d> directions =
-      vessels ? local_directions(vessel_pts, options.direction_radius_mm) : std::vector<Vector3d>{};
+/// The data in the model frame and the tables every stage reads.
+LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options,
+                       const RegistrationResult& res, const std::vector<Matrix3d>& shift_basis) {
+  const core::TetMesh& mesh = model.mesh();
+  LoopInputs in;
+  in.model = &model;
+  in.options = &options;
+  in.vessels = options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
+  in.footprint = options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
+  in.landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
+  in.dura = options.dura.mode != DuraOptions::Mode::NONE && model.rest_surface_index() != nullptr;
+  const Eigen::Isometry3d& T = res.rigid.transform;
+  in.vessel_points = transformed(T, data.vessel_points);
+  if (res.shift.accepted) {
+    // Where each point was before the bulk shift: the HELD stage pairs there.
+    in.held_pair_points = in.vessel_points;
+    for (Eigen::Index i = 0; i < in.held_pair_points.rows(); ++i)
+      in.held_pair_points.row(i) -= (shift_basis.empty() ? Vector3d(res.shift.shift)
+                                                         : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.shift.shift))
+                                        .transpose();
+  }
+  in.footprint_points = transformed(T, data.footprint_points);
+  in.footprint_normals = rotated(T, data.footprint_normals);
+  in.landmark_targets = transformed(T, data.landmark_targets);
+  if (in.landmarks) in.landmark_map = core::BarycentricMapping(mesh, data.landmark_model_points);
+  if (in.vessels) in.directions = local_directions(in.vessel_points, options.direction_radius_mm);
+  const MappedVertices skel{&mesh, &model.skeleton_mapping()};
+  const MappedVertices surf{&mesh, &model.surface_mapping()};
   const auto& segs = model.skeleton().segments;
   const auto& tris = model.surface().triangles;
-  const std::vector<index_t> seg_tets =
-      feature_tets([&](index_t f) { return segs[static_cast<std::size_t>(f)][0]; }, static_cast<index_t>(segs.size()), skel);
-  const std::vector<index_t> tri_tets =
-      feature_tets([&](index_t f) { return tris(f, 0); }, static_cast<index_t>(tris.rows()), surf);
+  in.segment_tets = feature_tets([&](index_t f) { return segs[static_cast<std::size_t>(f)][0]; },
+                                 static_cast<index_t>(segs.size()), skel);
+  in.triangle_tets = feature_tets([&](index_t f) { return tris(f, 0); }, static_cast<index_t>(tris.rows()), surf);
+  return in;
+}
 
-  std::map<LambdaKey, double> warm;
+RegistrationStop stop_of(StageStop s) {
+  switch (s) {
+    case StageStop::SETTLED: return RegistrationStop::CONVERGED;
+    case StageStop::ITERATION_CAP: return RegistrationStop::MAX_ITERATIONS;
+    case StageStop::NOT_SETTLING: return RegistrationStop::NOT_SETTLING;
+    case StageStop::DIVERGED: return RegistrationStop::DIVERGED;
+  }
+  BS_UNREACHABLE();
+}
+
+/// One line on why the registration stopped.
+std::string stop_reason(const RegistrationResult& res, const RegistrationOptions& options, const std::string& notes) {
+  char buf[320];
+  const IterationRecord last = res.history.empty() ? IterationRecord{} : res.history.back();
+  int held = 0;
+  for (const StageRecord& s : res.stages)
+    if (s.kind == StageKind::HELD) held += s.iterations;
+  switch (res.stop) {
+    case RegistrationStop::NOT_SETTLING:
+      std::snprintf(buf, sizeof buf,
+                    "not settling: the trust region shrank below %.3g mm after %d iterations (%s stage); the "
+                    "constraints cannot be met (inconsistent data or too large a shift); last PGS: %s",
+                    options.increment_tolerance_mm, res.iterations, to_string(last.stage).c_str(),
+                    to_string(last.pgs_stop).c_str());
+      break;
+    case RegistrationStop::DIVERGED:
+      std::snprintf(buf, sizeof buf,
+                    "diverged: the step of iteration %d (%s stage) was not finite (%s); the positions are those "
+                    "of the last finite iterate",
+                    res.iterations, to_string(last.stage).c_str(), last.diagnosis.c_str());
+      break;
+    case RegistrationStop::MAX_ITERATIONS:
+      std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)", options.max_iterations,
+                    last.max_increment_mm);
+      break;
+    default:
+      std::snprintf(buf, sizeof buf,
+                    "increment below %.3g mm with a %s pairing set after %d iterations (%d on the pairs of the "
+                    "bulk shift)",
+                    options.increment_tolerance_mm, last.pairing_frozen ? "frozen (it cycled)" : "stable",
+                    res.iterations, held);
+  }
+  std::string reason = buf;
+  if (!notes.empty()) reason += "; " + notes;
+  if (!res.shift.message.empty()) reason += "; bulk shift: " + res.shift.message;
+  return reason;
+}
+
+}  // namespace
+
+RegistrationResult register_model(const RegistrationModel& model, const IntraopData& data,
+                                  const RegistrationOptions& options, const RegistrationResult* initial) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
+  const auto t_start = Clock::now();
+  const core::TetMesh& mesh = model.mesh();
+  RegistrationResult res;
+  res.positions = initial ? initial->positions : mesh.nodes();
+  BS_VERIFY(res.positions.rows() == mesh.num_nodes() && res.positions.allFinite(),
+            "initial positions must be finite, one row per node (" << mesh.num_nodes() << ")");
+  BS_VERIFY(data.vessel_points.allFinite() && data.footprint_points.allFinite() &&
+                data.footprint_normals.allFinite() && data.landmark_targets.allFinite() &&
+                data.landmark_model_points.allFinite(),
+            "intra-operative points contain NaN or infinity");
+  BS_VERIFY(data.footprint_normals.rows() == 0 || data.footprint_normals.rows() == data.footprint_points.rows(),
+            "footprint normals: " << data.footprint_normals.rows() << " for " << data.footprint_points.rows()
+                                  << " points");
+  BS_VERIFY(data.landmark_targets.rows() == data.landmark_model_points.rows(),
+            "landmarks: " << data.landmark_model_points.rows() << " model points but "
+                          << data.landmark_targets.rows() << " targets");
+
+  const bool vessels = options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
+  const bool footprint =
+      options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
+  const bool landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
+  if (!vessels && !footprint && !landmarks) {
+    res.displacement = res.positions - mesh.nodes();
+    res.stop = RegistrationStop::NO_DATA;
+    res.stop_reason = no_data_reason(data, model, options);
+    res.seconds.total = seconds_since(t_start);
+    return res;
+  }
+
+  // ---- The start (rigid start, bulk-shift search) ------------------------------------------
+  std::vector<Matrix3d> shift_basis;
+  run_start(model, data, options, initial, vessels, res, shift_basis);
+  // ---- end of the start ----------------------------------------------------------------------
+
+  const LoopInputs in = loop_inputs(model, data, options, res, shift_basis);
+  LoopState state;
+  state.positions = res.positions;
   if (initial)
-    for (const auto& [k, l] : initial->lambda) warm[k] = l;
-  std::vector<std::set<PairKey>> pair_sets;  // per iteration
-  std::vector<Pair> vessel_pairs, footprint_pairs, stage1_pairs;
-  bool frozen = false;
-  res.stop = RegistrationStop::MAX_ITERATIONS;
-  const double max_radius =
-      options.step.max_increment > 0 ? options.step.max_increment : std::numeric_limits<double>::infinity();
-  double radius = max_radius;
-  MatrixX3d previous_dx;  // the last step's increment, for the oscillation test
-  StepOptions step_options = options.step;
-  for (int it = 1; it <= options.max_iterations; ++it) {
-    const auto t_it = Clock::now();
-    IterationRecord rec;
-    rec.pairing_frozen = frozen;
-    ConstraintRows rows;
-    std::set<PairKey> keys;
-    if (vessels) {
-      const FeatureIndex index = FeatureIndex::segments(model.skeleton_mapping().apply(res.positions), segs);
-      if (shift_stage && it == 1) {
-        // Stage 1: pairs made where each point was before the bulk shift; held from here on.
-        MatrixX3d shifted = vessel_pts;
-        for (Eigen::Index i = 0; i < shifted.rows(); ++i)
-          shifted.row(i) -= shift_basis.empty() ? res.shift.shift.transpose()
-                                                : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.shift.shift).transpose();
-        vessel_pairs = make_pairs(index, shifted, nullptr, directions, seg_tets, options.pair_max_distance_mm,
-                                  options.vessel_filter, &rec.vessel_filter);
-      } else {
-        const bool refine = res.shift.accepted && !shift_stage && !frozen;
-        vessel_pairs = make_pairs(index, vessel_pts, (frozen || shift_stage) ? &vessel_pairs : nullptr, directions,
-                                  seg_tets, refine ? options.refine_pair_distance_mm : options.pair_max_distance_mm,
-                                  options.vessel_filter, &rec.vessel_filter);
-        if (refine) keep_held_pairs(vessel_pairs, stage1_pairs, index, vessel_pts);
-      }
-      add_vessel_rows(rows, vessel_pairs, model.skeleton(), skel, res.positions, vessel_pts);
-      for (const Pair& p : vessel_pairs) keys.insert({0, p.point, p.feature});
-      rec.vessel_pairs = static_cast<index_t>(vessel_pairs.size());
-    }
-    std::vector<bool> touched;
-    if (footprint) {
-      const FeatureIndex index = FeatureIndex::triangles(model.surface_mapping().apply(res.positions), tris);
-      footprint_pairs = make_pairs(index, footprint_pts, frozen ? &footprint_pairs : nullptr, {}, tri_tets,
-                                   options.pair_max_distance_mm, options.footprint_filter, &rec.footprint_filter);
-      add_footprint_rows(rows, footprint_pairs, model.surface(), surf, res.positions, footprint_pts, footprint_nrm);
-      touched.assign(static_cast<std::size_t>(model.surface().vertices.rows()), false);
-      for (const Pair& p : footprint_pairs) {
-        keys.insert({1, p.point, p.feature});
-        for (int k = 0; k < 3; ++k) touched[static_cast<std::size_t>(tris(p.feature, k))] = true;
-      }
-      rec.footprint_pairs = static_cast<index_t>(footprint_pairs.size());
-    }
-    if (dura)
-      rec.dura_rows = add_dura_rows(rows, options.dura, model.surface(), *model.rest_surface_index(),
-                                    model.rest_surface_normals(), surf,
-                                    res.positions, touched);
-    if (landmarks) {
-      add_landmark_rows(rows, lmk, res.positions, landmark_tgt);
-      rec.landmark_rows = 3 * static_cast<index_t>(landmark_tgt.rows());
-    }
-    rec.rows = rows.size();
-    res.seconds.pairing += seconds_since(t_it);
+    for (const auto& [k, l] : initial->lambda) state.warm[k] = l;
 
-    // Warm start keyed by (set, feature, row within the group), not by row index.
-    const std::vector<LambdaKey> keys_of_rows = lambda_keys(rows);
-    Eigen::VectorXd lambda0 = Eigen::VectorXd::Zero(rows.size());
-    for (index_t i = 0; i < rows.size(); ++i)
-      if (auto f = warm.find(keys_of_rows[static_cast<std::size_t>(i)]); f != warm.end()) lambda0[i] = f->second;
-    step_options.max_increment = std::isfinite(radius) ? radius : 0.0;
-    const StepResult step = model.mechanics().step(res.positions, rows, step_options, lambda0);
-    rec.trust_radius_mm = step_options.max_increment;
-    rec.limited = step.limited;
-    warm.clear();
-    for (index_t i = 0; i < rows.size(); ++i)
-      warm[keys_of_rows[static_cast<std::size_t>(i)]] = step.lambda.size() ? step.lambda[i] : 0.0;
-    const MatrixX3d dx = step.x - res.positions;
-    res.positions = step.x;
-    res.seconds.free_motion += step.seconds_free_motion;
-    res.seconds.delassus += step.seconds_delassus;
-    res.seconds.pgs += step.seconds_pgs;
-    res.seconds.correction += step.seconds_correction;
-    rec.max_increment_mm = step.max_increment;
-    rec.pgs_iterations = step.pgs.iterations;
-    rec.pgs_residual = step.pgs.residual;
-    rec.pgs_stop = to_string(step.pgs.stop);
-    rec.diagnosis = step.diagnosis;
-    rec.pairing_changed = pair_sets.empty() || keys != pair_sets.back();
-    // A cycle of the pairing set (it changed, to one seen before): freeze it from now on.
-    if (!frozen && rec.pairing_changed && std::find(pair_sets.begin(), pair_sets.end(), keys) != pair_sets.end()) {
-      frozen = true;
-      logger().debug("registration iteration {}: pairing cycles between two sets; frozen", it);
-    }
-    pair_sets.push_back(std::move(keys));
-    rec.seconds = seconds_since(t_it);
-    res.history.push_back(rec);
-    res.rows_by_set = rows.count_by_set();
-    res.iterations = it;
-    logger().debug("registration iteration {}: {} vessel + {} footprint pairs, {} dura rows, {} rows, |dx| {:.4f} mm, "
-                   "PGS {} ({} sweeps){}",
-                   it, rec.vessel_pairs, rec.footprint_pairs, rec.dura_rows, rec.rows, rec.max_increment_mm,
-                   rec.pgs_stop, rec.pgs_iterations, rec.pairing_frozen ? ", pairs frozen" : "");
-    if (!shift_stage && !step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
-        (!rec.pairing_changed || rec.pairing_frozen)) {
-      res.converged = true;
-      res.stop = RegistrationStop::CONVERGED;
-      break;
-    }
-    // Trust region: halve it when the step turns back on the previous one (oscillation: the
-    // cosine of successive increments is negative), grow it back otherwise. A long shift reached
-    // by several limited steps in the same direction keeps its radius.
-    if (previous_dx.size() > 0) {
-      const double denom = dx.norm() * previous_dx.norm();
-      const double cosine = denom > 0 ? (dx.array() * previous_dx.array()).sum() / denom : 1.0;
-      if (cosine < 0.0) radius *= 0.5;
-      else radius = std::min(max_radius, 1.5 * radius);
-    }
-    previous_dx = dx;
-    // Stage 1 ends when its held pairs have settled (or at its cap, or when its trust region
-    // collapses): free pairing from here, with a fresh trust region and cycle history.
-    if (shift_stage && ((!step.limited && rec.max_increment_mm < options.increment_tolerance_mm) ||
-                        it >= options.shift_stage_iterations || radius < options.increment_tolerance_mm)) {
-      shift_stage = false;
-      shift_stage_end = it;
-      stage1_pairs = vessel_pairs;
-      pair_sets.clear();
-      previous_dx.resize(0, 3);
-      radius = max_radius;
-      continue;
-    }
-    if (radius < options.increment_tolerance_mm) {
-      res.stop = RegistrationStop::NOT_SETTLING;
-      break;
+  // The schedule.
+  const double ratio0 = options.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)];
+  const bool noise_model = in.vessels;  // the estimate; the SMOOTH stage only when options.noise.enabled
+  int budget = options.max_iterations;
+  StageRecord last;
+  auto run = [&](const StageOptions& so) {
+    last = run_stage(in, so, state);
+    state.stages.push_back(last);
+    budget -= last.iterations;
+    return last;
+  };
+  if (res.shift.accepted && options.shift_stage_iterations > 0) {
+    StageOptions held;
+    held.kind = StageKind::HELD;
+    held.max_iterations = std::min(options.shift_stage_iterations, budget);
+    held.vessel_compliance_ratio = ratio0;
+    run(held);
+  }
+  if (last.stop != StageStop::DIVERGED && budget > 0) {
+    StageOptions free;
+    free.kind = StageKind::FREE;
+    free.max_iterations = budget;
+    free.pair_distance_mm = res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+    free.keep_held_pairs = res.shift.accepted;
+    free.vessel_compliance_ratio = ratio0;
+    free.keep_system = noise_model;
+    run(free);
+  }
+  std::string notes;
+  if (noise_model && last.kind == StageKind::FREE && last.stop == StageStop::SETTLED) {
+    const auto t0 = Clock::now();
+    res.noise = estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
+                                      state.last_scale, ratio0, options.noise);
+    state.seconds.noise += seconds_since(t0);
+    notes = res.noise.message;
+    const double change = res.noise.ratio / std::max(ratio0, 1e-300);
+    if (options.noise.enabled && res.noise.valid &&
+        (change > options.noise.change_factor || change < 1.0 / options.noise.change_factor)) {
+      LoopState settled = state;  // the FREE stage's answer, kept if smoothing does not settle
+      StageOptions smooth;
+      smooth.kind = StageKind::SMOOTH;
+      smooth.max_iterations = options.noise.max_iterations;
+      smooth.pair_distance_mm = res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+      smooth.keep_held_pairs = res.shift.accepted;
+      smooth.vessel_compliance_ratio = res.noise.ratio;
+      const StageRecord sm = run_stage(in, smooth, state);
+      if (sm.stop != StageStop::SETTLED) {
+        settled.history = std::move(state.history);  // keep the record of what was tried
+        settled.stages = state.stages;
+        settled.seconds = state.seconds;
+        state = std::move(settled);
+        state.stages.push_back(sm);
+        notes += "; the smoothing stage ended " + to_string(sm.stop) + ": the free stage's answer is kept";
+      } else {
+        state.stages.push_back(sm);
+        last = sm;
+      }
     }
   }
+
+  res.positions = state.positions;
   res.displacement = res.positions - mesh.nodes();
-  for (const auto& [k, l] : warm) res.lambda.emplace_back(k, l);
-  char buf[256];
-  if (res.stop == RegistrationStop::NOT_SETTLING)
-    std::snprintf(buf, sizeof buf,
-                  "not settling: the trust region shrank below %.3g mm after %d iterations; the constraints "
-                  "cannot be met (inconsistent data or too large a shift); last PGS: %s",
-                  options.increment_tolerance_mm, res.iterations, res.history.back().pgs_stop.c_str());
-  else if (res.converged)
-    std::snprintf(buf, sizeof buf, "increment below %.3g mm with a %s pairing set after %d iterations (%d on the "
-                  "pairs of the bulk shift)",
-                  options.increment_tolerance_mm, frozen ? "frozen (it cycled)" : "stable", res.iterations,
-                  shift_stage_end);
-  else
-    std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)", options.max_iterations,
-                  res.history.empty() ? 0.0 : res.history.back().max_increment_mm);
-  res.stop_reason = buf;
-  if (!res.shift.message.empty()) res.stop_reason += "; bulk shift: " + res.shift.message;
+  res.history = std::move(state.history);
+  res.stages = std::move(state.stages);
+  res.iterations = static_cast<int>(res.history.size());
+  res.rows_by_set = state.rows_by_set;
+  const double t_rigid = res.seconds.rigid;
+  res.seconds = state.seconds;
+  res.seconds.rigid = t_rigid;
+  for (const auto& [k, l] : state.warm) res.lambda.emplace_back(k, l);
+  res.stop = res.stages.empty() ? RegistrationStop::MAX_ITERATIONS : stop_of(last.stop);
+  res.converged = res.stop == RegistrationStop::CONVERGED;
+  res.stop_reason = stop_reason(res, options, notes);
+
+  // Is the answer trustworthy? Vessels alone, too few or too scattered: say so (exit 2).
+  if (res.converged && in.vessels && !in.footprint && !in.landmarks) {
+    const index_t pairs = res.history.empty() ? 0 : res.history.back().vessel_pairs;
+    std::string why;
+    if (pairs < options.min_vessel_pairs)
+      why = "only " + std::to_string(pairs) + " vessel points paired (of " + std::to_string(data.vessel_points.rows()) +
+            "); at least " + std::to_string(options.min_vessel_pairs) + " are needed for a trustworthy registration";
+    else if (res.noise.valid && res.noise.sigma_mm > options.max_scatter_mm)
+      why = "the vessel points scatter by " + std::to_string(res.noise.sigma_mm) + " mm about the model, beyond " +
+            std::to_string(options.max_scatter_mm) + " mm";
+    if (!why.empty()) {
+      res.converged = false;
+      res.stop = RegistrationStop::INSUFFICIENT_DATA;
+      res.stop_reason = "insufficient data: " + why + " (" + res.stop_reason + ")";
+    }
+  }
   res.seconds.total = seconds_since(t_start);
+
+  if (initial && options.cold_retry && !res.converged && res.stop != RegistrationStop::INSUFFICIENT_DATA) {
+    RegistrationResult cold = register_model(model, data, options, nullptr);
+    if (cold.converged) {
+      cold.cold_retry = true;
+      cold.stop_reason = "warm start ended " + to_string(res.stop) + ", cold start: " + cold.stop_reason;
+      cold.seconds.total += res.seconds.total;
+      return cold;
+    }
+  }
   return res;
 }
 

@@ -2,13 +2,21 @@
 /// @file
 /// @brief Constraint-based ICP registration (seed 002 §3.4, Algorithm 1). No file I/O here.
 ///
-/// register_model() optionally starts with a robust rigid fit (rigid_init.hpp), then iterates:
-/// pair the intra-operative points with the current model features (vessel skeleton segments,
-/// collision-surface triangles), filter the pairs (filtering.hpp), build the constraint rows
-/// (constraint_builders.hpp: vessels slide on the skeleton's line; the probe footprint is
-/// unilateral; the dura holds the surface outside the craniotomy; landmarks are points), take one
-/// constrained static step (constrained_step.hpp); it stops when the largest nodal increment is
-/// below a tolerance and the pairing set is stable, or at an iteration cap.
+/// register_model() is Algorithm 1 run through a schedule of stages (registration_stage.hpp):
+///   start  — the rigid start and the bulk-shift search (one block, run_start());
+///   HELD   — when a bulk shift was accepted: pairs made at the points less the bulk motion, held
+///            until the model has settled on them;
+///   FREE   — nearest-feature pairing, frozen when it cycles, until settled;
+///   SMOOTH — the vessel rows' compliance chosen by the noise model (noise_model.hpp) from the
+///            converged FREE stage, then free pairing again until settled.
+/// Each stage iterates Algorithm 1: pair the intra-operative points with the current model
+/// features (vessel skeleton segments, collision-surface triangles), filter the pairs
+/// (filtering.hpp), build the constraint rows (constraint_builders.hpp: vessels slide on the
+/// skeleton's line; the probe footprint is unilateral; the dura holds the surface outside the
+/// craniotomy; landmarks are points), take one constrained static step (constrained_step.hpp);
+/// a stage settles when the largest nodal increment is below a tolerance (and, except HELD, the
+/// pairing set is stable). A step whose increment is not finite ends the registration DIVERGED
+/// (positions: the last finite iterate); it never counts as converged.
 ///
 /// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
 /// that halves when a step turns back on the previous one (negative cosine between successive
@@ -33,8 +41,13 @@
 #include <string>
 #include <vector>
 
+#include <cstdint>
+#include <functional>
+
 #include "constraints/registration/constraint_builders.hpp"
 #include "constraints/registration/filtering.hpp"
+#include "constraints/registration/noise_model.hpp"
+#include "constraints/registration/registration_model.hpp"
 #include "constraints/registration/rigid_init.hpp"
 #include "constraints/registration/shift_search.hpp"
 #include "constraints/registration/skeleton.hpp"
@@ -43,56 +56,6 @@
 #include "core/mesh/tet_mesh.hpp"
 
 namespace brainshift::constraints {
-
-class FeatureIndex;
-
-/// A model prepared once — K0 factorised, compliance block precomputed, features mapped into the
-/// mesh, the rest surface indexed for dura contact — and reused across registrations (replay).
-class RegistrationModel {
- public:
-  /// @param[in] mesh rest mesh (validated). @param[in] fixed_nodes Dirichlet nodes (e.g. the
-  /// cerebellum side); at least 3 non-collinear. @param[in] skeleton pre-operative vessel
-  /// skeleton (rest positions, inside or ≤ 2 mm outside the mesh; may be empty).
-  /// @param[in] surface collision surface (footprint and dura contact; may have no triangles).
-  /// \throws brainshift::Error when K0 cannot be factorised or a feature point lies farther than
-  /// 2 mm outside the mesh (naming it).
-  RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes, Skeleton skeleton,
-                    SurfaceMesh surface, const ComplianceOptions& compliance = {});
-  ~RegistrationModel();
-  RegistrationModel(const RegistrationModel&) = delete;
-  RegistrationModel& operator=(const RegistrationModel&) = delete;
-
-  [[nodiscard]] ConstrainedModel& mechanics() { return *m_mechanics; }
-  [[nodiscard]] const core::TetMesh& mesh() const { return m_mechanics->model().mesh(); }
-  [[nodiscard]] const Skeleton& skeleton() const { return m_skeleton; }
-  [[nodiscard]] const SurfaceMesh& surface() const { return m_surface; }
-  [[nodiscard]] const core::BarycentricMapping& skeleton_mapping() const { return m_skeleton_map; }
-  [[nodiscard]] const core::BarycentricMapping& surface_mapping() const { return m_surface_map; }
-  /// Nearest-triangle index of the rest collision surface (the dura). Null without triangles.
-  [[nodiscard]] const FeatureIndex* rest_surface_index() const { return m_rest_surface.get(); }
-  /// Area-weighted unit vertex normals of the rest collision surface (#V×3).
-  [[nodiscard]] const MatrixX3d& rest_surface_normals() const { return m_rest_normals; }
-  /// Stencil (mesh nodes and weights) of skeleton point `i` / surface vertex `i`.
-  [[nodiscard]] Stencil skeleton_stencil(index_t i) const;
-  [[nodiscard]] Stencil surface_stencil(index_t i) const;
-  /// Seconds spent preparing (factorisation, compliance block, mappings).
-  [[nodiscard]] double seconds_prepare() const { return m_seconds_prepare; }
-  /// Nodal displacements (#N×3 each, mm) of the linear model under a uniform body load along x,
-  /// y and z: the shape of the bulk-shift search's basis. Computed on first use (three solves),
-  /// then kept: it depends on the model only, not on the frame or the data.
-  [[nodiscard]] const std::array<MatrixX3d, 3>& load_response();
-
- private:
-  Skeleton m_skeleton;
-  SurfaceMesh m_surface;
-  core::BarycentricMapping m_skeleton_map;
-  core::BarycentricMapping m_surface_map;
-  std::unique_ptr<FeatureIndex> m_rest_surface;
-  MatrixX3d m_rest_normals;
-  std::unique_ptr<ConstrainedModel> m_mechanics;
-  double m_seconds_prepare = 0.0;
-  std::optional<std::array<MatrixX3d, 3>> m_load_response;
-};
 
 /// Intra-operative data, in the tracked intra-operative frame (mm; RAS world when tracking is
 /// registered to the pre-operative images).
@@ -145,9 +108,20 @@ struct RegistrationOptions {
   FilterOptions footprint_filter;
   double direction_radius_mm = 5.0;     ///< neighbourhood for the local direction of vessel points
   StepOptions step = default_step();
-  int max_iterations = 80;
+  int max_iterations = 80;               ///< HELD + FREE stages together (SMOOTH: noise.max_iterations)
   double increment_tolerance_mm = 0.01; ///< stop when max nodal |Δx| is below this and the
                                         ///< pairing set is stable (unchanged or frozen)
+  NoiseOptions noise;                   ///< the vessel rows' compliance from the data (SMOOTH stage)
+  /// A registration on vessels alone is not trusted (stop INSUFFICIENT_DATA, exit 2) with fewer
+  /// paired vessel points than this at the end, or with a scatter (noise model) above
+  /// max_scatter_mm: the answer is written but says why it should not be relied on.
+  index_t min_vessel_pairs = 20;
+  double max_scatter_mm = 3.0;
+  /// A warm-started registration (replay) that does not converge is run again from the rest
+  /// shape with the full start; the cold answer is kept when it converges.
+  bool cold_retry = true;
+  /// Fault injection for tests: called with every step's result before the loop looks at it.
+  std::function<void(StepResult&)> inspect_step;
   /// Empty when valid, else what is wrong.
   [[nodiscard]] std::string validate() const;
   /// Vessel filter defaults: at most 2 rows per tetrahedron (soft rows tolerate more than one;
@@ -168,11 +142,34 @@ struct StageTimes {
   double delassus = 0.0;     ///< W = H C Hᵀ
   double pgs = 0.0;
   double correction = 0.0;
+  double noise = 0.0;        ///< the noise model (one eigendecomposition of the vessel rows' W)
   double total = 0.0;
 };
 
+/// Stages of the schedule (see the file comment).
+enum class StageKind : std::uint8_t { HELD, FREE, SMOOTH };
+std::string to_string(StageKind kind);
+
+/// How an iteration made its vessel pairs.
+enum class PairingMode : std::uint8_t {
+  FRESH,   ///< nearest feature, filtered
+  HELD,    ///< HELD stage: the features chosen at its first iteration (made at the points less the bulk shift)
+  FROZEN,  ///< the pairing cycled: each point keeps its feature, the closest point is recomputed
+};
+std::string to_string(PairingMode mode);
+
+/// What the trust region did after an iteration's step.
+enum class TrustDecision : std::uint8_t {
+  NONE,    ///< first step of a stage, or the stage ended
+  GROW,    ///< the step continued the previous one: radius × 1.5 (up to the maximum)
+  SHRINK,  ///< the step turned back on the previous one (oscillation): radius × 0.5
+};
+std::string to_string(TrustDecision d);
+
 /// One iteration of the loop.
 struct IterationRecord {
+  StageKind stage = StageKind::FREE;
+  PairingMode pairing = PairingMode::FRESH;
   index_t vessel_pairs = 0;     ///< kept after filtering
   index_t footprint_pairs = 0;
   index_t dura_rows = 0;
@@ -181,12 +178,15 @@ struct IterationRecord {
   double max_increment_mm = 0.0;
   int pgs_iterations = 0;
   double pgs_residual = 0.0;
-  std::string pgs_stop;
+  PgsStop pgs_stop = PgsStop::NO_ROWS;
   bool pairing_changed = true;
   bool pairing_frozen = false;
+  bool finite = true;            ///< the step's increment was finite (else the loop stopped DIVERGED)
   double seconds = 0.0;
   double trust_radius_mm = 0.0;  ///< the trust region this iteration's step was limited to
   bool limited = false;          ///< the step was scaled down to the trust region
+  TrustDecision trust = TrustDecision::NONE;
+  double vessel_compliance_ratio = 0.0;  ///< of this iteration's vessel rows
   FilterReport vessel_filter;
   FilterReport footprint_filter;
   std::string diagnosis;        ///< the step's diagnosis, if any
@@ -199,8 +199,28 @@ enum class RegistrationStop {
   NOT_SETTLING,    ///< the trust region shrank below the increment tolerance: the model cannot
                    ///< meet the constraints (inconsistent data, or beyond the corotational
                    ///< iteration's reach); positions are the last finite iterate
+  DIVERGED,        ///< a step's increment was not finite; positions are the last finite iterate
+  INSUFFICIENT_DATA,  ///< settled, but on too few or too scattered vessel points to be trusted
 };
 std::string to_string(RegistrationStop stop);
+
+/// How a stage ended.
+enum class StageStop : std::uint8_t {
+  SETTLED,        ///< increment below tolerance (and, except HELD, a stable or frozen pairing set)
+  ITERATION_CAP,  ///< its iteration cap
+  NOT_SETTLING,   ///< its trust region shrank below the increment tolerance
+  DIVERGED,       ///< a non-finite step
+};
+std::string to_string(StageStop stop);
+
+/// One stage of the schedule, as run.
+struct StageRecord {
+  StageKind kind = StageKind::FREE;
+  StageStop stop = StageStop::ITERATION_CAP;
+  int first_iteration = 0;  ///< 1-based, in RegistrationResult::history
+  int iterations = 0;
+  double vessel_compliance_ratio = 0.0;
+};
 
 struct RegistrationResult {
   MatrixX3d positions;        ///< final nodal positions #N×3, model frame, mm
@@ -212,6 +232,9 @@ struct RegistrationResult {
   RegistrationStop stop = RegistrationStop::NO_DATA;
   std::string stop_reason;
   std::vector<IterationRecord> history;
+  std::vector<StageRecord> stages;  ///< in the order run
+  NoiseEstimate noise;              ///< the noise model's estimate (valid = false when not run)
+  bool cold_retry = false;          ///< a warm start did not converge and this is the cold answer
   std::array<index_t, num_constraint_sets> rows_by_set{};  ///< of the last iteration
   StageTimes seconds;
   /// Warm-start state: λ per (set, feature, row) of the last iteration, for the next frame.
@@ -225,12 +248,14 @@ struct RegistrationResult {
 RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options);
 
 /// Runs the registration.
+/// @param[in] model the prepared model; only read (one model serves any number of registrations).
 /// @param[in] initial warm start: a previous result (its positions, rigid transform and λ are
-/// reused; the rigid fit is then skipped) or nullptr for the rest shape.
+/// reused; the rigid fit is then skipped) or nullptr for the rest shape. A warm start that does
+/// not converge is retried cold (options.cold_retry).
 /// \throws brainshift::Error on invalid options or non-finite / mis-sized inputs. A registration
 /// that does not converge is a status (stop, stop_reason), never an exception; positions are
 /// always finite.
-RegistrationResult register_model(RegistrationModel& model, const IntraopData& data,
+RegistrationResult register_model(const RegistrationModel& model, const IntraopData& data,
                                   const RegistrationOptions& options,
                                   const RegistrationResult* initial = nullptr);
 

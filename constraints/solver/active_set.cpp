@@ -10,12 +10,10 @@
 namespace brainshift::constraints {
 namespace {
 
-constexpr int kMaxSetChanges = 30;
-
-/// λ from the active-set iteration; empty when it did not settle within kMaxSetChanges.
+/// λ from the active-set iteration; empty (with the reason in `outcome`) when it failed.
 Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta,
                                   const ConstraintRows& rows, ConstRef<Eigen::VectorXd> warm,
-                                  const PgsOptions& options) {
+                                  const PgsOptions& options, ActiveSetOutcome& outcome, int& changes) {
   const index_t m = rows.size();
   const double diag_max = W.diagonal().maxCoeff();
   const double null_tol = options.null_row_tolerance * std::max(diag_max, 1e-300);
@@ -27,7 +25,8 @@ Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::V
             (warm.size() == m && warm[i] > 0);
   }
   Eigen::VectorXd lambda = Eigen::VectorXd::Zero(m);
-  for (int round = 0; round < kMaxSetChanges; ++round) {
+  changes = 0;
+  for (int round = 0; round <= options.active_set_max_changes; ++round) {
     std::vector<index_t> A;
     for (index_t i = 0; i < m; ++i)
       if (in[i]) A.push_back(i);
@@ -40,9 +39,15 @@ Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::V
       WA(a, a) += 1e-12 * diag_max;  // semidefinite W (redundant hard rows): minimum-norm-like λ
     }
     const Eigen::LDLT<Eigen::MatrixXd> ldlt(WA);
-    if (ldlt.info() != Eigen::Success) return {};
+    if (ldlt.info() != Eigen::Success) {
+      outcome = ActiveSetOutcome::LDLT_FAILED;
+      return {};
+    }
     const Eigen::VectorXd lA = ldlt.solve(rhs);
-    if (!lA.allFinite()) return {};
+    if (!lA.allFinite()) {
+      outcome = ActiveSetOutcome::NON_FINITE;
+      return {};
+    }
     lambda.setZero();
     for (Eigen::Index a = 0; a < n; ++a) lambda[A[a]] = lA[a];
     const Eigen::VectorXd g = delta + W * lambda;
@@ -56,14 +61,32 @@ Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::V
       // An inconsistent active set (two rows pulling one point apart) has no exact solution:
       // the regularised solve then leaves a residual on the active rows. Let PGS diagnose it.
       for (index_t i = 0; i < m; ++i)
-        if (in[i] && std::abs(g[i]) > 10 * g_tol) return {};
+        if (in[i] && std::abs(g[i]) > 10 * g_tol) {
+          outcome = ActiveSetOutcome::INCONSISTENT;
+          return {};
+        }
+      outcome = ActiveSetOutcome::SOLVED;
       return lambda;
     }
+    ++changes;
   }
+  outcome = ActiveSetOutcome::NO_SETTLING;
   return {};
 }
 
 }  // namespace
+
+std::string to_string(ActiveSetOutcome o) {
+  switch (o) {
+    case ActiveSetOutcome::NOT_USED: return "not_used";
+    case ActiveSetOutcome::SOLVED: return "solved";
+    case ActiveSetOutcome::LDLT_FAILED: return "ldlt_failed";
+    case ActiveSetOutcome::NON_FINITE: return "non_finite";
+    case ActiveSetOutcome::NO_SETTLING: return "no_settling";
+    case ActiveSetOutcome::INCONSISTENT: return "inconsistent";
+  }
+  BS_UNREACHABLE();
+}
 
 std::string to_string(ConstraintSolver s) {
   switch (s) {
@@ -82,12 +105,20 @@ PgsResult solve_constraints(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorX
   if (!direct || rows.empty() || W.rows() != rows.size() || delta_free.size() != rows.size() || !W.allFinite() ||
       !delta_free.allFinite())
     return solve_pgs(W, delta_free, rows, warm_start, options);  // (solve_pgs checks the inputs)
-  const Eigen::VectorXd lambda = active_set_lambda(W, delta_free, rows, warm_start, options);
+  ActiveSetOutcome outcome = ActiveSetOutcome::NOT_USED;
+  int changes = 0;
+  const Eigen::VectorXd lambda = active_set_lambda(W, delta_free, rows, warm_start, options, outcome, changes);
+  PgsResult res;
   if (lambda.size() == 0) {
-    logger().debug("active set did not settle; projected Gauss-Seidel from the warm start");
-    return solve_pgs(W, delta_free, rows, warm_start, options);
+    logger().debug("active set: {} after {} changes; projected Gauss-Seidel from the warm start", to_string(outcome),
+                   changes);
+    res = solve_pgs(W, delta_free, rows, warm_start, options);
+  } else {
+    res = solve_pgs(W, delta_free, rows, lambda, options);
   }
-  return solve_pgs(W, delta_free, rows, lambda, options);
+  res.active_set = outcome;
+  res.active_set_changes = changes;
+  return res;
 }
 
 }  // namespace brainshift::constraints

@@ -174,7 +174,28 @@ void ComplianceOperator::set_rotations(std::vector<Matrix3d> nodal_rotations) {
 
 Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v) const { return m_warp.apply(v); }
 
-Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) {
+Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v, const std::vector<Matrix3d>& R) const {
+  BS_VERIFY(v.size() == m_dofs->num_full(), "vector has size " << v.size() << ", expected " << m_dofs->num_full());
+  BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
+            "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
+  if (m_dofs->num_free() == 0) return Eigen::VectorXd::Zero(v.size());
+  Eigen::VectorXd w = v;
+  if (!R.empty())
+    for (std::size_t n = 0; n < R.size(); ++n) w.segment<3>(3 * static_cast<Eigen::Index>(n)) = R[n].transpose() * v.segment<3>(3 * static_cast<Eigen::Index>(n));
+  Eigen::VectorXd out = m_dofs->expand(m_factor->solve(m_dofs->restrict(w)));
+  if (!R.empty())
+    for (std::size_t n = 0; n < R.size(); ++n) {
+      const Vector3d a = out.segment<3>(3 * static_cast<Eigen::Index>(n));
+      out.segment<3>(3 * static_cast<Eigen::Index>(n)) = R[n] * a;
+    }
+  return out;
+}
+
+Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) const { return delassus(H, m_warp.rotations()); }
+
+Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H, const std::vector<Matrix3d>& R,
+                                             bool* used_fallback) const {
+  if (used_fallback) *used_fallback = false;
   if (m_strategy == ComplianceStrategy::DENSE_BLOCK) {
     bool inside = true;
     for (int k = 0; k < H.outerSize() && inside; ++k)
@@ -185,15 +206,15 @@ Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) {
           break;
         }
       }
-    if (inside) return delassus_dense_block(H);
+    if (inside) return delassus_dense_block(H, R);
     ++m_fallbacks;
+    if (used_fallback) *used_fallback = true;
     logger().debug("constraint rows touch nodes outside the compliance block; sparse fallback");
   }
-  return delassus_sparse(H);
+  return delassus_sparse(H, R);
 }
 
-SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H) const {
-  const auto& R = m_warp.rotations();
+SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H, const std::vector<Matrix3d>& R) const {
   // Row i of H R at node n is h_{i,n}ᵀ R_n, i.e. the column vector R_nᵀ h_{i,n}.
   std::vector<Triplet> trip;
   trip.reserve(static_cast<std::size_t>(H.nonZeros()) * 3);
@@ -209,10 +230,16 @@ SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H) 
   return G;
 }
 
-Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H) {
+Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H) const {
+  return delassus_sparse(H, m_warp.rotations());
+}
+
+Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H, const std::vector<Matrix3d>& R) const {
   BS_VERIFY(H.cols() == m_dofs->num_full(),
             "constraint Jacobian has " << H.cols() << " columns for " << m_dofs->num_full() << " DOFs");
-  const SparseMatrix G = rotated_transposed_free(H);
+  BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
+            "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
+  const SparseMatrix G = rotated_transposed_free(H, R);
   const SparseMatrix Y = m_factor->solve_lower_permuted(G);
   m_last_sparse_bytes = static_cast<std::size_t>(Y.nonZeros()) * (sizeof(double) + sizeof(index_t));
   const SparseMatrix Yt = Y.transpose();
@@ -220,11 +247,16 @@ Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H) {
 }
 
 Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H) const {
+  return delassus_dense_block(H, m_warp.rotations());
+}
+
+Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H, const std::vector<Matrix3d>& R) const {
   BS_VERIFY(m_strategy == ComplianceStrategy::DENSE_BLOCK, "no dense compliance block was precomputed");
   BS_VERIFY(H.cols() == m_dofs->num_full(),
             "constraint Jacobian has " << H.cols() << " columns for " << m_dofs->num_full() << " DOFs");
+  BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
+            "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
   const auto m = H.rows();
-  const auto& R = m_warp.rotations();
   // Per row: list of (block dof, coefficient) of H R restricted to the block.
   std::vector<std::vector<std::pair<index_t, double>>> g(static_cast<std::size_t>(m));
   std::vector<char> used(static_cast<std::size_t>(m_block.rows()), 0);

@@ -80,23 +80,34 @@ class ComplianceOperator {
   /// "rejected (<why>); computed", or "none (sparse_solve)".
   [[nodiscard]] const std::string& cache_status() const { return m_cache_status; }
 
-  /// Sets nodal rotations R (#N, proper). Empty = identity (unwarped K0⁻¹, the ablation).
+  /// Sets the stored nodal rotations R (#N, proper) used by the overloads without a rotation
+  /// argument. Empty = identity (unwarped K0⁻¹, the ablation). The registration never calls it:
+  /// it passes the rotations per call, so a prepared model stays const (and shareable).
   void set_rotations(std::vector<Matrix3d> nodal_rotations);
   [[nodiscard]] const std::vector<Matrix3d>& rotations() const { return m_warp.rotations(); }
 
-  /// R K0⁻¹ Rᵀ v (full 3N vectors; mN → mm), one solve with the factor.
+  /// R K0⁻¹ Rᵀ v (full 3N vectors; mN → mm), one solve with the factor, with the stored rotations.
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v) const;
+  /// Same with the nodal rotations `R` (#N, or empty for the identity) given per call.
+  [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v, const std::vector<Matrix3d>& R) const;
 
-  /// W = H R K0⁻¹ Rᵀ Hᵀ (#rows², mm/mN) by the chosen strategy. H is #rows × 3N.
-  [[nodiscard]] Eigen::MatrixXd delassus(const SparseMatrix& H);
+  /// W = H R K0⁻¹ Rᵀ Hᵀ (#rows², mm/mN) by the chosen strategy, with the stored rotations.
+  /// H is #rows × 3N.
+  [[nodiscard]] Eigen::MatrixXd delassus(const SparseMatrix& H) const;
+  /// Same with the nodal rotations `R` given per call; `used_fallback` (optional) is set when
+  /// the rows touched a node outside the block and sparse solves were used.
+  [[nodiscard]] Eigen::MatrixXd delassus(const SparseMatrix& H, const std::vector<Matrix3d>& R,
+                                         bool* used_fallback = nullptr) const;
   /// Strategy (a) explicitly. \pre every node H touches is a block node (else throws).
   [[nodiscard]] Eigen::MatrixXd delassus_dense_block(const SparseMatrix& H) const;
+  [[nodiscard]] Eigen::MatrixXd delassus_dense_block(const SparseMatrix& H, const std::vector<Matrix3d>& R) const;
   /// Strategy (b) explicitly.
-  [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H);
+  [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H) const;
+  [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H, const std::vector<Matrix3d>& R) const;
 
  private:
   /// G = H R restricted to free DOFs, as a (#free × #rows) sparse matrix (= (H R)ᵀ restricted).
-  [[nodiscard]] SparseMatrix rotated_transposed_free(const SparseMatrix& H) const;
+  [[nodiscard]] SparseMatrix rotated_transposed_free(const SparseMatrix& H, const std::vector<Matrix3d>& R) const;
   /// Empty when `b` can be adopted as this model's block, else why not.
   [[nodiscard]] std::string check_precomputed(const ComplianceBlock& b, const std::vector<index_t>& free_of_block) const;
 
@@ -109,8 +120,10 @@ class ComplianceOperator {
   Eigen::MatrixXd m_block;           // (3|S|)², column-major, zero on fixed DOFs
   std::uint64_t m_fingerprint = 0;
   std::string m_cache_status = "none (sparse_solve)";
-  std::size_t m_last_sparse_bytes = 0;
-  int m_fallbacks = 0;
+  // Statistics of the calls (the operator is used through const references during a
+  // registration; the step also returns them per call in its result). Not synchronised.
+  mutable std::size_t m_last_sparse_bytes = 0;
+  mutable int m_fallbacks = 0;
 };
 
 /// Reference W = H K(R)⁻¹ Hᵀ with the exact rotated tangent K(R) = Σ R̂ₑ Kₑ R̂ₑᵀ refactorised

@@ -16,14 +16,17 @@ double seconds_since(Clock::time_point t0) {
 }
 
 /// Wᵢᵢ += compliance_ratio[set of row i] · median(diag W).
-void add_row_compliance(Eigen::MatrixXd& W, const ConstraintRows& rows,
-                        const std::array<double, num_constraint_sets>& ratio) {
-  if (W.rows() == 0 || std::all_of(ratio.begin(), ratio.end(), [](double r) { return r == 0.0; })) return;
+/// Returns median(diag W), the unit of the ratios.
+double add_row_compliance(Eigen::MatrixXd& W, const ConstraintRows& rows,
+                          const std::array<double, num_constraint_sets>& ratio) {
+  if (W.rows() == 0) return 0.0;
   Eigen::VectorXd d = W.diagonal();
   std::nth_element(d.data(), d.data() + d.size() / 2, d.data() + d.size());
   const double median = d[d.size() / 2];
+  if (std::all_of(ratio.begin(), ratio.end(), [](double r) { return r == 0.0; })) return median;
   for (index_t i = 0; i < rows.size(); ++i)
     W(i, i) += ratio[static_cast<std::size_t>(rows[i].set)] * median;
+  return median;
 }
 }  // namespace
 
@@ -51,7 +54,7 @@ ConstrainedModel::ConstrainedModel(const core::TetMesh& mesh, const std::vector<
 }
 
 StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& rows,
-                                  const StepOptions& options, ConstRef<Eigen::VectorXd> warm_start) {
+                                  const StepOptions& options, ConstRef<Eigen::VectorXd> warm_start) const {
   const index_t n = m_model.mesh().num_nodes();
   BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows for " << n << " nodes");
   StepResult res;
@@ -61,17 +64,15 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
   Eigen::VectorXd f_int;
   std::unique_ptr<core::CholmodFactor> exact_factor;  // EXACT only
   std::unique_ptr<ComplianceOperator> exact;
+  std::vector<Matrix3d> rotations;  // nodal; empty = identity (LINEAR, UNWARPED, EXACT's own operator)
   if (options.mechanics == Mechanics::LINEAR) {
     const MatrixX3d u = x - m_model.mesh().nodes();
     f_int = m_K0 * Eigen::Map<const Eigen::VectorXd>(u.data(), 3 * n);
-    m_compliance->set_rotations({});
   } else {
     const core::ElementRotations er = m_model.element_rotations(x);
     res.inverted_elements = er.inverted_count;
     f_int = m_model.internal_force(x, er.rotation);
-    m_compliance->set_rotations(options.mechanics == Mechanics::WARPED
-                                    ? core::nodal_rotations(m_model.mesh(), er.rotation)
-                                    : std::vector<Matrix3d>{});
+    if (options.mechanics == Mechanics::WARPED) rotations = core::nodal_rotations(m_model.mesh(), er.rotation);
     if (options.mechanics == Mechanics::EXACT) {
       exact_factor = std::make_unique<core::CholmodFactor>();
       const auto status = exact_factor->compute(
@@ -83,10 +84,10 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
       exact = std::make_unique<ComplianceOperator>(*exact_factor, m_dofs, std::vector<index_t>{}, sparse);
     }
   }
-  ComplianceOperator& C = exact ? *exact : *m_compliance;
+  const ComplianceOperator& C = exact ? *exact : *m_compliance;
   Eigen::VectorXd f = -f_int;
   if (!options.gravity.isZero()) f += m_model.gravity_force(options.gravity, options.density);
-  const Eigen::VectorXd dx_free = options.relaxation * C.apply(f);
+  const Eigen::VectorXd dx_free = options.relaxation * C.apply(f, rotations);
   res.seconds_free_motion = seconds_since(t0);
 
   std::string diag;
@@ -96,8 +97,12 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     t0 = Clock::now();
     const SparseMatrix H = rows.jacobian(n);
     const Eigen::VectorXd delta_free = rows.violations() + H * dx_free;
-    Eigen::MatrixXd W = C.delassus(H);
-    add_row_compliance(W, rows, options.compliance_ratio);
+    Eigen::MatrixXd W = C.delassus(H, rotations, &res.delassus_fallback);
+    if (options.keep_system) {
+      res.delassus = W;
+      res.delta_free = delta_free;
+    }
+    res.compliance_scale = add_row_compliance(W, rows, options.compliance_ratio);
     res.seconds_delassus = seconds_since(t0);
 
     t0 = Clock::now();
@@ -106,13 +111,14 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     res.seconds_pgs = seconds_since(t0);
 
     t0 = Clock::now();
-    dx += C.apply(H.transpose() * res.lambda);
+    dx += C.apply(H.transpose() * res.lambda, rotations);
     res.seconds_correction = seconds_since(t0);
   } else {
     res.pgs.message = "no constraint rows";
   }
   if (!dx.allFinite()) {
     dx.setZero();
+    res.finite = false;
     note("the increment was not finite (diverging iteration); step rejected");
   }
   {

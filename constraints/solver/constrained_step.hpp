@@ -58,6 +58,9 @@ struct StepOptions {
   std::array<double, num_constraint_sets> compliance_ratio{};
   /// Violations beyond this (mm) are flagged in StepResult::diagnosis (mis-pairing, wrong frame).
   double plausible_violation = 100.0;
+  /// Keep the Delassus operator (without the row compliance) and δ_free in the result, for the
+  /// registration's noise model (noise_model.hpp).
+  bool keep_system = false;
 };
 
 struct StepResult {
@@ -67,6 +70,13 @@ struct StepResult {
   double max_increment = 0.0;    ///< max nodal |Δx| of this step (after limiting), mm
   bool limited = false;          ///< the increment was scaled down to StepOptions::max_increment
   index_t inverted_elements = 0; ///< at the start of the step
+  /// False when the increment was not finite (a diverging iteration): the step is then rejected,
+  /// x is the input positions unchanged and the caller must stop (never count it as converged).
+  bool finite = true;
+  bool delassus_fallback = false;  ///< W needed sparse solves (rows outside the compliance block)
+  Eigen::MatrixXd delassus;      ///< W = H C Hᵀ without row compliance (StepOptions::keep_system)
+  Eigen::VectorXd delta_free;    ///< δ + H dx_free (StepOptions::keep_system)
+  double compliance_scale = 0.0; ///< median diag W: the unit of StepOptions::compliance_ratio
   std::string diagnosis;         ///< empty, or one line on what looks wrong (huge violations,
                                  ///< inverted elements, rows ignored or inconsistent)
   double seconds_free_motion = 0.0, seconds_delassus = 0.0, seconds_pgs = 0.0,
@@ -84,15 +94,18 @@ class ConstrainedModel {
   ConstrainedModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
                    std::vector<index_t> block_nodes, const ComplianceOptions& compliance = {});
 
-  /// One step from positions x (#N×3) with rows built at x.
+  /// One step from positions x (#N×3) with rows built at x. Const: the rotations of x are
+  /// computed and used within the call, so one prepared model serves any number of
+  /// registrations (replay, bench) without carrying state from one to the next.
   [[nodiscard]] StepResult step(ConstRef<MatrixX3d> x, const ConstraintRows& rows,
                                 const StepOptions& options,
-                                ConstRef<Eigen::VectorXd> warm_start = Eigen::VectorXd()) ;
+                                ConstRef<Eigen::VectorXd> warm_start = Eigen::VectorXd()) const;
 
   [[nodiscard]] const core::CorotationalModel& model() const { return m_model; }
   [[nodiscard]] const core::DofMap& dofs() const { return m_dofs; }
   [[nodiscard]] const core::CholmodFactor& factor() const { return *m_factor; }
   [[nodiscard]] ComplianceOperator& compliance() { return *m_compliance; }
+  [[nodiscard]] const ComplianceOperator& compliance() const { return *m_compliance; }
   [[nodiscard]] const SparseMatrix& rest_stiffness() const { return m_K0; }
 
  private:

@@ -15,6 +15,7 @@ std::string PgsOptions::validate() const {
   if (!(tolerance > 0)) return "PGS tolerance must be > 0";
   if (!(lambda_max >= 0)) return "PGS lambda_max must be ≥ 0 (0 = unbounded)";
   if (stall_window < 2) return "PGS stall_window must be ≥ 2";
+  if (active_set_max_changes < 1) return "active_set_max_changes must be ≥ 1";
   return {};
 }
 

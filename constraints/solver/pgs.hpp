@@ -13,6 +13,7 @@
 /// in mm, max over rows, relative to max(‖δ_free‖∞, 1e-9 mm). This is a statement about the
 /// constraint laws, not the size of the last sweep's change (SOFA's test); both are reported.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,8 @@ struct PgsOptions {
   int stall_window = 100;            ///< sweeps without a 1 % residual decrease → STALLED
   /// Rows whose Wᵢᵢ ≤ this × max Wⱼⱼ cannot move (they act only on fixed nodes): ignored, λ = 0.
   double null_row_tolerance = 1e-12;
+  /// Active-set changes the direct solve (active_set.hpp) may make before it gives up to PGS.
+  int active_set_max_changes = 30;
   [[nodiscard]] std::string validate() const;
 };
 
@@ -40,6 +43,17 @@ enum class PgsStop {
 };
 std::string to_string(PgsStop stop);
 
+/// What the direct active-set solve (active_set.hpp) did before PGS verified or finished it.
+enum class ActiveSetOutcome : std::uint8_t {
+  NOT_USED,      ///< PGS alone (GAUSS_SEIDEL, too many rows, bounded λ, no rows)
+  SOLVED,        ///< the set settled and its solve met the laws: PGS verified it
+  LDLT_FAILED,   ///< the active block could not be factorised: PGS from the warm start
+  NON_FINITE,    ///< the solve gave a non-finite λ: PGS from the warm start
+  NO_SETTLING,   ///< the set still changed after active_set_max_changes: PGS from the warm start
+  INCONSISTENT,  ///< the set settled but its rows cannot all be met (antagonistic rows): PGS from the warm start
+};
+std::string to_string(ActiveSetOutcome o);
+
 struct PgsResult {
   Eigen::VectorXd lambda;         ///< #rows, mN
   Eigen::VectorXd constraint_values;  ///< g = δ_free + W λ at the end, mm
@@ -50,6 +64,8 @@ struct PgsResult {
   index_t ignored_rows = 0;       ///< rows with Wᵢᵢ ≈ 0 (on fixed nodes only)
   index_t bounded_rows = 0;       ///< rows at |λ| = λ_max at the end
   std::string message;            ///< one line: why it stopped, and any diagnosis
+  ActiveSetOutcome active_set = ActiveSetOutcome::NOT_USED;  ///< set by solve_constraints()
+  int active_set_changes = 0;     ///< set changes the direct solve made
 };
 
 /// Solves the constraint problem with projected block Gauss–Seidel.

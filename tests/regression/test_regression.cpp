@@ -1,8 +1,9 @@
 // The phantom regression suite (issue 8 item 3, CTest label `regression`): every named case
 // registered end to end by `brainshift bench --suite cases --cases NAME`, with thresholds on TRE
 // and shift corrected taken from the recorded figures (tests/regression/thresholds.json) plus a
-// stated margin; every run must give a finite answer with a stop reason; our method must not fall
-// further behind the rigid-only baseline on the same data than recorded.
+// stated margin; every run must give a finite answer with a stop reason, ours must converge, the
+// "before" error must be the recorded one (the phantom did not change), and ours must not be
+// worse than the rigid-only baseline on the same data beyond a stated noise margin.
 
 #include <gtest/gtest.h>
 
@@ -27,6 +28,13 @@ const nlohmann::json& thresholds() {
   return t;
 }
 
+/// Ours against rigid alone: a gap of 0 is the target (issue 14). The margin is the run-to-run
+/// noise of our figure that the rigid baseline does not share: CGAL's meshing is not
+/// bit-reproducible, so each `prepare` gives another 1.6k-node mesh, which moves our mean TRE by
+/// up to ≈ 0.1 mm between runs (docs/BENCHMARKS.md) while rigid-only, which does not use the
+/// mesh, stays put.
+constexpr double kRigidNoiseMarginMm = 0.1;
+
 class PhantomCase : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
@@ -47,10 +55,15 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
     SCOPED_TRACE(run.dump());
     EXPECT_TRUE(run["ok"].get<bool>());
     EXPECT_FALSE(run["stop"].get<std::string>().empty());
+    // The phantom's own shift (before registration) does not depend on the method or the mesh:
+    // the recorded figure to its 3 printed decimals.
+    if (rec.contains("tre_before_mean_mm"))
+      EXPECT_NEAR(run["tre_before_mean_mm"].get<double>(), rec["tre_before_mean_mm"].get<double>(), 2e-3);
     if (run["method"] == "constraint_icp") icp = &run;
     if (run["method"] == "rigid_only") rigid = &run;
   }
   ASSERT_TRUE(icp && rigid);
+  EXPECT_EQ((*icp)["stop"].get<std::string>(), "converged") << name;
   const double tre = (*icp)["tre_mean_mm"].get<double>();
   const double limit = rec["tre_mean_mm"].get<double>() * margin["tre_factor"].get<double>() +
                        margin["tre_add_mm"].get<double>();
@@ -58,11 +71,9 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
   const double pct = (*icp)["shift_corrected_pct"].is_null() ? 0.0 : (*icp)["shift_corrected_pct"].get<double>();
   EXPECT_GE(pct, rec["shift_corrected_pct"].get<double>() - margin["corrected_pct_drop"].get<double>())
       << name << ": recorded " << rec["shift_corrected_pct"];
-  // Never worse than rigid alone (the same rigid start, no deformation): the target is a gap of
-  // 0; the recorded gap (0 on most cases, a known shortfall on a few — docs/BENCHMARKS.md) may
-  // not grow beyond the margin's absolute part.
-  EXPECT_LE(tre, (*rigid)["tre_mean_mm"].get<double>() + rec["rigid_gap_mm"].get<double>() +
-                     margin["tre_add_mm"].get<double>())
+  // Never worse than rigid alone (the same rigid start, no deformation): a gap of 0 plus the
+  // stated noise margin, on every case.
+  EXPECT_LE(tre, (*rigid)["tre_mean_mm"].get<double>() + kRigidNoiseMarginMm)
       << name << ": rigid only " << (*rigid)["tre_mean_mm"];
 }
 
