@@ -246,7 +246,9 @@ Bench sagging_block() {
   return b;
 }
 
-/// Maximum nodal agreement asserted on the blocks, mm. Measured differences are in each test; the bound is
+/// Maximum nodal agreement asserted on the blocks, mm. Measured (ccx 2.20): sheared cube 1.7e-6,
+/// sagging block 2.5e-5, block on the plane 1.2e-4 mm (relative L2 1.9e-7, 1.6e-6, 3.6e-5). The
+/// bound is
 /// ten times TLED's stopping tolerance (its estimate is an upper bound of its error within a
 /// factor of a few, test_tled_solver.cpp) plus ccx's printed precision (7 digits of ≤ 10 mm
 /// displacements: 1e-5 mm) and, with contact, the penalty penetration (≤ 1e-6 mm).
