@@ -242,24 +242,31 @@ std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& ro
   return maxima;
 }
 
-/// Local rescoring of a coarse candidate: 7 rotations (± half the rotation step about each axis)
-/// × 27 translations (± half the translation step), fine kernel.
+/// Local rescoring of a coarse candidate with the fine kernel, by coordinate ascent: the 27
+/// translations within ± half the translation step, then the 7 rotations (± half the rotation
+/// step about each axis) at the best, then the translations again.
 Pose rescore(const Search& S, const Pose& c, double rot_step, double step) {
   Pose best = c;
   best.score = S.score(c);
-  for (int r = 0; r < 7; ++r) {
-    Vector3d dw = Vector3d::Zero();
-    if (r > 0) dw[(r - 1) / 2] = (r % 2 ? 0.5 : -0.5) * rot_step;
+  auto translations = [&] {
+    const Pose centre = best;
     for (int z = -1; z <= 1; ++z)
       for (int y = -1; y <= 1; ++y)
         for (int x = -1; x <= 1; ++x) {
-          if (r == 0 && x == 0 && y == 0 && z == 0) continue;
-          Pose p = c;
-          p.w += dw;
+          if (x == 0 && y == 0 && z == 0) continue;
+          Pose p = centre;
           p.t += 0.5 * step * Vector3d(x, y, z);
           if ((p.score = S.score(p)) > best.score) best = p;
         }
+  };
+  translations();
+  const Pose centre = best;
+  for (int r = 0; r < 6; ++r) {
+    Pose p = centre;
+    p.w[r / 2] += (r % 2 ? 0.5 : -0.5) * rot_step;
+    if ((p.score = S.score(p)) > best.score) best = p;
   }
+  translations();
   return best;
 }
 

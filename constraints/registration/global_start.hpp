@@ -25,8 +25,10 @@
 ///    on at most `coarse_points` evenly spread points. Every candidate is scored: there is no
 ///    basin of attraction to fall out of, which is what fools ICP on a tree whose vessels are
 ///    closer together than the offset.
-/// 2. the `candidates` best interior local maxima over the translation grid are rescored on a
-///    local grid (half the steps) with τ = fine_kernel_mm and up to `max_points` points.
+/// 2. the `candidates` best interior local maxima over the translation grid are rescored with
+///    τ = fine_kernel_mm on up to `max_points` points, by coordinate ascent on a local grid (the
+///    27 translations within half a step, the 7 rotations within half a rotation step, the
+///    translations again).
 /// 3. refinement of the best (and of any other within 10 % of its score): robust point-to-line
 ///    ICP with Ceres (Cauchy loss of scale loss_scale_mm; pairs within refine_distance_mm),
 ///    jointly over the rotation, the translation and, with a basis, the bulk shift s. A weak
