@@ -436,9 +436,20 @@ GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
     }
     const double top = cands.front().score;
     for (std::size_t k = 0; k < cands.size() && k < 3 && cands[k].score >= 0.9 * top; ++k) {
+      // Rigid first; then the bulk shift jointly, kept only when it is large enough to report
+      // (a small s would otherwise bias the rigid part it is traded against).
       int rounds = 0;
       index_t pairs = 0;
-      Pose p = refine(S, cands[k], bulk, rounds, pairs);
+      Pose p = refine(S, cands[k], false, rounds, pairs);
+      if (bulk && !S.basis.empty()) {
+        int more = 0;
+        index_t joint_pairs = 0;
+        if (const Pose q = refine(S, p, true, more, joint_pairs); q.s.norm() >= o.bulk_min_mm) {
+          p = q;
+          rounds += more;
+          pairs = joint_pairs;
+        }
+      }
       p.score = S.score(p);
       if (p.score < cands[k].score) p = cands[k];  // the refinement lost score: keep the searched pose
       if (p.score > best.score) {
