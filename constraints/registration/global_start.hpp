@@ -29,11 +29,14 @@
 ///    τ = fine_kernel_mm on up to `max_points` points, by coordinate ascent on a local grid (the
 ///    27 translations within half a step, the 7 rotations within half a rotation step, the
 ///    translations again).
-/// 3. refinement of the best (and of any other within 10 % of its score): robust point-to-line
-///    ICP with Ceres (Cauchy loss of scale loss_scale_mm; pairs within refine_distance_mm),
-///    jointly over the rotation, the translation and, with a basis, the bulk shift s. A weak
-///    prior (s costs as much as moving every pair by loss_scale_mm when |s| = bulk_prior_mm)
-///    keeps s at 0 where the data cannot tell it from a translation (Bᵢ ≈ I everywhere).
+/// 3. refinement of the best (and of up to two others within 10 % of its score): robust
+///    point-to-line ICP with Ceres (Cauchy loss of scale loss_scale_mm; pairs within
+///    refine_distance_mm), first over the rotation and translation, then — with a basis —
+///    jointly with the bulk shift s, kept only when |s| ≥ bulk_min_mm (a smaller s would only
+///    bias the rigid part it trades against). A weak prior (s costs as much as moving every pair
+///    by loss_scale_mm when |s| = bulk_prior_mm) keeps s small where the data cannot tell it
+///    from a translation (Bᵢ ≈ I everywhere). The basis is evaluated once, where the best
+///    searched pose puts the points.
 /// 4. decision by the data score: the pose is kept when its fine score beats the identity's by
 ///    `min_gain`; otherwise the identity is returned and the message says why. No motion cap.
 
