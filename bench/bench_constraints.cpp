@@ -1,6 +1,7 @@
 /// @file
 /// @brief Micro-benchmarks of the constraint path on hemisphere-sized ellipsoids (~2k and ~20k
-/// nodes) with 100 … 3,000 realistic rows: the Delassus operator W = H R K0⁻¹ Rᵀ Hᵀ by both
+/// nodes) with 100 … 3,000 realistic rows, and of the registration's global start (500 points,
+/// 1.7k nodes; against the rigid ICP + shift search it replaced): the Delassus operator W = H R K0⁻¹ Rᵀ Hᵀ by both
 /// strategies (dense block: precompute and per-call product reported separately; sparse
 /// solves), projected Gauss–Seidel, and one full constrained step. Scenes are built once per
 /// (mesh, rows) in static fixtures (not timed). See docs/BENCHMARKS.md.
@@ -16,6 +17,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
+#include <numbers>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -25,6 +27,10 @@
 #include <vector>
 
 #include "bench_common.hpp"
+#include "constraints/registration/global_start.hpp"
+#include "constraints/registration/registration.hpp"
+#include "constraints/registration/rigid_init.hpp"
+#include "constraints/registration/shift_search.hpp"
 #include "constraints/rows/constraint_rows.hpp"
 #include "constraints/solver/compliance_operator.hpp"
 #include "constraints/solver/constrained_step.hpp"
@@ -371,6 +377,89 @@ void BM_W_SparseLowerSolveOnly(benchmark::State& state) {
       static_cast<double>(Y.nonZeros()) / (static_cast<double>(Y.cols()) * static_cast<double>(Y.rows()));
 }
 
+// --- The global start (issue 14 item 2): 500 vessel points, ~1.7k nodes ----------------------
+
+/// A model of the 11-cell ellipsoid (1,728 nodes) with 16 wavy vessels (30 mm each, 1 mm
+/// segments) in the cortex-like top region, its load responses computed once (model-only work),
+/// and 500 noisy vessel points seen through a 20 mm / 4° tracking offset.
+struct StartScene {
+  std::unique_ptr<constraints::RegistrationModel> model;
+  MatrixX3d points;  // intra-operative frame
+};
+
+StartScene& start_scene() {
+  static std::unique_ptr<StartScene> scene;
+  if (!scene) {
+    scene = std::make_unique<StartScene>();
+    const core::TetMesh mesh = hemisphere_mesh(11);
+    constraints::Skeleton skel;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<Vector3d> pts;
+    for (int v = 0; v < 16; ++v) {
+      Vector3d p(-20 + 40 * u(rng), -20 + 40 * u(rng), 12 + 18 * u(rng));
+      const double a = 2 * std::numbers::pi * u(rng), wave = 8 + 8 * u(rng);
+      const Vector3d d(std::cos(a), std::sin(a), 0.2 * (u(rng) - 0.5));
+      for (int k = 0; k <= 30; ++k) {
+        Vector3d q = p + k * d.normalized() + 1.2 * std::sin(2 * std::numbers::pi * k / wave) * Vector3d(-d.y(), d.x(), 0).normalized();
+        q = q.cwiseMax(Vector3d(-25, -25, 10)).cwiseMin(Vector3d(25, 25, 32));  // stay inside the ellipsoid
+        pts.push_back(q);
+        if (k > 0) skel.segments.push_back({static_cast<index_t>(pts.size()) - 2, static_cast<index_t>(pts.size()) - 1});
+      }
+    }
+    skel.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
+    for (std::size_t i = 0; i < pts.size(); ++i) skel.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+    // 500 points along the vessels (uniform on the segments) with 0.3 mm noise, then the offset.
+    std::normal_distribution<double> noise(0.0, 0.3);
+    Eigen::Isometry3d O = Eigen::Isometry3d::Identity();
+    O.rotate(Eigen::AngleAxisd(4.0 * std::numbers::pi / 180, Vector3d(1, -2, 0.5).normalized()));
+    O.pretranslate(20.0 * Vector3d(0.5, 0.8, -0.33).normalized());
+    scene->points.resize(500, 3);
+    for (Eigen::Index i = 0; i < 500; ++i) {
+      const auto& e = skel.segments[static_cast<std::size_t>(u(rng) * static_cast<double>(skel.segments.size())) % skel.segments.size()];
+      const Vector3d x = skel.points.row(e[0]).transpose() + u(rng) * (skel.points.row(e[1]) - skel.points.row(e[0])).transpose();
+      scene->points.row(i) = (O * (x + Vector3d(noise(rng), noise(rng), noise(rng)))).transpose();
+    }
+    scene->model = std::make_unique<constraints::RegistrationModel>(mesh, bottom_cap(mesh), std::move(skel),
+                                                                    constraints::SurfaceMesh{});
+    (void)scene->model->load_response();
+  }
+  return *scene;
+}
+
+/// The global start with the bulk response (what register_model runs with start = RIGID).
+void BM_GlobalStart(benchmark::State& state) {
+  StartScene& s = start_scene();
+  constraints::RegistrationModel& m = *s.model;
+  const constraints::BasisAt basis = [&m](ConstRef<MatrixX3d> x) {
+    return constraints::load_basis(m.mesh(), m.load_response(), x);
+  };
+  constraints::GlobalStartResult r;
+  for (auto _ : state) benchmark::DoNotOptimize(r = constraints::global_start(m.skeleton(), s.points, basis, {}));
+  state.counters["accepted"] = r.accepted;
+  state.counters["table_ms"] = 1e3 * r.seconds_table;
+  state.counters["coarse_ms"] = 1e3 * r.seconds_coarse;
+  state.counters["fine_ms"] = 1e3 * r.seconds_fine;
+  state.counters["refine_ms"] = 1e3 * r.seconds_refine;
+  state.counters["nodes"] = static_cast<double>(m.mesh().num_nodes());
+}
+
+/// The start it replaces: robust Ceres ICP (rigid_init), then the bulk-shift search in its frame
+/// and from the identity (the old register_model's rigid start + shift search).
+void BM_OldRigidStartAndShiftSearch(benchmark::State& state) {
+  StartScene& s = start_scene();
+  constraints::RegistrationModel& m = *s.model;
+  for (auto _ : state) {
+    const constraints::RigidInitResult rigid = constraints::rigid_init(m.skeleton(), s.points, nullptr, nullptr, {});
+    const MatrixX3d moved = (s.points * rigid.transform.linear().transpose()).rowwise() + rigid.transform.translation().transpose();
+    for (const MatrixX3d* p : {&moved, static_cast<const MatrixX3d*>(&s.points)}) {
+      const std::vector<Matrix3d> basis = constraints::load_basis(m.mesh(), m.load_response(), *p);
+      benchmark::DoNotOptimize(constraints::search_shift(m.skeleton(), *p, basis, {}));
+    }
+  }
+  state.counters["nodes"] = static_cast<double>(m.mesh().num_nodes());
+}
+
 // Meshes: 12 cells → 2,197 nodes, 26 → 19,683. Rows: 100, 300, 1,000, 3,000, plus 600 on the
 // 2k mesh (seed-002 scale, the 10 ms target).
 void SmallMesh(benchmark::internal::Benchmark* b) {
@@ -392,6 +481,8 @@ BENCHMARK(BM_W_Sparse)->Apply(LargeMesh)->Iterations(1)->Repetitions(1);
 BENCHMARK(BM_W_SparseLowerSolveOnly)->Apply(SmallMesh);
 BENCHMARK(BM_PGS)->Apply(SmallMesh)->Apply(LargeMesh);
 BENCHMARK(BM_Step)->Apply(SmallMesh)->Apply(LargeMesh);
+BENCHMARK(BM_GlobalStart)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OldRigidStartAndShiftSearch)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_StepSmooth)->ArgNames({"cells", "rows"})->Args({12, 600})->Unit(benchmark::kMillisecond);
 
 }  // namespace

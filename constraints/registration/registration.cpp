@@ -53,23 +53,6 @@ Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double mar
   return out.segments.empty() ? s : out;
 }
 
-/// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of
-/// the linear model at the rest mesh node nearest the point, normalised so the mean over the
-/// points is the identity. Empty when the mean is singular (points on fixed nodes).
-std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
-                                 ConstRef<MatrixX3d> points) {
-  std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
-  Matrix3d mean = Matrix3d::Zero();
-  for (Eigen::Index i = 0; i < points.rows(); ++i) {
-    Eigen::Index node = 0;
-    (mesh.nodes().rowwise() - points.row(i)).rowwise().squaredNorm().minCoeff(&node);
-    for (std::size_t k = 0; k < 3; ++k) basis[static_cast<std::size_t>(i)].col(static_cast<Eigen::Index>(k)) = response[k].row(node).transpose();
-    mean += basis[static_cast<std::size_t>(i)] / static_cast<double>(points.rows());
-  }
-  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return {};
-  const Matrix3d inv = mean.inverse();
-  for (Matrix3d& b : basis) b = b * inv;
-  return basis;
 }
 
 std::string no_data_reason(const IntraopData& d, const RegistrationModel& m, const RegistrationOptions& o) {
@@ -91,7 +74,7 @@ std::string RegistrationOptions::validate() const {
   if (max_iterations < 1) return "max_iterations must be ≥ 1";
   if (!(increment_tolerance_mm > 0)) return "increment_tolerance_mm must be > 0";
   if (!(direction_radius_mm > 0)) return "direction_radius_mm must be > 0";
-  if (!(rigid_max_motion_mm >= 0)) return "rigid_max_motion_mm must be ≥ 0";
+  if (auto e = global_start.validate(); !e.empty()) return e;
   if (shift_stage_iterations < 0) return "shift_stage_iterations must be ≥ 0";
   if (!(refine_pair_distance_mm > 0)) return "refine_pair_distance_mm must be > 0";
   if (auto e = shift_search.validate(); !e.empty()) return e;
@@ -174,27 +157,40 @@ std::string to_string(StageStop stop) {
   BS_UNREACHABLE();
 }
 
+// ===== Start (issue 14 item 2; global_start.hpp) =====================================================
+
+namespace {
+
+/// The start's result as the loop's rigid start (`RegistrationResult::rigid`).
+RigidInitResult as_rigid(const GlobalStartResult& g) {
+  RigidInitResult r;
+  r.transform = g.transform;
+  r.converged = g.accepted;
+  r.iterations = g.refine_iterations;
+  r.stop_reason = "global start: " + g.message;
+  r.rms_before_mm = g.rms_before_mm;
+  r.rms_after_mm = g.rms_after_mm;
+  r.pairs_used = g.pairs;
+  return r;
+}
+
+/// The start's bulk shift as the loop's first-stage shift (`RegistrationResult::shift`).
+ShiftSearchResult as_shift(const GlobalStartResult& g) {
+  ShiftSearchResult s;
+  s.shift = g.bulk_shift;
+  s.accepted = g.bulk_accepted;
+  s.score = g.score;
+  s.score_zero = g.score_identity;
+  s.message = g.bulk_accepted ? "from the global start" : "none from the global start";
+  return s;
+}
+
+}  // namespace
+
 RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options) {
-  const bool footprint =
-      options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
-  RigidInitResult rigid =
-      rigid_init(skeleton_near(model.skeleton(), data.vessel_points, options.rigid.max_pair_distance_mm),
-                 data.vessel_points, footprint ? &model.surface() : nullptr,
-                 footprint ? &data.footprint_points : nullptr, options.rigid);
-  double motion = 0;
-  for (Eigen::Index i = 0; i < data.vessel_points.rows(); ++i) {
-    const Vector3d p = data.vessel_points.row(i).transpose();
-    motion = std::max(motion, (rigid.transform * p - p).norm());
-  }
-  if (options.rigid_max_motion_mm > 0 && motion > options.rigid_max_motion_mm) {
-    rigid.stop_reason = "rejected: the fit moved the points by up to " + std::to_string(motion) +
-                        " mm, beyond the plausible " + std::to_string(options.rigid_max_motion_mm) + " mm (" +
-                        rigid.stop_reason + "); starting from the identity";
-    rigid.transform = Eigen::Isometry3d::Identity();
-    rigid.converged = false;
-    logger().warn("rigid initialisation {}", rigid.stop_reason);
-  }
-  return rigid;
+  GlobalStartOptions o = options.global_start;
+  o.bulk_response = false;
+  return as_rigid(global_start(model.skeleton(), data.vessel_points, {}, o));
 }
 
 namespace {
@@ -206,46 +202,36 @@ void run_start(const RegistrationModel& model, const IntraopData& data, const Re
                const RegistrationResult* initial, bool vessels, RegistrationResult& res,
                std::vector<Matrix3d>& shift_basis) {
   const core::TetMesh& mesh = model.mesh();
-  // Rigid start: the intra-operative points are mapped into the model frame once.
+  // Warm start: the previous frame's pose. RIGID: the global start (global_start.hpp) — rigid pose
+  // plus the model's bulk response, found by an exhaustive search of the distance map and refined
+  // by robust ICP, kept only when it scores better than the identity. IDENTITY: no rigid part; the
+  // bulk shift alone is searched (shift_search.hpp).
+  const auto t0 = Clock::now();
   if (initial) {
     res.rigid = initial->rigid;
-  } else if (options.start == RigidStart::RIGID) {
-    const auto t0 = Clock::now();
-    res.rigid = rigid_start(model, data, options);
-    res.seconds.rigid = seconds_since(t0);
+  } else if (options.start == RigidStart::RIGID && vessels) {
+    BasisAt basis_at;
+    if (options.shift_load_basis)
+      basis_at = [&](ConstRef<MatrixX3d> x) { return load_basis(mesh, model.load_response(), x); };
+    res.start = global_start(model.skeleton(), data.vessel_points, basis_at, options.global_start);
+    res.rigid = as_rigid(res.start);
+    res.shift = as_shift(res.start);
+    if (res.shift.accepted && options.shift_load_basis)
+      shift_basis = load_basis(mesh, model.load_response(), transformed(res.rigid.transform, data.vessel_points));
+    logger().debug("global start: {}", res.start.message);
   } else {
     res.rigid.converged = true;
-    res.rigid.stop_reason = "identity (no rigid initialisation requested)";
-  }
-  if (vessels && !initial && options.shift_search.enabled) {
-    const auto t0 = Clock::now();
-    const ShiftSearchOptions& so = options.shift_search;
-    auto search_in = [&](const Eigen::Isometry3d& frame, std::vector<Matrix3d>& basis) {
-      const MatrixX3d pts = transformed(frame, data.vessel_points);
-      basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts) : std::vector<Matrix3d>{};
-      return search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, basis, so);
-    };
-    res.shift = search_in(res.rigid.transform, shift_basis);
-    // A rigid fit can absorb part of the shift into a wrong pose (the ICP from the identity has
-    // the same ambiguity as the pairing); it is kept only when the bulk shift in its frame
-    // matches the vessels at least as well as the bulk shift from the identity.
-    if (!res.rigid.transform.isApprox(Eigen::Isometry3d::Identity())) {
-      std::vector<Matrix3d> basis0;
-      ShiftSearchResult from_identity = search_in(Eigen::Isometry3d::Identity(), basis0);
-      if (from_identity.score > res.shift.score) {
-        res.rigid.stop_reason = "rejected: the bulk shift from the identity matches the vessels better (score " +
-                                std::to_string(from_identity.score) + " vs " + std::to_string(res.shift.score) +
-                                ") (" + res.rigid.stop_reason + "); starting from the identity";
-        res.rigid.transform = Eigen::Isometry3d::Identity();
-        res.rigid.converged = false;
-        res.shift = std::move(from_identity);
-        shift_basis = std::move(basis0);
-        logger().warn("rigid initialisation {}", res.rigid.stop_reason);
-      }
+    res.rigid.stop_reason = options.start == RigidStart::RIGID ? "identity (no vessel points for the global start)"
+                                                              : "identity (no rigid initialisation requested)";
+    if (vessels && options.shift_search.enabled) {
+      const ShiftSearchOptions& so = options.shift_search;
+      const MatrixX3d& pts = data.vessel_points;
+      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts) : std::vector<Matrix3d>{};
+      res.shift = search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
+      logger().debug("shift search: {}", res.shift.message);
     }
-    res.seconds.rigid += seconds_since(t0);
-    logger().debug("shift search: {}", res.shift.message);
   }
+  res.seconds.rigid = seconds_since(t0);
 }
 
 /// The data in the model frame and the tables every stage reads.

@@ -3,7 +3,9 @@
 /// @brief Constraint-based ICP registration (seed 002 §3.4, Algorithm 1). No file I/O here.
 ///
 /// register_model() is Algorithm 1 run through a schedule of stages (registration_stage.hpp):
-///   start  — the rigid start and the bulk-shift search (one block, run_start());
+///   start  — the global start (global_start.hpp: rigid pose plus the model's bulk response, found
+///            by an exhaustive search of the skeleton's distance map and refined by robust ICP), or
+///            with IDENTITY the bulk-shift search alone (one block, run_start());
 ///   HELD   — when a bulk shift was accepted: pairs made at the points less the bulk motion, held
 ///            until the model has settled on them;
 ///   FREE   — nearest-feature pairing, frozen when it cycles, until settled;
@@ -31,7 +33,7 @@
 /// so the mechanics can settle. The history says when this happened.
 ///
 /// Frames: all positions in mm, world (RAS) frame of the pre-operative model. Intra-operative
-/// points come in their own tracked frame; the rigid fit returns `rigid` with
+/// points come in their own tracked frame; the start returns `rigid` with
 /// p_model ≈ rigid · p_intra, and the deformation is then computed in the model frame:
 /// a pre-operative point X is at rigid⁻¹ (X + u(X)) in the intra-operative frame.
 
@@ -48,6 +50,7 @@
 #include "constraints/registration/filtering.hpp"
 #include "constraints/registration/noise_model.hpp"
 #include "constraints/registration/registration_model.hpp"
+#include "constraints/registration/global_start.hpp"
 #include "constraints/registration/rigid_init.hpp"
 #include "constraints/registration/shift_search.hpp"
 #include "constraints/registration/skeleton.hpp"
@@ -69,25 +72,25 @@ struct IntraopData {
   MatrixX3d landmark_targets;
 };
 
-/// How the loop starts.
+/// How the loop starts: IDENTITY (the tracked frame is the model frame; only the bulk shift is
+/// searched, by shift_search) or RIGID (the global start: rigid pose plus bulk response).
 enum class RigidStart { IDENTITY, RIGID };
 
 struct RegistrationOptions {
   RigidStart start = RigidStart::IDENTITY;
+  /// The global start (start = RIGID): search ranges, kernels, refinement; see global_start.hpp.
+  /// It is kept only when it matches the vessels better than the identity (data score, no
+  /// motion cap); its bulk shift (with shift_load_basis) seeds the first stage's held pairs.
+  GlobalStartOptions global_start;
+  /// Ceres ICP options of rigid_init() (read from the scene's "rigid" group; rigid_init() itself
+  /// is no longer on the registration path: the global start refines with its own options).
   RigidInitOptions rigid;
-  /// A rigid fit that moves the intra-operative points by more than this (max over the points,
-  /// mm) is implausible for a tracking error (the ICP slid onto other vessels): it is rejected,
-  /// the loop starts from the identity and `rigid.stop_reason` says why. 0 disables the check.
-  double rigid_max_motion_mm = 15.0;
-  /// Global search for the bulk shift of the vessel points (shift_search.hpp), after the rigid
-  /// start. When accepted, the first pairs are made at the shifted points (pᵢ − shift) and held
-  /// (each point keeps its feature) until the model has settled on them, at most
+  /// Global search for the bulk shift of the vessel points (shift_search.hpp) when start is
+  /// IDENTITY (with RIGID the global start gives the bulk shift). When accepted, the first pairs
+  /// are made at the shifted points (pᵢ − shift) and held (each point keeps its feature) until the model has settled on them, at most
   /// `shift_stage_iterations` iterations; free nearest-feature pairing takes over from there.
   /// Nearest-feature pairing from the rest shape picks the neighbouring vessel once the shift
   /// exceeds the vessel spacing; pairs made after the bulk shift is taken out do not.
-  /// An accepted rigid start is kept only when the shift searched in its frame scores at least
-  /// as well as the one searched from the identity (a rigid ICP can absorb part of the
-  /// deformation into a wrong pose, and its motion alone does not show it).
   ShiftSearchOptions shift_search;
   int shift_stage_iterations = 40;
   /// Shape of the searched shift: the model's own response to a uniform load (one per axis,
@@ -136,7 +139,7 @@ struct RegistrationOptions {
 
 /// Seconds per stage, summed over iterations.
 struct StageTimes {
-  double rigid = 0.0;        ///< rigid initialisation
+  double rigid = 0.0;        ///< the start (global start, or the bulk-shift search from the identity)
   double pairing = 0.0;      ///< pairing, filtering, building the rows
   double free_motion = 0.0;  ///< element rotations, forces, one solve
   double delassus = 0.0;     ///< W = H C Hᵀ
@@ -225,8 +228,10 @@ struct StageRecord {
 struct RegistrationResult {
   MatrixX3d positions;        ///< final nodal positions #N×3, model frame, mm
   MatrixX3d displacement;     ///< positions − rest, mm
-  RigidInitResult rigid;      ///< the rigid start (identity when options.start is IDENTITY)
-  ShiftSearchResult shift;    ///< the bulk-shift search (not accepted when disabled or warm-started)
+  RigidInitResult rigid;      ///< the rigid start's transform (identity when options.start is IDENTITY
+                              ///< or the global start was not accepted); a warm start's own
+  ShiftSearchResult shift;    ///< the first stage's bulk shift (not accepted when none or warm-started)
+  GlobalStartResult start;    ///< the global start in full (default when not run)
   int iterations = 0;
   bool converged = false;
   RegistrationStop stop = RegistrationStop::NO_DATA;
@@ -241,10 +246,9 @@ struct RegistrationResult {
   std::vector<std::pair<std::array<std::int64_t, 3>, double>> lambda;
 };
 
-/// The loop's rigid start alone (options.start is ignored): the robust rigid fit of the vessel
-/// points (and footprint, when used) to the skeleton, rejected — identity, with the reason in
-/// stop_reason — when it moves the points farther than options.rigid_max_motion_mm. Also the
-/// "rigid only" baseline of the benchmark.
+/// The start's rigid part alone (options.start is ignored): the global start without the bulk
+/// response, as a RigidInitResult (identity with the reason in stop_reason when not accepted).
+/// The "rigid only" baseline of the benchmark.
 RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options);
 
 /// Runs the registration.

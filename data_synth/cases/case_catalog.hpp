@@ -13,6 +13,8 @@
 /// | sparse_vessels                | one small cortical tree, no deep branches                  |
 /// | resection                     | tumour removed: a soft compressible cavity that collapses  |
 /// | thin_structures               | a thin ventricle horn and a one-voxel sulcus in the labels |
+/// | offset_12mm                   | standard seen through a 12 mm / 3° tracking offset         |
+/// | offset_20mm                   | standard seen through a 20 mm / 4° tracking offset         |
 
 #include <cstdint>
 #include <string>
@@ -56,6 +58,12 @@ struct CaseParameters {
   DopplerOptions doppler;
   BmodeOptions bmode;
   TrackingError tracking;
+  /// Where the intra-operative truth (landmarks, ventricle surface) is written. false: the true
+  /// world frame — `tracking` is an error of the probe's tracking that no registration to the
+  /// images can see (tracking_error). true: the frame of the intra-operative images, as an expert
+  /// marks landmarks in the ultrasound (RESECT) — `tracking` is then an offset between the
+  /// pre-operative images and the navigation, which the registration must recover (offset_*).
+  bool truth_in_image_frame = false;
   double deep_landmark_offset = 5.0;  ///< deep landmarks lie this far outside the tumour, mm
 };
 

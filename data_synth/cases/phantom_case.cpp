@@ -141,6 +141,14 @@ json to_json(const ShiftStats& s) {
           {"max_landmark_shift_mm", s.max_landmark_shift}};
 }
 
+/// Intra-operative truth points in the frame the case writes them in (CaseParameters::
+/// truth_in_image_frame): the world, or that of the intra-operative images (tracking applied).
+std::vector<Vector3d> in_truth_frame(const CaseParameters& p, const Probe& probe, std::vector<Vector3d> x) {
+  if (p.truth_in_image_frame)
+    for (Vector3d& q : x) q = p.tracking.apply(q, probe.face_center);
+  return x;
+}
+
 /// Doppler and B-mode of one deformed state into `dir`; the headers carry the tracking error.
 void write_ultrasound(const CaseParameters& p, const VesselTree& tree, const TruthField& field,
                       const Probe& probe, const fs::path& dir) {
@@ -185,7 +193,8 @@ json parameters_json(const CaseParameters& p) {
         {"spurious_blobs", p.doppler.spurious_blobs}, {"blur_sigma_mm", p.doppler.blur_sigma}}},
       {"tracking_error",
        {{"translation_mm", to_json(p.tracking.translation)},
-        {"rotation_deg", to_json(p.tracking.rotation_deg)}}},
+        {"rotation_deg", to_json(p.tracking.rotation_deg)},
+        {"truth_in_image_frame", p.truth_in_image_frame}}},
       {"thin_structures", p.thin_structures},
       {"preop_spacing_mm", p.preop_spacing}};
 }
@@ -243,11 +252,13 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
   const std::vector<Vector3d> intra = deform_points(pre, *truth.field);
   summary.landmarks = index_t(pre.size());
   write_landmarks_csv(root / "truth/landmarks_preop.csv", pre);
-  write_landmarks_csv(root / "truth/landmarks_intraop.csv", intra);
+  write_landmarks_csv(root / "truth/landmarks_intraop.csv", in_truth_frame(p, probe, intra));
   const core::BoundarySurface ventricles = region_surface(pm.mesh, pm.tet_labels, imaging::VENTRICLES);
   MatrixX3d moved = ventricles.vertices;
-  for (index_t v = 0; v < moved.rows(); ++v)
+  for (index_t v = 0; v < moved.rows(); ++v) {
     moved.row(v) += truth.result.displacement.row(ventricles.node_of_vertex[std::size_t(v)]);
+    if (p.truth_in_image_frame) moved.row(v) = p.tracking.apply(moved.row(v).transpose(), probe.face_center).transpose();
+  }
   write_surface_vtp(root / "truth/ventricles_preop.vtp", ventricles.vertices, ventricles.faces);
   write_surface_vtp(root / "truth/ventricles_intraop.vtp", moved, ventricles.faces);
   summary.stats = shift_stats(p, pm, truth.result.displacement, pre, intra);
@@ -269,7 +280,7 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
     const Probe frame_probe = place_probe(p, field);
     write_ultrasound(p, tree, field, frame_probe, dir);
     const std::vector<Vector3d> x = deform_points(pre, field);
-    write_landmarks_csv(dir / "landmarks_intraop.csv", x);
+    write_landmarks_csv(dir / "landmarks_intraop.csv", in_truth_frame(p, frame_probe, x));
     const ShiftStats s = shift_stats(p, pm, field.nodal_displacement(), pre, x);
     summary.frames.push_back(s);
     frames.push_back({{"frame", k - 1}, {"drain_depth_mm", load.drain_depth}, {"stats", to_json(s)}});

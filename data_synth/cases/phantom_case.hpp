@@ -7,7 +7,9 @@
 ///     DIR/preop/vessels.vtp                      the true pre-operative vessel tree
 ///     DIR/intraop/{doppler,bmode}.nii.gz         probe volumes in the deformed space
 ///     DIR/truth/displacement.nii.gz              u(X), 3 components, mm RAS, pre-op grid
-///     DIR/truth/landmarks_{preop,intraop}.csv    id,x,y,z (mm RAS), same ids
+///     DIR/truth/landmarks_{preop,intraop}.csv    id,x,y,z (mm RAS), same ids (intraop and the
+///                                                ventricles in the images' frame for cases with
+///                                                truth_in_image_frame, e.g. offset_12mm)
 ///     DIR/truth/ventricles_{preop,intraop}.vtp   ventricle surface of the truth mesh
 ///     DIR/intraop/frame_NNN/{doppler,bmode}.nii.gz, landmarks_intraop.csv   (with frames > 0)
 ///

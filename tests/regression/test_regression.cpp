@@ -79,7 +79,8 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
 
 INSTANTIATE_TEST_SUITE_P(Cases, PhantomCase,
                          ::testing::Values("standard", "large_shift", "deep_tumour_one_side_vessels", "noisy_doppler",
-                                           "tracking_error", "sparse_vessels", "resection", "thin_structures"),
+                                           "tracking_error", "sparse_vessels", "resection", "thin_structures",
+                                           "offset_12mm", "offset_20mm"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
 }  // namespace

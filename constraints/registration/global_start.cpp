@@ -1,0 +1,518 @@
+#include "constraints/registration/global_start.hpp"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <numbers>
+#include <sstream>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "core/mapping/closest_point.hpp"
+#include "core/mesh/tet_mesh.hpp"
+
+namespace brainshift::constraints {
+
+std::string GlobalStartOptions::validate() const {
+  std::ostringstream os;
+  if (!(max_translation_mm >= 0 && max_translation_mm <= 200)) os << "max_translation_mm must be in [0, 200]; ";
+  if (!(max_rotation_deg >= 0 && max_rotation_deg <= 30)) os << "max_rotation_deg must be in [0, 30]; ";
+  if (!(coarse_kernel_mm > 0 && coarse_step_mm > 0 && coarse_step_mm <= coarse_kernel_mm))
+    os << "need 0 < coarse_step_mm ≤ coarse_kernel_mm; ";
+  if (!(fine_kernel_mm > 0 && fine_kernel_mm <= coarse_kernel_mm)) os << "need 0 < fine_kernel_mm ≤ coarse_kernel_mm; ";
+  if (!(refine_distance_mm > 0 && refine_distance_mm <= coarse_kernel_mm))
+    os << "need 0 < refine_distance_mm ≤ coarse_kernel_mm; ";
+  if (!(voxel_mm > 0)) os << "voxel_mm must be > 0; ";
+  if (coarse_points < 1 || max_points < 1 || candidates < 1) os << "coarse_points, max_points, candidates must be ≥ 1; ";
+  if (min_points < 3) os << "min_points must be ≥ 3; ";
+  if (!(min_gain >= 1)) os << "min_gain must be ≥ 1; ";
+  if (!(loss_scale_mm > 0) || !(convergence_mm > 0)) os << "loss_scale_mm and convergence_mm must be > 0; ";
+  if (refine_iterations < 0 || solver_iterations < 1) os << "refine_iterations ≥ 0 and solver_iterations ≥ 1 needed; ";
+  if (!(bulk_prior_mm > 0) || !(bulk_min_mm >= 0)) os << "bulk_prior_mm must be > 0 and bulk_min_mm ≥ 0; ";
+  const std::string s = os.str();
+  return s.empty() ? s : "global start: " + s.substr(0, s.size() - 2);
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr double kMaxVoxels = 4.0e6;
+
+Matrix3d rotation(const Vector3d& w) {
+  const double a = w.norm();
+  return a > 0 ? Eigen::AngleAxisd(a, w / a).toRotationMatrix() : Matrix3d::Identity();
+}
+
+/// Squared distance to the nearest skeleton segment (truncated at τ²), that segment (−1 beyond
+/// τ) and the kernel κ_τ quantised to 0…255, on a regular grid.
+class DistanceGrid {
+ public:
+  DistanceGrid(const Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h, double tau)
+      : m_lo(lo), m_h(h), m_tau2(tau * tau) {
+    m_dims = (((hi - lo) / h).array().ceil().cast<int>() + 1).matrix();
+    const auto n = static_cast<std::size_t>(m_dims.x()) * static_cast<std::size_t>(m_dims.y()) *
+                   static_cast<std::size_t>(m_dims.z());
+    m_d2.assign(n, static_cast<float>(m_tau2));
+    m_seg.assign(n, -1);
+    for (std::size_t si = 0; si < s.segments.size(); ++si) {
+      const Vector3d a = s.points.row(s.segments[si][0]).transpose(), b = s.points.row(s.segments[si][1]).transpose();
+      const Eigen::Vector3i c0 = floor_cell(a.cwiseMin(b).array() - tau), c1 = floor_cell(a.cwiseMax(b).array() + tau) + Eigen::Vector3i::Ones();
+      const Eigen::Vector3i l = c0.cwiseMax(0), u = c1.cwiseMin(m_dims - Eigen::Vector3i::Ones());
+      for (int z = l.z(); z <= u.z(); ++z)
+        for (int y = l.y(); y <= u.y(); ++y)
+          for (int x = l.x(); x <= u.x(); ++x) {
+            const Vector3d q = m_lo + h * Vector3d(x, y, z);
+            const double t = core::closest_point_on_segment(q, a, b);
+            const auto e = static_cast<float>((q - (a + t * (b - a))).squaredNorm());
+            const std::size_t k = index(x, y, z);
+            if (e < m_d2[k]) {
+              m_d2[k] = e;
+              m_seg[k] = static_cast<std::int32_t>(si);
+            }
+          }
+    }
+    m_kernel.resize(n);
+    for (std::size_t k = 0; k < n; ++k)
+      m_kernel[k] = static_cast<std::uint8_t>(std::lround(255.0 * std::max(0.0, 1.0 - m_d2[k] / m_tau2)));
+  }
+  [[nodiscard]] const Eigen::Vector3i& dims() const { return m_dims; }
+  [[nodiscard]] double spacing() const { return m_h; }
+  [[nodiscard]] const std::uint8_t* kernel() const { return m_kernel.data(); }
+  [[nodiscard]] std::size_t index(int x, int y, int z) const {
+    return static_cast<std::size_t>(x) +
+           static_cast<std::size_t>(m_dims.x()) * (static_cast<std::size_t>(y) + static_cast<std::size_t>(m_dims.y()) * static_cast<std::size_t>(z));
+  }
+  [[nodiscard]] Eigen::Vector3i nearest_cell(const Vector3d& q) const {
+    return ((q - m_lo) / m_h).array().round().cast<int>();
+  }
+  [[nodiscard]] bool inside(const Eigen::Vector3i& c, int pad = 0) const {
+    return (c.array() >= pad).all() && (c.array() < m_dims.array() - pad).all();
+  }
+  /// Segment nearest to the voxel nearest q, −1 beyond τ or outside the grid.
+  [[nodiscard]] std::int32_t segment(const Vector3d& q) const {
+    const Eigen::Vector3i c = nearest_cell(q);
+    return inside(c) ? m_seg[index(c.x(), c.y(), c.z())] : -1;
+  }
+  /// Trilinear squared distance, τ² outside the grid.
+  [[nodiscard]] double trilinear(const Vector3d& q) const {
+    const Vector3d g = (q - m_lo) / m_h;
+    if (!g.allFinite()) return m_tau2;
+    const Eigen::Vector3i c = g.array().floor().cast<int>();
+    if ((c.array() < 0).any() || (c.array() + 1 >= m_dims.array()).any()) return m_tau2;
+    const Vector3d f = g - c.cast<double>();
+    double v = 0;
+    for (int k = 0; k < 8; ++k) {
+      const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
+      const double w = (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
+      v += w * m_d2[index(c.x() + dx, c.y() + dy, c.z() + dz)];
+    }
+    return v;
+  }
+
+ private:
+  [[nodiscard]] Eigen::Vector3i floor_cell(const Vector3d& p) const { return ((p - m_lo) / m_h).array().floor().cast<int>(); }
+  Vector3d m_lo;
+  double m_h;
+  double m_tau2;
+  Eigen::Vector3i m_dims;
+  std::vector<float> m_d2;
+  std::vector<std::int32_t> m_seg;
+  std::vector<std::uint8_t> m_kernel;
+};
+
+/// A pose: rotation vector w (rad) about the centroid, translation t (mm), bulk shift s (mm).
+struct Pose {
+  Vector3d w = Vector3d::Zero(), t = Vector3d::Zero(), s = Vector3d::Zero();
+  double score = 0.0;
+};
+
+/// Points relative to the centroid, an even subsample of at most `count`.
+MatrixX3d subsample(ConstRef<MatrixX3d> pc, int count) {
+  const Eigen::Index stride = (pc.rows() + count - 1) / count;
+  MatrixX3d out((pc.rows() + stride - 1) / stride, 3);
+  for (Eigen::Index i = 0; i < out.rows(); ++i) out.row(i) = pc.row(i * stride);
+  return out;
+}
+
+/// Everything one call shares: the centred points, the table, the bulk basis of the fine points.
+struct Search {
+  const Skeleton& skeleton;
+  const GlobalStartOptions& o;
+  Vector3d c;
+  MatrixX3d coarse, fine;  // points − c
+  std::vector<Matrix3d> basis;  // per fine point, or empty
+  const DistanceGrid* grid = nullptr;
+
+  [[nodiscard]] Vector3d place(const Matrix3d& R, const Pose& p, Eigen::Index i) const {
+    Vector3d x = R * fine.row(i).transpose() + c + p.t;
+    if (!basis.empty()) x -= basis[static_cast<std::size_t>(i)] * p.s;
+    return x;
+  }
+  /// Fine score Σ κ_τf(d) over the fine points.
+  [[nodiscard]] double score(const Pose& p) const {
+    const Matrix3d R = rotation(p.w);
+    const double tf2 = o.fine_kernel_mm * o.fine_kernel_mm;
+    double s = 0;
+    for (Eigen::Index i = 0; i < fine.rows(); ++i) s += std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
+    return s;
+  }
+  /// RMS distance of the fine points within the coarse kernel, 0 when none.
+  [[nodiscard]] double rms(const Pose& p) const {
+    const Matrix3d R = rotation(p.w);
+    const double tc2 = o.coarse_kernel_mm * o.coarse_kernel_mm;
+    double s = 0;
+    int n = 0;
+    for (Eigen::Index i = 0; i < fine.rows(); ++i)
+      if (const double d2 = grid->trilinear(place(R, p, i)); d2 < tc2 * 0.999) {
+        s += d2;
+        ++n;
+      }
+    return n ? std::sqrt(s / n) : 0.0;
+  }
+};
+
+/// Coarse search: the best interior local maxima over the translation grid, each with its best
+/// rotation of the grid. Ties go to the smaller motion (the identity rotation is tried first).
+std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& rotations, double step, int sv, int K) {
+  const DistanceGrid& g = *S.grid;
+  const int side = 2 * K + 1;
+  const std::size_t nt = static_cast<std::size_t>(side) * side * side;
+  std::vector<std::ptrdiff_t> off(nt);
+  for (int z = -K, k = 0; z <= K; ++z)
+    for (int y = -K; y <= K; ++y)
+      for (int x = -K; x <= K; ++x, ++k)
+        off[static_cast<std::size_t>(k)] = sv * (x + static_cast<std::ptrdiff_t>(g.dims().x()) *
+                                                           (y + static_cast<std::ptrdiff_t>(g.dims().y()) * z));
+  std::vector<std::uint32_t> best(nt, 0);
+  std::vector<std::uint8_t> best_rot(nt, 0);
+  std::vector<std::ptrdiff_t> base;
+  base.reserve(static_cast<std::size_t>(S.coarse.rows()));
+  const std::uint8_t* kern = g.kernel();
+  for (std::size_t r = 0; r < rotations.size(); ++r) {
+    const Matrix3d R = rotation(rotations[r]);
+    base.clear();
+    for (Eigen::Index i = 0; i < S.coarse.rows(); ++i) {
+      const Eigen::Vector3i c = g.nearest_cell(R * S.coarse.row(i).transpose() + S.c);
+      if (g.inside(c, K * sv)) base.push_back(static_cast<std::ptrdiff_t>(g.index(c.x(), c.y(), c.z())));
+    }
+    for (std::size_t k = 0; k < nt; ++k) {
+      const std::uint8_t* p = kern + off[k];
+      std::uint32_t sum = 0;
+      for (const std::ptrdiff_t b : base) sum += p[b];
+      if (sum > best[k]) {
+        best[k] = sum;
+        best_rot[k] = static_cast<std::uint8_t>(r);
+      }
+    }
+  }
+  // Interior local maxima (plateaus broken by the scan order).
+  std::vector<Pose> maxima;
+  auto at = [&](int x, int y, int z) { return static_cast<std::size_t>((x + K) + side * ((y + K) + side * (z + K))); };
+  for (int z = -K + 1; z < K; ++z)
+    for (int y = -K + 1; y < K; ++y)
+      for (int x = -K + 1; x < K; ++x) {
+        const std::size_t k = at(x, y, z);
+        if (best[k] == 0) continue;
+        bool is_max = true;
+        for (int dz = -1; dz <= 1 && is_max; ++dz)
+          for (int dy = -1; dy <= 1 && is_max; ++dy)
+            for (int dx = -1; dx <= 1 && is_max; ++dx) {
+              const std::size_t n = at(x + dx, y + dy, z + dz);
+              if (n != k && (best[n] > best[k] || (best[n] == best[k] && n < k))) is_max = false;
+            }
+        if (!is_max) continue;
+        Pose p;
+        p.w = rotations[best_rot[k]];
+        p.t = step * Vector3d(x, y, z);
+        p.score = best[k] / 255.0;
+        maxima.push_back(p);
+      }
+  std::sort(maxima.begin(), maxima.end(), [](const Pose& a, const Pose& b) {
+    return a.score != b.score ? a.score > b.score : a.t.norm() + a.w.norm() < b.t.norm() + b.w.norm();
+  });
+  if (maxima.size() > static_cast<std::size_t>(S.o.candidates)) maxima.resize(static_cast<std::size_t>(S.o.candidates));
+  return maxima;
+}
+
+/// Local rescoring of a coarse candidate with the fine kernel, by coordinate ascent: the 27
+/// translations within ± half the translation step, then the 7 rotations (± half the rotation
+/// step about each axis) at the best, then the translations again.
+Pose rescore(const Search& S, const Pose& c, double rot_step, double step) {
+  Pose best = c;
+  best.score = S.score(c);
+  auto translations = [&] {
+    const Pose centre = best;
+    for (int z = -1; z <= 1; ++z)
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) {
+          if (x == 0 && y == 0 && z == 0) continue;
+          Pose p = centre;
+          p.t += 0.5 * step * Vector3d(x, y, z);
+          if ((p.score = S.score(p)) > best.score) best = p;
+        }
+  };
+  translations();
+  const Pose centre = best;
+  for (int r = 0; r < 6; ++r) {
+    Pose p = centre;
+    p.w[r / 2] += (r % 2 ? 0.5 : -0.5) * rot_step;
+    if ((p.score = S.score(p)) > best.score) best = p;
+  }
+  translations();
+  return best;
+}
+
+/// Point-to-line residual P (R(w)(p − c) + t + (c − q) − B s).
+struct LineResidual {
+  Vector3d pc, cq;
+  Matrix3d P, B;
+  template <typename T>
+  bool operator()(const T* w, const T* t, const T* s, T* r) const {
+    const T p[3] = {T(pc.x()), T(pc.y()), T(pc.z())};
+    T rp[3];
+    ceres::AngleAxisRotatePoint(w, p, rp);
+    T d[3];
+    for (int i = 0; i < 3; ++i)
+      d[i] = rp[i] + t[i] + T(cq[i]) - (T(B(i, 0)) * s[0] + T(B(i, 1)) * s[1] + T(B(i, 2)) * s[2]);
+    for (int i = 0; i < 3; ++i) r[i] = T(P(i, 0)) * d[0] + T(P(i, 1)) * d[1] + T(P(i, 2)) * d[2];
+    return true;
+  }
+};
+
+/// Weak prior on the bulk shift: r = k s.
+struct BulkPrior {
+  double k;
+  template <typename T>
+  bool operator()(const T* s, T* r) const {
+    for (int i = 0; i < 3; ++i) r[i] = T(k) * s[i];
+    return true;
+  }
+};
+
+/// Robust ICP from `start` (Ceres, Cauchy loss); returns the refined pose (score not set).
+Pose refine(const Search& S, Pose p, bool bulk, int& rounds, index_t& pairs) {
+  const GlobalStartOptions& o = S.o;
+  const double radius = std::max(1.0, std::sqrt(S.fine.rowwise().squaredNorm().mean()));
+  rounds = 0;
+  for (int it = 1; it <= o.refine_iterations; ++it) {
+    const Matrix3d R = rotation(p.w);
+    ceres::CauchyLoss loss(o.loss_scale_mm);  // outlives the problem, which does not own it
+    ceres::Problem::Options po;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    ceres::Problem problem(po);
+    index_t n = 0;
+    for (Eigen::Index i = 0; i < S.fine.rows(); ++i) {
+      const Vector3d x = S.place(R, p, i);
+      const std::int32_t seg = S.grid->segment(x);
+      if (seg < 0) continue;
+      const auto& e = S.skeleton.segments[static_cast<std::size_t>(seg)];
+      const Vector3d a = S.skeleton.points.row(e[0]).transpose(), b = S.skeleton.points.row(e[1]).transpose();
+      const Vector3d q = a + core::closest_point_on_segment(x, a, b) * (b - a);
+      if ((x - q).norm() > o.refine_distance_mm) continue;
+      const double len = (b - a).norm();
+      const Vector3d d = len > 0 ? Vector3d((b - a) / len) : Vector3d::Zero();
+      auto* cf = new ceres::AutoDiffCostFunction<LineResidual, 3, 3, 3, 3>(new LineResidual{
+          S.fine.row(i).transpose(), S.c - q, Matrix3d::Identity() - d * d.transpose(),
+          S.basis.empty() ? Matrix3d::Zero() : S.basis[static_cast<std::size_t>(i)]});
+      problem.AddResidualBlock(cf, &loss, p.w.data(), p.t.data(), p.s.data());
+      ++n;
+    }
+    if (n < 3) break;  // too few pairs to refine: keep the searched pose
+    pairs = n;
+    if (bulk && !S.basis.empty())
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BulkPrior, 3, 3>(
+                                   new BulkPrior{std::sqrt(static_cast<double>(n)) * o.loss_scale_mm / o.bulk_prior_mm}),
+                               nullptr, p.s.data());
+    else
+      problem.SetParameterBlockConstant(p.s.data());
+    const Pose old = p;
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = o.solver_iterations;
+    so.logging_type = ceres::SILENT;
+    so.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    rounds = it;
+    if (!summary.IsSolutionUsable() || !p.w.allFinite() || !p.t.allFinite() || !p.s.allFinite()) return old;
+    const double change = (p.t - old.t).norm() + (p.s - old.s).norm() +
+                          Eigen::AngleAxisd(rotation(p.w) * R.transpose()).angle() * radius;
+    if (change < o.convergence_mm) break;
+  }
+  return p;
+}
+
+std::string fmt(const Vector3d& v, int precision = 2) {
+  std::ostringstream os;
+  os.setf(std::ios::fixed);
+  os.precision(precision);
+  os << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return os.str();
+}
+
+}  // namespace
+
+GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points, const BasisAt& basis_at,
+                               const GlobalStartOptions& o) {
+  const auto t0 = Clock::now();
+  const std::string invalid = o.validate();
+  BS_VERIFY(invalid.empty(), invalid);
+  BS_VERIFY(points.allFinite() && skeleton.points.allFinite(), "global start: inputs contain NaN or infinity");
+  GlobalStartResult res;
+  if (points.rows() < o.min_points || skeleton.segments.empty()) {
+    res.message = skeleton.segments.empty() ? "no skeleton segments: identity"
+                                            : std::to_string(points.rows()) + " vessel points, fewer than the " +
+                                                  std::to_string(o.min_points) + " needed: identity";
+    res.seconds = since(t0);
+    return res;
+  }
+  Search S{skeleton, o, points.colwise().mean().transpose(), {}, {}, {}, nullptr};
+  const MatrixX3d pc = points.rowwise() - S.c.transpose();
+  S.coarse = subsample(pc, o.coarse_points);
+  S.fine = subsample(pc, o.max_points);
+  res.points = static_cast<int>(S.fine.rows());
+
+  // The table: the points' box, grown by every translation and rotation the coarse grid tries.
+  const double rot_step = o.max_rotation_deg * kDeg / 1.5;
+  const double r_max = pc.rowwise().norm().maxCoeff();
+  double h = o.voxel_mm;
+  int sv = 1, K = 0;
+  double step = 0;
+  Vector3d lo, hi;
+  for (int attempt = 0; attempt < 8; ++attempt) {
+    sv = std::max(1, static_cast<int>(std::lround(o.coarse_step_mm / h)));
+    step = sv * h;
+    K = static_cast<int>(std::ceil(o.max_translation_mm / step - 1e-9)) + 1;
+    const double margin = K * step + r_max * std::sqrt(3.0) * rot_step + o.coarse_kernel_mm + 3 * h;
+    lo = points.colwise().minCoeff().transpose().array() - margin;
+    hi = points.colwise().maxCoeff().transpose().array() + margin;
+    const double voxels = ((hi - lo) / h).array().ceil().prod();
+    if (voxels <= kMaxVoxels) break;
+    h *= std::cbrt(voxels / kMaxVoxels) * 1.01;
+  }
+  const DistanceGrid grid(skeleton, lo, hi, h, o.coarse_kernel_mm);
+  S.grid = &grid;
+  res.seconds_table = since(t0);
+
+  // 1. Coarse: every translation × every rotation of the grid (identity first).
+  auto t1 = Clock::now();
+  std::vector<Vector3d> rotations{Vector3d::Zero()};
+  if (rot_step > 0)
+    for (int z = -1; z <= 1; ++z)
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x)
+          if (x || y || z) rotations.push_back(rot_step * Vector3d(x, y, z));
+  std::vector<Pose> cands = coarse_search(S, rotations, step, sv, K);
+  res.candidates = static_cast<int>(cands.size());
+  res.seconds_coarse = since(t1);
+
+  // 2. Fine rescoring of the candidates.
+  t1 = Clock::now();
+  const Pose identity;
+  res.score_identity = S.score(identity);
+  for (Pose& c : cands) c = rescore(S, c, rot_step, step);
+  std::sort(cands.begin(), cands.end(), [](const Pose& a, const Pose& b) { return a.score > b.score; });
+  res.seconds_fine = since(t1);
+
+  // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the points.
+  t1 = Clock::now();
+  Pose best = identity;
+  best.score = res.score_identity;
+  if (!cands.empty()) {
+    const bool bulk = o.bulk_response && basis_at;
+    if (bulk) {
+      const Matrix3d R = rotation(cands.front().w);
+      const MatrixX3d placed = (S.fine * R.transpose()).rowwise() + (S.c + cands.front().t).transpose();
+      S.basis = basis_at(placed);
+      if (static_cast<Eigen::Index>(S.basis.size()) != S.fine.rows()) S.basis.clear();
+    }
+    const double top = cands.front().score;
+    for (std::size_t k = 0; k < cands.size() && k < 3 && cands[k].score >= 0.9 * top; ++k) {
+      // Rigid first; then the bulk shift jointly, kept only when it is large enough to report
+      // (a small s would otherwise bias the rigid part it is traded against).
+      int rounds = 0;
+      index_t pairs = 0;
+      Pose p = refine(S, cands[k], false, rounds, pairs);
+      if (bulk && !S.basis.empty()) {
+        int more = 0;
+        index_t joint_pairs = 0;
+        if (const Pose q = refine(S, p, true, more, joint_pairs); q.s.norm() >= o.bulk_min_mm) {
+          p = q;
+          rounds += more;
+          pairs = joint_pairs;
+        }
+      }
+      p.score = S.score(p);
+      if (p.score < cands[k].score) p = cands[k];  // the refinement lost score: keep the searched pose
+      if (p.score > best.score) {
+        best = p;
+        res.refine_iterations = rounds;
+        res.pairs = pairs;
+      }
+    }
+  }
+  res.seconds_refine = since(t1);
+
+  // 4. Decision by the data score.
+  res.rms_before_mm = S.rms(identity);
+  res.accepted = best.score > o.min_gain * res.score_identity && best.score > 0;
+  std::ostringstream os;
+  os.setf(std::ios::fixed);
+  os.precision(2);
+  if (res.accepted) {
+    const Matrix3d R = rotation(best.w);
+    res.transform.linear() = R;
+    res.transform.translation() = S.c + best.t - R * S.c;
+    res.translation_mm = best.t.norm();
+    res.rotation_deg = best.w.norm() / kDeg;
+    res.bulk_accepted = !S.basis.empty() && best.s.norm() >= o.bulk_min_mm;
+    if (res.bulk_accepted) res.bulk_shift = best.s;
+    else best.s.setZero();
+    res.score = S.score(best);
+    res.rms_after_mm = S.rms(best);
+    os << "rigid " << res.translation_mm << " mm at the centroid, " << res.rotation_deg << " deg; bulk shift ";
+    if (res.bulk_accepted) os << fmt(res.bulk_shift) << " mm";
+    else os << (S.basis.empty() ? "not searched" : "below " + std::to_string(o.bulk_min_mm).substr(0, 4) + " mm");
+    os << "; score " << res.score << " vs " << res.score_identity << " at the identity over " << res.points << " points";
+  } else {
+    res.score = res.score_identity;
+    res.rms_after_mm = res.rms_before_mm;
+    os << "identity kept: the best pose scores " << best.score << " vs " << res.score_identity
+       << " at the identity over " << res.points << " points (gain below " << o.min_gain << ")";
+  }
+  os << " (" << res.candidates << " candidates, " << res.refine_iterations << " refinement rounds)";
+  res.message = os.str();
+  res.seconds = since(t0);
+  logger().debug("global start: {} in {:.1f} ms (table {:.1f}, coarse {:.1f}, fine {:.1f}, refine {:.1f})", res.message,
+                 1e3 * res.seconds, 1e3 * res.seconds_table, 1e3 * res.seconds_coarse, 1e3 * res.seconds_fine,
+                 1e3 * res.seconds_refine);
+  return res;
+}
+
+std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+                                 ConstRef<MatrixX3d> points) {
+  if (points.rows() == 0) return {};
+  std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
+  Matrix3d mean = Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < points.rows(); ++i) {
+    Eigen::Index node = 0;
+    (mesh.nodes().rowwise() - points.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    for (Eigen::Index k = 0; k < 3; ++k)
+      basis[static_cast<std::size_t>(i)].col(k) = response[static_cast<std::size_t>(k)].row(node).transpose();
+    mean += basis[static_cast<std::size_t>(i)] / static_cast<double>(points.rows());
+  }
+  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return {};
+  const Matrix3d inv = mean.inverse();
+  for (Matrix3d& b : basis) b = b * inv;
+  return basis;
+}
+
+}  // namespace brainshift::constraints

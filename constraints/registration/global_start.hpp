@@ -1,0 +1,128 @@
+#pragma once
+/// @file
+/// @brief Global start of the registration (issue 14 item 2): the rigid pose (rotation and
+/// translation) of the intra-operative vessel points relative to the pre-operative skeleton, plus
+/// the amplitude of the model's bulk response, found by an exhaustive search that a dense tree
+/// cannot fool, then refined locally. Positions in mm, world (RAS) frame; angles in degrees.
+///
+/// Pose. Point i of the intra-operative points p (#N×3, tracked frame) is placed in the model
+/// frame at xᵢ = R (pᵢ − c) + c + t, with c the centroid of the points; with a basis Bᵢ (the
+/// model's response to a uniform load at the point, normalised to I on average; see load_basis)
+/// it is compared with the rest skeleton at xᵢ − Bᵢ s: s is the bulk shift of a smooth
+/// deformation, the rigid part maps the tracking frame into the model (`transform`).
+///
+/// Score. With d(x) the distance from x to the nearest skeleton segment and the truncated kernel
+///   κ_τ(d) = max(0, 1 − d²/τ²),
+/// a pose scores S = Σᵢ κ_τ(d(xᵢ)): a point farther than τ from every vessel (clutter, a vessel
+/// missing on either side) adds nothing, so spurious points cannot pull the pose (kernel
+/// correlation: Tsin & Kanade, ECCV 2004). d² is tabulated once per call on a grid
+/// (`voxel_mm`), exactly near each segment and truncated at τ beyond.
+///
+/// Search, coarse to fine:
+/// 1. coarse: every translation of a grid of step `coarse_step_mm` covering ±max_translation_mm
+///    (one step more, so that a peak is never on the edge) × every rotation of a 3×3×3 grid of
+///    rotation vectors (0 and ±⅔ max_rotation_deg about each axis), kernel τ = coarse_kernel_mm,
+///    on at most `coarse_points` evenly spread points. Every candidate is scored: there is no
+///    basin of attraction to fall out of, which is what fools ICP on a tree whose vessels are
+///    closer together than the offset.
+/// 2. the `candidates` best interior local maxima over the translation grid are rescored with
+///    τ = fine_kernel_mm on up to `max_points` points, by coordinate ascent on a local grid (the
+///    27 translations within half a step, the 7 rotations within half a rotation step, the
+///    translations again).
+/// 3. refinement of the best (and of up to two others within 10 % of its score): robust
+///    point-to-line ICP with Ceres (Cauchy loss of scale loss_scale_mm; pairs within
+///    refine_distance_mm), first over the rotation and translation, then — with a basis —
+///    jointly with the bulk shift s, kept only when |s| ≥ bulk_min_mm (a smaller s would only
+///    bias the rigid part it trades against). A weak prior (s costs as much as moving every pair
+///    by loss_scale_mm when |s| = bulk_prior_mm) keeps s small where the data cannot tell it
+///    from a translation (Bᵢ ≈ I everywhere). The basis is evaluated once, where the best
+///    searched pose puts the points.
+/// 4. decision by the data score: the pose is kept when its fine score beats the identity's by
+///    `min_gain`; otherwise the identity is returned and the message says why. No motion cap.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "constraints/registration/skeleton.hpp"
+#include "core/config.hpp"
+
+namespace brainshift::core {
+class TetMesh;
+}
+
+namespace brainshift::constraints {
+
+/// Options of global_start(); defaults recover offsets up to 25 mm and 5° (issue 14).
+struct GlobalStartOptions {
+  double max_translation_mm = 25.0;  ///< translations searched, per axis (mm)
+  double max_rotation_deg = 5.0;     ///< rotations searched, per axis (degrees)
+  double coarse_step_mm = 3.0;       ///< coarse translation grid (mm); ≤ coarse_kernel_mm
+  double coarse_kernel_mm = 4.0;     ///< τ of the coarse search (mm)
+  double fine_kernel_mm = 2.5;       ///< τ of the fine rescoring and of the final score (mm)
+  double voxel_mm = 1.0;             ///< distance table spacing (mm); grown when the table would exceed 4 M voxels
+  int coarse_points = 100;           ///< points scored by the coarse search (evenly spread)
+  int max_points = 500;              ///< points scored by the fine stage and the refinement
+  int candidates = 8;                ///< local maxima of the coarse score rescored finely
+  int min_points = 6;                ///< fewer vessel points: identity, not accepted
+  /// Keep the pose only when its score > min_gain × the identity's: a pose that matches hardly
+  /// more points than no motion (noise, a flat score along a single vessel) is not worth moving.
+  double min_gain = 1.05;
+  double refine_distance_mm = 3.0;   ///< refinement pairs within this distance (mm); ≤ coarse_kernel_mm
+  double loss_scale_mm = 1.0;        ///< Cauchy loss scale of the refinement (mm)
+  int refine_iterations = 8;         ///< ICP rounds of the refinement (pair, then Ceres)
+  int solver_iterations = 10;        ///< Levenberg–Marquardt iterations per round
+  double convergence_mm = 0.01;      ///< stop the rounds when the pose moves less than this (mm)
+  bool bulk_response = true;         ///< refine the bulk shift s too (needs a basis)
+  double bulk_prior_mm = 40.0;       ///< |s| that costs as much as loss_scale_mm at every pair (mm)
+  double bulk_min_mm = 1.0;          ///< a bulk shift below this is reported as not accepted (mm)
+  /// Empty when valid, else what is wrong.
+  [[nodiscard]] std::string validate() const;
+};
+
+/// Outcome of global_start(). Every number is finite.
+struct GlobalStartResult {
+  /// Rigid part, intra-operative → model: p_model ≈ transform · p_intra (identity when not accepted).
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  Vector3d bulk_shift = Vector3d::Zero();  ///< s (mm): the rest point is at transform·p − B s
+  bool accepted = false;       ///< the pose beat the identity (else transform is the identity)
+  bool bulk_accepted = false;  ///< |s| ≥ bulk_min_mm (else bulk_shift is zero)
+  double score = 0.0;           ///< fine score at the result (kernel-weighted points)
+  double score_identity = 0.0;  ///< fine score at the identity, s = 0
+  double translation_mm = 0.0;  ///< motion of the centroid under transform (mm)
+  double rotation_deg = 0.0;    ///< rotation angle of transform (degrees)
+  int points = 0;               ///< points scored by the fine stage
+  int candidates = 0;           ///< coarse local maxima rescored
+  int refine_iterations = 0;    ///< ICP rounds of the winning refinement
+  index_t pairs = 0;            ///< pairs of the last refinement round
+  double rms_before_mm = 0.0;   ///< RMS distance of the pairs at the identity (pairs within τ_c)
+  double rms_after_mm = 0.0;    ///< same at the result
+  double seconds = 0.0;         ///< total, of which:
+  double seconds_table = 0.0, seconds_coarse = 0.0, seconds_fine = 0.0, seconds_refine = 0.0;
+  std::string message;          ///< what was found and why it was (not) kept
+};
+
+/// The bulk-response basis at given model-frame points (#N×3 → N matrices 3×3, or empty).
+using BasisAt = std::function<std::vector<Matrix3d>(ConstRef<MatrixX3d>)>;
+
+/// Runs the global start; see the file doc.
+/// @param[in] skeleton  pre-operative vessel skeleton (rest, model frame, mm)
+/// @param[in] points    intra-operative vessel points (#N×3, tracked frame, mm)
+/// @param[in] basis_at  the bulk basis at the points once placed by the best rigid pose; empty
+///                      function (or options.bulk_response false): rigid only
+/// @param[in] options   see GlobalStartOptions
+/// @return the pose; identity with accepted = false and the reason when there are fewer than
+///         min_points points, no segments, or no pose beats the identity.
+/// \throws brainshift::Error when options.validate() fails or the inputs are not finite.
+GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points, const BasisAt& basis_at,
+                               const GlobalStartOptions& options);
+
+/// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of the
+/// linear model at the rest node nearest the point, normalised so that the mean over the points
+/// is the identity. Empty when that mean is singular (points on fixed nodes).
+/// @param[in] mesh rest mesh; @param[in] response #N×3 nodal displacements per axis (mm);
+/// @param[in] points model-frame points (#P×3, mm).
+std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+                                 ConstRef<MatrixX3d> points);
+
+}  // namespace brainshift::constraints
