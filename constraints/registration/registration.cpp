@@ -53,8 +53,6 @@ Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double mar
   return out.segments.empty() ? s : out;
 }
 
-}
-
 std::string no_data_reason(const IntraopData& d, const RegistrationModel& m, const RegistrationOptions& o) {
   std::string why;
   auto add = [&why](const std::string& s) { why += (why.empty() ? "" : ", ") + s; };
