@@ -206,7 +206,12 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   const imaging::LabelVolume labels = imaging::read_labels(args.labels);
   const std::array<std::int64_t, 256> label_voxels = count_labels(labels);
   verify_labels(args.labels, labels, label_voxels);
-  const imaging::VolumeF mra = imaging::read_volume(args.mra);
+  // Headers whose direction matrix is orthonormal only to single precision are mended on reading;
+  // model.json → header_notes says which and by how much.
+  std::vector<std::string> header_notes;
+  std::string note;
+  const imaging::VolumeF mra = imaging::read_volume(args.mra, &note);
+  if (!note.empty()) header_notes.push_back(args.mra.string() + ": " + note);
   BS_VERIFY(mra.components == 1, args.mra.string() << ": expected a scalar image, got " << mra.components
                                                    << " components");
   {
@@ -215,7 +220,11 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
     BS_VERIFY(grid_overlaps(mra.geometry, lo, hi, 0.0),
               args.mra.string() << ": does not overlap the label volume (different patient or frame?)");
   }
-  if (args.mri) (void)imaging::read_volume(*args.mri);  // readable and sane
+  if (args.mri) {
+    note.clear();
+    (void)imaging::read_volume(*args.mri, &note);  // readable and sane
+    if (!note.empty()) header_notes.push_back(args.mri->string() + ": " + note);
+  }
   std::vector<std::string> warnings;
   const auto warn = [&](const std::string& w) {
     warnings.push_back(w);
@@ -300,7 +309,8 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
                              {"fixed", fixed_json(fixed)},
                              {"craniotomy", craniotomy_json(craniotomy)},
                              {"vessels", vessels_json(fit)},
-                             {"warnings", warnings}};
+                             {"warnings", warnings},
+                             {"header_notes", header_notes}};
   if (args.mri) manifest["inputs"]["mri"] = input_entry(*args.mri);
   // What --scene-options replaced is what the model uses: say so.
   const nlohmann::json none;
