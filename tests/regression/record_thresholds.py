@@ -7,8 +7,11 @@ The recorded figures are the constraint-ICP runs (Release build, the seed of the
 allows mean TRE up to recorded x tre_factor + tre_add_mm, shift corrected down to recorded -
 corrected_pct_drop, and mean TRE at most rigid-only + rigid_gap_mm + 0.1 mm (test_regression.cpp). The margin covers what varies between machines and builds without a code
 change: CGAL's sliver exudation is not bit-reproducible, so the mesh (and with it the pairing of a
-few points) differs slightly from run to run; on the recorded cases this moved the mean TRE by up
-to ~0.2 mm.
+few points) differs slightly from run to run. Measured on 2026-12-01 (three full `bench --suite
+cases` runs of the same code, three meshes per case): our mean TRE varied by at most 0.023 mm
+(offset_12mm), the stop was `converged` in all 30 runs, and rigid-only did not vary at all. The
+margin (x 1.1 + 0.15 mm, 5 points of shift corrected, 0.1 mm on the rigid gap) is about 5-10x that
+spread: wide enough not to flake, narrow enough that a 15 % regression fails.
 """
 import json
 import sys
@@ -31,7 +34,7 @@ for r in runs["runs"]:
 out = {
     "_comment": "Recorded by tests/regression/record_thresholds.py from `brainshift bench --suite cases` "
     f"({runs['machine']['date']}, {runs['machine']['build_type']}, seed {runs['seed']}); see that script for the margin.",
-    "margin": {"tre_factor": 1.25, "tre_add_mm": 0.3, "corrected_pct_drop": 10.0},
+    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0},
     "cases": cases,
 }
 json.dump(out, sys.stdout, indent=2)
