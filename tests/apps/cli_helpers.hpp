@@ -30,12 +30,20 @@ inline std::string read_all(const std::filesystem::path& path) {
   return s.str();
 }
 
-/// Runs `brainshift <args>` with stdout and stderr captured in files of `dir`.
-inline CliRun run_brainshift(const tests::TempFolder& dir, const std::string& args) {
+/// `p` in single quotes for the shell (built by appending: GCC 12 warns falsely, -Wrestrict,
+/// on "literal" + std::string).
+inline std::string q(const std::filesystem::path& p) {
+  std::string s = "'";
+  s += p.string();
+  s += '\'';
+  return s;
+}
+
+/// Runs `exe <args>` through the shell with stdout and stderr captured in files next to `dir`.
+inline CliRun run_exe(const tests::TempFolder& dir, const std::filesystem::path& exe, const std::string& args) {
   const auto out = dir.path().parent_path() / (dir.path().filename().string() + ".stdout");
   const auto err = dir.path().parent_path() / (dir.path().filename().string() + ".stderr");
-  const std::string command = std::string("'") + tests::brainshift_exe + "' " + args + " >'" +
-                              out.string() + "' 2>'" + err.string() + "'";
+  const std::string command = q(exe) + " " + args + " >" + q(out) + " 2>" + q(err);
   const int status = std::system(command.c_str());
   CliRun r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -46,13 +54,9 @@ inline CliRun run_brainshift(const tests::TempFolder& dir, const std::string& ar
   return r;
 }
 
-/// `p` in single quotes for the shell (built by appending: GCC 12 warns falsely, -Wrestrict,
-/// on "literal" + std::string).
-inline std::string q(const std::filesystem::path& p) {
-  std::string s = "'";
-  s += p.string();
-  s += '\'';
-  return s;
+/// Runs `brainshift <args>` (run_exe() on the project's executable).
+inline CliRun run_brainshift(const tests::TempFolder& dir, const std::string& args) {
+  return run_exe(dir, tests::brainshift_exe, args);
 }
 
 /// The error contract: non-zero exit and exactly one error line on stderr, prefixed, containing

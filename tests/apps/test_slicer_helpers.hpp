@@ -24,23 +24,10 @@
 
 namespace brainshift::tests {
 
+using ::brainshift::run_exe;  // cli_helpers.hpp: any executable, output captured
+
 inline std::filesystem::path slicer_module(const std::string& name) {
   return std::filesystem::path(BS_SLICER_MODULES_DIR) / name;
-}
-
-/// Runs `exe <args>` with stdout and stderr captured in files next to `dir`.
-inline CliRun run_exe(const TempFolder& dir, const std::filesystem::path& exe, const std::string& args) {
-  const auto out = dir.path().parent_path() / (dir.path().filename().string() + ".module.stdout");
-  const auto err = dir.path().parent_path() / (dir.path().filename().string() + ".module.stderr");
-  const std::string command = q(exe) + " " + args + " >" + q(out) + " 2>" + q(err);
-  const int status = std::system(command.c_str());
-  CliRun r;
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  r.out = read_all(out);
-  r.err = read_all(err);
-  std::filesystem::remove(out);
-  std::filesystem::remove(err);
-  return r;
 }
 
 /// One parameter of a module description, as Slicer's parser would see it.

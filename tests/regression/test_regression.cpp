@@ -57,8 +57,9 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
     EXPECT_FALSE(run["stop"].get<std::string>().empty());
     // The phantom's own shift (before registration) does not depend on the method or the mesh:
     // the recorded figure to its 3 printed decimals.
-    if (rec.contains("tre_before_mean_mm"))
+    if (rec.contains("tre_before_mean_mm")) {
       EXPECT_NEAR(run["tre_before_mean_mm"].get<double>(), rec["tre_before_mean_mm"].get<double>(), 2e-3);
+    }
     if (run["method"] == "constraint_icp") icp = &run;
     if (run["method"] == "rigid_only") rigid = &run;
   }
