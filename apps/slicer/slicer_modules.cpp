@@ -14,11 +14,11 @@
 namespace brainshift::apps::slicer {
 namespace {
 
-constexpr const char* CATEGORY = "Registration.Brain shift";
-constexpr const char* LICENSE =
+constexpr const char* kCategory = "Registration.Brain shift";
+constexpr const char* kLicense =
     "No licence has been chosen for brainshift yet (see its README). Research software, not for "
     "clinical use.";
-constexpr const char* CONTRIBUTOR = "The brainshift project";
+constexpr const char* kContributor = "The brainshift project";
 
 Parameter image(const char* name, const char* label, const char* description, const char* channel,
                 bool required, const char* attributes = "") {
@@ -42,13 +42,13 @@ Parameter data(const char* tag, const char* name, const char* label, const char*
 
 ModuleDescription common(const char* title, const char* description) {
   ModuleDescription m;
-  m.category = CATEGORY;
+  m.category = kCategory;
   m.title = title;
   m.description = description;
   m.version = BS_VERSION;
   m.documentation_url = std::string(BS_README_URL) + "#using-brainshift-from-3d-slicer";
-  m.license = LICENSE;
-  m.contributor = CONTRIBUTOR;
+  m.license = kLicense;
+  m.contributor = kContributor;
   m.acknowledgements =
       "Constraint-based ICP on a corotational tetrahedral FEM after Morin et al. 2017 (brain-shift "
       "compensation from navigated ultrasound vessels).";
