@@ -61,7 +61,7 @@ namespace {
 void blur_axis(imaging::VolumeF& v, int axis, const std::vector<double>& kernel) {
   const Eigen::Vector3i n = v.geometry.size;
   const int half = int(kernel.size() / 2);
-  std::vector<double> line(std::size_t(n[axis]));
+  std::vector<double> line(static_cast<std::size_t>(n[axis]));
   Eigen::Vector3i idx;
   const int u = (axis + 1) % 3, w = (axis + 2) % 3;
   for (idx[w] = 0; idx[w] < n[w]; ++idx[w])
