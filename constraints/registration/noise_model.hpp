@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// @brief The data term's noise model: the compliance of the vessel rows chosen from the data by
-/// generalised cross-validation (GCV; Golub, Heath & Wahba 1979).
+/// leave-one-block-out cross-validation over the vessel branches (the default), or by generalised
+/// cross-validation (GCV; Golub, Heath & Wahba 1979).
 ///
 /// Doppler centrelines scatter by millimetres about the true vessels. A vessel row with
 /// compliance ε obeys g + ε λ = 0, which is the MAP estimate of the linear-Gaussian model
@@ -17,7 +18,21 @@
 /// ε → ∞ leaves the model where the rigid start put it. The noise level σ̂² = ‖r‖² / tr(I − A) is
 /// the measured scatter of the paired points (mm), reported and used to refuse data too
 /// scattered to trust.
+///
+/// Block cross-validation (BLOCK_CV, the default). The Doppler centrelines' errors are correlated
+/// along each vessel, so leaving one row out lets its neighbours, which share its error, predict
+/// it: GCV reads the error as signal and picks the stiffest compliance. Instead every block B of
+/// rows (the rows paired with one skeleton branch, vessel_blocks.hpp) is held out together; for
+/// the linear smoother its held-out prediction error is, in closed form (block LOO identity),
+///   e_B(ε) = [(I − A(ε))_BB]⁻¹ r_B(ε),     CV(ε) = Σ_B ‖e_B‖² / m,
+/// with (I − A)_BB = Q_B diag(ε / (λ + ε)) Q_Bᵀ from the same eigendecomposition W = Q Λ Qᵀ.
+/// The candidate ε → ∞ (A = 0: no deformation, the model kept where the start put it) has
+/// CV = ‖δ_free‖² / m. Of the candidates, the smoothest whose CV is within one standard error of
+/// the minimum is chosen (the one-standard-error rule, the error estimated from the per-block
+/// differences): a deformation is only kept where it generalises from one vessel to the next
+/// by more than the sampling spread of the vessels shows.
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -25,13 +40,28 @@
 
 namespace brainshift::constraints {
 
+/// How the vessel rows' compliance is chosen.
+enum class NoiseCriterion : std::uint8_t {
+  BLOCK_CV,  ///< leave-one-branch-out cross-validation (correlated errors held out together)
+  GCV,       ///< generalised cross-validation (white errors; chases correlated ones)
+};
+std::string to_string(NoiseCriterion c);
+
 struct NoiseOptions {
-  /// Run the SMOOTH stage at the GCV compliance. Off by default: on the phantoms GCV reads the
-  /// Doppler centrelines' errors as signal (they are correlated along each vessel, not white),
-  /// picks the stiffest ratio of its range, and the smoothing stage rarely settles; a stiffer
-  /// data term is then worse, not better (docs/BENCHMARKS.md, "Noise model"). The estimate itself
-  /// (the scatter) is always computed and reported, and used to refuse too scattered data.
-  bool enabled = false;
+  /// Run the SMOOTH stage at the chosen compliance (or keep the start, BLOCK_CV's ε → ∞). On by
+  /// default with BLOCK_CV. With GCV it is not worth it: on the phantoms GCV reads the Doppler
+  /// centrelines' errors as signal (correlated along each vessel), picks the stiffest ratio of
+  /// its range and the data term gets worse (docs/BENCHMARKS.md, "Noise model"). The scatter
+  /// (GCV's σ̂) is always computed and reported, and used to refuse too scattered data.
+  bool enabled = true;
+  NoiseCriterion criterion = NoiseCriterion::BLOCK_CV;
+  /// BLOCK_CV: blocks are whole skeleton branches (0) or pieces of at most this arc length (mm).
+  double block_length_mm = 0.0;
+  /// BLOCK_CV: ε → ∞ (no deformation beyond the start) is a candidate.
+  bool consider_start = true;
+  /// BLOCK_CV: the one-standard-error rule — the smoothest candidate whose CV is within one
+  /// standard error (paired over the blocks) of the minimum; off: the minimum itself.
+  bool one_standard_error = true;
   /// Search range of the ratio ε / median(diag W) (dimensionless, as StepOptions::compliance_ratio).
   double min_ratio = 0.02;
   double max_ratio = 1000.0;
@@ -52,6 +82,14 @@ struct NoiseEstimate {
   double sigma_mm = 0.0;     ///< estimated scatter of the paired points about the model, per row (mm)
   double effective_dof = 0.0;  ///< tr A: how many of the rows' degrees of freedom the fit follows
   index_t rows = 0;          ///< vessel rows used
+  NoiseCriterion criterion = NoiseCriterion::GCV;  ///< what chose `ratio`
+  /// BLOCK_CV: no finite compliance predicted held-out branches better than no deformation: the
+  /// model stays where the start put it (ε → ∞); `ratio` is then the largest of the range.
+  bool keep_start = false;
+  index_t blocks = 0;        ///< BLOCK_CV: blocks held out
+  double cv_rms_mm = 0.0;    ///< BLOCK_CV: √CV at the choice, held-out error per row (mm)
+  double cv_best_rms_mm = 0.0;  ///< BLOCK_CV: √CV at its minimum (≤ cv_rms_mm; one-SE rule)
+  double cv_start_rms_mm = 0.0;  ///< BLOCK_CV: √CV of ε → ∞, i.e. rms δ_free (mm)
   std::string message;       ///< one line
 };
 
@@ -64,5 +102,20 @@ struct NoiseEstimate {
 NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
                                     const std::vector<index_t>& vessel_rows, double scale, double current_ratio,
                                     const NoiseOptions& options);
+
+/// Block cross-validation choice of the vessel-row compliance (see the file comment). Arguments
+/// as estimate_vessel_noise(), plus the block id of each entry of `vessel_rows` (rows with the
+/// same id are held out together; the two rows of a sliding line must share one). The scatter
+/// (sigma_mm) is GCV's σ̂, as estimate_vessel_noise(); the ratio is the CV choice.
+NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
+                                       const std::vector<index_t>& vessel_rows, const std::vector<index_t>& row_blocks,
+                                       double scale, double current_ratio, const NoiseOptions& options);
+
+/// The held-out residuals of every block at compliance ε > 0 for the smoother A = W (W + ε I)⁻¹:
+/// entry i is y_i minus the prediction of row i from all rows outside its block, computed as
+/// [(I − A)_BB]⁻¹ r_B from the eigendecomposition of W (eigenvalues `lambda`, eigenvectors as
+/// columns of `Q`). `blocks`: row indices of each block (a partition of 0..m-1).
+Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::MatrixXd& Q, const Eigen::VectorXd& y,
+                                    const std::vector<std::vector<Eigen::Index>>& blocks, double eps);
 
 }  // namespace brainshift::constraints

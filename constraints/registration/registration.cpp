@@ -7,6 +7,7 @@
 
 #include "constraints/registration/pairing.hpp"
 #include "constraints/registration/registration_stage.hpp"
+#include "constraints/registration/vessel_blocks.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 
@@ -98,6 +99,12 @@ StepOptions RegistrationOptions::default_step() {
   s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] = 0.2;
   s.compliance_ratio[static_cast<std::size_t>(ConstraintSet::DURA)] = 0.2;
   return s;
+}
+
+GlobalStartOptions RegistrationOptions::default_global_start() {
+  GlobalStartOptions g;
+  g.bulk_response = false;
+  return g;
 }
 
 FilterOptions RegistrationOptions::default_vessel_filter() {
@@ -265,6 +272,7 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data, 
   in.segment_tets = feature_tets([&](index_t f) { return segs[static_cast<std::size_t>(f)][0]; },
                                  static_cast<index_t>(segs.size()), skel);
   in.triangle_tets = feature_tets([&](index_t f) { return tris(f, 0); }, static_cast<index_t>(tris.rows()), surf);
+  if (in.vessels) in.segment_blocks = segment_blocks(model.skeleton(), options.noise.block_length_mm);
   return in;
 }
 
@@ -393,13 +401,38 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   std::string notes;
   if (noise_model && last.kind == StageKind::FREE && last.stop == StageStop::SETTLED) {
     const auto t0 = Clock::now();
-    res.noise = estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
-                                      state.last_scale, ratio0, options.noise);
+    if (options.noise.criterion == NoiseCriterion::BLOCK_CV) {
+      std::vector<index_t> blocks;
+      blocks.reserve(state.last_vessel_features.size());
+      for (std::int64_t f : state.last_vessel_features)
+        blocks.push_back(f >= 0 && static_cast<std::size_t>(f) < in.segment_blocks.size()
+                             ? in.segment_blocks[static_cast<std::size_t>(f)]
+                             : -1);
+      res.noise = choose_vessel_compliance(state.last_delassus, state.last_delta_free, state.last_vessel_rows, blocks,
+                                           state.last_scale, ratio0, options.noise);
+    } else {
+      res.noise = estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
+                                        state.last_scale, ratio0, options.noise);
+    }
     state.seconds.noise += seconds_since(t0);
     notes = res.noise.message;
     const double change = res.noise.ratio / std::max(ratio0, 1e-300);
-    if (options.noise.enabled && res.noise.valid &&
-        (change > options.noise.change_factor || change < 1.0 / options.noise.change_factor)) {
+    if (options.noise.enabled && res.noise.valid && res.noise.keep_start) {
+      // No compliance predicts held-out vessels better than no deformation: the model stays at
+      // rest in the start's frame (ε → ∞). Recorded as a SMOOTH stage of no iterations.
+      state.positions = mesh.nodes();
+      state.warm.clear();
+      StageRecord keep;
+      keep.kind = StageKind::SMOOTH;
+      keep.stop = StageStop::SETTLED;
+      keep.first_iteration = static_cast<int>(state.history.size()) + 1;
+      keep.iterations = 0;
+      keep.vessel_compliance_ratio = std::numeric_limits<double>::infinity();
+      state.stages.push_back(keep);
+      last = keep;
+      notes += "; the start is kept (no deformation)";
+    } else if (options.noise.enabled && res.noise.valid &&
+               (change > options.noise.change_factor || change < 1.0 / options.noise.change_factor)) {
       LoopState settled = state;  // the FREE stage's answer, kept if smoothing does not settle
       StageOptions smooth;
       smooth.kind = StageKind::SMOOTH;
@@ -415,6 +448,7 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
         state = std::move(settled);
         state.stages.push_back(sm);
         notes += "; the smoothing stage ended " + to_string(sm.stop) + ": the free stage's answer is kept";
+        if (sm.stop == StageStop::DIVERGED) last = sm;  // a non-finite step never ends converged
       } else {
         state.stages.push_back(sm);
         last = sm;

@@ -9,8 +9,11 @@
 ///   HELD   — when a bulk shift was accepted: pairs made at the points less the bulk motion, held
 ///            until the model has settled on them;
 ///   FREE   — nearest-feature pairing, frozen when it cycles, until settled;
-///   SMOOTH — the vessel rows' compliance chosen by the noise model (noise_model.hpp) from the
-///            converged FREE stage, then free pairing again until settled.
+///   SMOOTH — the vessel rows' compliance chosen by the noise model (noise_model.hpp: block
+///            cross-validation over the skeleton's branches) from the converged FREE stage, then
+///            free pairing again until settled; or, when no deformation predicts held-out
+///            vessels better than none, the model back at rest in the start's frame (ε → ∞,
+///            a SMOOTH stage of no iterations, vessel_compliance_ratio = +∞).
 /// Each stage iterates Algorithm 1: pair the intra-operative points with the current model
 /// features (vessel skeleton segments, collision-surface triangles), filter the pairs
 /// (filtering.hpp), build the constraint rows (constraint_builders.hpp: vessels slide on the
@@ -81,7 +84,12 @@ struct RegistrationOptions {
   /// The global start (start = RIGID): search ranges, kernels, refinement; see global_start.hpp.
   /// It is kept only when it matches the vessels better than the identity (data score, no
   /// motion cap); its bulk shift (with shift_load_basis) seeds the first stage's held pairs.
-  GlobalStartOptions global_start;
+  /// Default: rigid only (no bulk response), so the deformable stages start from the best rigid
+  /// pose and the noise model's ε → ∞ candidate is exactly the rigid-only answer. With the bulk
+  /// response the rigid part is not the best rigid fit (the bulk shift absorbs part of it) and
+  /// the deformation has to make up for it: on the phantoms 0.1-0.25 mm worse mean TRE than
+  /// rigid alone (docs/BENCHMARKS.md, "Never worse than rigid").
+  GlobalStartOptions global_start = default_global_start();
   /// Ceres ICP options of rigid_init() (read from the scene's "rigid" group; rigid_init() itself
   /// is no longer on the registration path: the global start refines with its own options).
   RigidInitOptions rigid;
@@ -135,6 +143,8 @@ struct RegistrationOptions {
   /// hard (the probe is rigid, few points), a 5 mm trust region, PGS to 1e-4 or 500 sweeps (each
   /// iteration re-solves from a warm start; a tighter solve per iteration buys nothing).
   static StepOptions default_step();
+  /// The global start's defaults with bulk_response off (see global_start).
+  static GlobalStartOptions default_global_start();
 };
 
 /// Seconds per stage, summed over iterations.

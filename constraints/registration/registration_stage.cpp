@@ -205,8 +205,12 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       state.last_delta_free = std::move(step.delta_free);
       state.last_scale = step.compliance_scale;
       state.last_vessel_rows.clear();
+      state.last_vessel_features.clear();
       for (index_t i = 0; i < rows.size(); ++i)
-        if (rows[i].set == ConstraintSet::VESSELS) state.last_vessel_rows.push_back(i);
+        if (rows[i].set == ConstraintSet::VESSELS) {
+          state.last_vessel_rows.push_back(i);
+          state.last_vessel_features.push_back(rows[i].feature);
+        }
     }
     const MatrixX3d dx = step.x - state.positions;
     state.positions = std::move(step.x);

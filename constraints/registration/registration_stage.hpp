@@ -27,6 +27,7 @@ struct LoopInputs {
   core::BarycentricMapping landmark_map;
   std::vector<Vector3d> directions;  ///< local direction of each vessel point
   std::vector<index_t> segment_tets, triangle_tets;
+  std::vector<index_t> segment_blocks;  ///< cross-validation block of each skeleton segment (vessel_blocks.hpp)
 };
 
 using LambdaKey = std::array<std::int64_t, 3>;  ///< (set, feature, row within the group)
@@ -46,6 +47,7 @@ struct LoopState {
   Eigen::VectorXd last_delta_free;
   double last_scale = 0.0;
   std::vector<index_t> last_vessel_rows;
+  std::vector<std::int64_t> last_vessel_features;  ///< the segment of each of last_vessel_rows
 };
 
 /// Settings of one stage.

@@ -5,13 +5,21 @@ Usage: tests/regression/record_thresholds.py DIR/results.json > tests/regression
 
 The recorded figures are the constraint-ICP runs (Release build, the seed of the run); the test
 allows mean TRE up to recorded x tre_factor + tre_add_mm, shift corrected down to recorded -
-corrected_pct_drop, and mean TRE at most rigid-only + rigid_gap_mm + 0.1 mm (test_regression.cpp). The margin covers what varies between machines and builds without a code
-change: CGAL's sliver exudation is not bit-reproducible, so the mesh (and with it the pairing of a
+corrected_pct_drop, and mean TRE at most rigid-only + margin.rigid_gap_mm on every case
+(test_regression.cpp: the gap to rigid is 0 plus a noise margin, issue 14; no recorded shortfall).
+The margins cover what varies between machines and builds without a code change: CGAL's sliver exudation is not bit-reproducible, so the mesh (and with it the pairing of a
 few points) differs slightly from run to run. Measured on 2026-12-01 (three full `bench --suite
 cases` runs of the same code, three meshes per case): our mean TRE varied by at most 0.023 mm
 (offset_12mm), the stop was `converged` in all 30 runs, and rigid-only did not vary at all. The
-margin (x 1.1 + 0.15 mm, 5 points of shift corrected, 0.1 mm on the rigid gap) is about 5-10x that
+margin on our own figure (x 1.1 + 0.15 mm, 5 points of shift corrected) is about 5-10x that
 spread: wide enough not to flake, narrow enough that a 15 % regression fails.
+
+The gap to rigid-only (rigid_gap_mm = 0.05 mm) is a difference of two figures of which only ours
+varies from mesh to mesh (rigid-only does not use the mesh): about twice the largest run-to-run
+spread measured on our mean TRE (0.023 mm), so a gap of 0 does not flake on a new mesh while a real
+loss to rigid (0.07-0.53 mm before the block-CV noise model) fails. With the noise model the
+loop's choice between a deformation and none can flip between meshes where the two are within
+the CV's standard error; re-measure the spread (three full runs) when re-recording.
 """
 import json
 import sys
@@ -26,15 +34,13 @@ for r in runs["runs"]:
             "tre_mean_mm": round(r["tre_mean_mm"], 3),
             "shift_corrected_pct": round(r["shift_corrected_pct"] or 0.0, 1),
             "tre_before_mean_mm": round(r["tre_before_mean_mm"], 3),
-            # How much worse than the rigid-only baseline the case was when recorded (0 when
-            # better): the target is 0 everywhere; a case with a gap is a known shortfall, and
-            # the test keeps it from growing.
-            "rigid_gap_mm": round(max(0.0, r["tre_mean_mm"] - rigid[r["case"]]), 3),
+            # Recorded for the reader (the test asserts gap <= margin.rigid_gap_mm, not this).
+            "gap_to_rigid_mm": round(r["tre_mean_mm"] - rigid[r["case"]], 3),
         }
 out = {
     "_comment": "Recorded by tests/regression/record_thresholds.py from `brainshift bench --suite cases` "
     f"({runs['machine']['date']}, {runs['machine']['build_type']}, seed {runs['seed']}); see that script for the margin.",
-    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0},
+    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0, "rigid_gap_mm": 0.05},
     "cases": cases,
 }
 json.dump(out, sys.stdout, indent=2)

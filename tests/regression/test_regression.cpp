@@ -3,7 +3,7 @@
 // and shift corrected taken from the recorded figures (tests/regression/thresholds.json) plus a
 // stated margin; every run must give a finite answer with a stop reason, ours must converge, the
 // "before" error must be the recorded one (the phantom did not change), and ours must not be
-// worse than the rigid-only baseline on the same data beyond a stated noise margin.
+// worse than the rigid-only baseline on the same data: gap to rigid ≤ 0 + a stated noise margin.
 
 #include <gtest/gtest.h>
 
@@ -28,12 +28,10 @@ const nlohmann::json& thresholds() {
   return t;
 }
 
-/// Ours against rigid alone: a gap of 0 is the target (issue 14). The margin is the run-to-run
-/// noise of our figure that the rigid baseline does not share: CGAL's meshing is not
-/// bit-reproducible, so each `prepare` gives another 1.6k-node mesh; three full runs of the same
-/// code moved our mean TRE by at most 0.023 mm while rigid-only, which does not use the mesh,
-/// stayed put (record_thresholds.py). 0.1 mm is about 4x that spread.
-constexpr double kRigidNoiseMarginMm = 0.1;
+/// Ours against rigid alone: a gap of 0 (issue 14), with the margin recorded in thresholds.json
+/// → margin.rigid_gap_mm (record_thresholds.py says how it was derived: the run-to-run noise of
+/// our figure, which the rigid baseline does not share).
+double rigid_margin_mm() { return thresholds()["margin"]["rigid_gap_mm"].get<double>(); }
 
 class PhantomCase : public ::testing::TestWithParam<std::string> {};
 
@@ -72,14 +70,13 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
   const double pct = (*icp)["shift_corrected_pct"].is_null() ? 0.0 : (*icp)["shift_corrected_pct"].get<double>();
   EXPECT_GE(pct, rec["shift_corrected_pct"].get<double>() - margin["corrected_pct_drop"].get<double>())
       << name << ": recorded " << rec["shift_corrected_pct"];
-  // Against rigid alone (the same global start, no deformation): the target is a gap of 0 plus
-  // the stated noise margin on every case (issue 14). Where the recorded run was worse than rigid
-  // (thresholds.json → rigid_gap_mm, the deformable fit following the Doppler centrelines' noise;
-  // an open shortfall, stated in the README), the gap may not grow beyond the recorded one plus
-  // the same margin; a case recorded at 0 must stay at 0.
-  const double gap = rec.value("rigid_gap_mm", 0.0);
-  EXPECT_LE(tre, (*rigid)["tre_mean_mm"].get<double>() + gap + kRigidNoiseMarginMm)
-      << name << ": rigid only " << (*rigid)["tre_mean_mm"] << ", recorded gap " << gap << " mm";
+  // Against rigid alone (the same global start's rigid pose, no deformation): never worse, on
+  // every case, beyond the stated noise margin (issue 14 item 3). No recorded shortfall: the gap
+  // allowed is the same 0 + margin everywhere.
+  const double rigid_tre = (*rigid)["tre_mean_mm"].get<double>();
+  EXPECT_LE(tre - rigid_tre, rigid_margin_mm())
+      << name << ": mean TRE " << tre << " mm, rigid only " << rigid_tre << " mm (gap to rigid "
+      << tre - rigid_tre << " mm, margin " << rigid_margin_mm() << " mm)";
 }
 
 INSTANTIATE_TEST_SUITE_P(Cases, PhantomCase,

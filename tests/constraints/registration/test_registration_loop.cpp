@@ -37,6 +37,7 @@ TEST(RegistrationLoop, FreeThenSmoothStagesEachRecordedInTheHistory) {
   RegistrationOptions o = options();
   o.shift_search.enabled = false;  // no bulk-shift stage: FREE, then the noise model's SMOOTH
   o.noise.enabled = true;
+  o.noise.criterion = NoiseCriterion::GCV;  // this test is about GCV's SMOOTH stage
   o.noise.change_factor = 1.0;  // smooth at the GCV compliance even when it is close to the default
   const RegistrationResult r = register_model(*s.model, d, o);
   ASSERT_TRUE(r.converged) << r.stop_reason;
@@ -61,6 +62,60 @@ TEST(RegistrationLoop, FreeThenSmoothStagesEachRecordedInTheHistory) {
   expect_consistent_stages(r);
   std::cout << "[ loop ] " << r.stages.size() << " stages, " << r.iterations << " iterations; " << r.noise.message
             << "\n";
+}
+
+TEST(RegistrationLoop, BlockCrossValidationChoosesTheCompliancePerBranch) {
+  // The default noise model: block CV over the skeleton's branches, run after the FREE stage.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o = options();
+  o.shift_search.enabled = false;
+  ASSERT_TRUE(o.noise.enabled);
+  ASSERT_EQ(o.noise.criterion, NoiseCriterion::BLOCK_CV);
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  ASSERT_TRUE(r.noise.valid) << r.noise.message;
+  EXPECT_EQ(r.noise.criterion, NoiseCriterion::BLOCK_CV);
+  EXPECT_GE(r.noise.blocks, 2);
+  // The choice is never worse than the minimum by construction, and never better than it.
+  EXPECT_GE(r.noise.cv_rms_mm, r.noise.cv_best_rms_mm);
+  // The sag is real (mm) and the noise 0.3 mm: held-out vessels are predicted better with a
+  // deformation than without, so the start is not kept.
+  EXPECT_LT(r.noise.cv_best_rms_mm, r.noise.cv_start_rms_mm) << r.noise.message;
+  EXPECT_TRUE(r.positions.allFinite());
+  expect_consistent_stages(r);
+  std::cout << "[ loop ] " << r.noise.message << "\n";
+}
+
+TEST(RegistrationLoop, ANonFiniteStepInTheSmoothingStageEndsDiverged) {
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o = options();
+  o.shift_search.enabled = false;
+  o.noise.change_factor = 1.0;      // always smooth at the chosen compliance
+  o.noise.consider_start = false;   // a SMOOTH stage with iterations, not the start kept
+  const RegistrationResult clean = register_model(*s.model, d, o);
+  ASSERT_TRUE(clean.converged) << clean.stop_reason;
+  ASSERT_EQ(clean.stages.size(), 2u);
+  const int free_steps = clean.stages[0].iterations;
+  int calls = 0;
+  o.inspect_step = [&](StepResult& step) {
+    if (++calls == free_steps + 2) step.x(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  };
+  const RegistrationResult r = register_model(*s.model, d, o);
+  EXPECT_EQ(r.stop, RegistrationStop::DIVERGED) << r.stop_reason;
+  EXPECT_FALSE(r.converged);
+  ASSERT_TRUE(r.positions.allFinite());
+  // The positions are exactly the FREE stage's answer (the loop is deterministic), the last
+  // finite iterate of a settled stage.
+  RegistrationOptions free_only = o;
+  free_only.inspect_step = nullptr;
+  free_only.noise.enabled = false;
+  EXPECT_EQ(r.positions, register_model(*s.model, d, free_only).positions);
+  EXPECT_EQ(r.stages.back().kind, StageKind::SMOOTH);
+  EXPECT_EQ(r.stages.back().stop, StageStop::DIVERGED);
 }
 
 TEST(RegistrationLoop, WithoutTheSmoothingStageOnlyTheFreeStageRunsAndTheScatterIsReported) {
