@@ -106,7 +106,16 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
     S.diagonal() += extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
     const Eigen::LLT<Eigen::MatrixXd> llt(S);
     BS_VERIFY(llt.info() == Eigen::Success, "uncertainty: the data rows' covariance is not positive definite");
-    if (extras.delta) out.quadratic = extras.delta->dot(llt.solve(*extras.delta));
+    if (extras.delta) {
+      // ML: δᵀ (W + A)⁻¹ δ. Discrepancy: the fitted rows' residual r = A (W + A)⁻¹ δ against its
+      // expectation E‖r‖² = s² tr(A (W + A)⁻¹ A).
+      const Eigen::VectorXd a = extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
+      const Eigen::VectorXd w = llt.solve(*extras.delta);
+      out.quadratic = extras.delta->dot(w);
+      out.residual_sq = (a.array() * w.array()).matrix().squaredNorm();
+      const Eigen::MatrixXd Sinv = llt.solve(Eigen::MatrixXd::Identity(S.rows(), S.cols()));
+      out.residual_dof = (a.array().square() * Sinv.diagonal().array()).sum();
+    }
     const Eigen::MatrixXd Zt = llt.matrixL().solve(Y.transpose());
     reduction = Zt.colwise().squaredNorm().transpose();
     for (int k = 0; k < G.outerSize(); ++k)
@@ -268,17 +277,21 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.solved_nodes = nv.solved_nodes;
   out.vessel_ratio = r.vessel_compliance_ratio;
   out.vessel_alpha = r.vessel_compliance_ratio * scale;
-  char buf[400];
+  char buf[600];
   if (usable) {
     // ML scale of δ_free ~ N(0, s² (W + A)).
-    const double quad = nv.quadratic;
+    const bool discrepancy = uo.scale_estimator == UncertaintyOptions::ScaleEstimator::DISCREPANCY;
+    const double quad = discrepancy ? nv.residual_sq * static_cast<double>(m) / std::max(nv.residual_dof, 1e-300)
+                                    : nv.quadratic;
     if (quad > 0 && std::isfinite(quad) && scale > 0) {
       out.s2 = uo.calibration * quad / static_cast<double>(m);
       out.estimated = true;
       std::snprintf(buf, sizeof buf,
-                    "s² by maximum likelihood of the %lld data rows (δ_free ~ N(0, s²(W + A))) = %.4g mN·mm%s; α = the "
+                    "s² %s of the %lld data rows = %.4g mN·mm%s; α = the "
                     "registration's vessel compliance (ratio %.3g × median diag W %.4g mm/mN), hard rows %.3g × it; "
                     "implied vessel-row scatter %.3g mm; dura rows not used",
+                    discrepancy ? "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))"
+                                : "by maximum likelihood (δ_free ~ N(0, s²(W + A)))",
                     static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
                     r.vessel_compliance_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
       out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);

@@ -16,10 +16,12 @@
 ///   rotations enter through the rows (H R);
 /// - the data term: Y = K0⁻¹ (H R)ᵀ by one multi-right-hand-side solve (#rows columns), then
 ///   tr(Y_n (W + A)⁻¹ Y_nᵀ) for every node from one Cholesky factor of W + A (#rows²);
-/// - the prior term tr(K0⁻¹)_nn: exact, by unit loads solved in blocks, on a coarse set of nodes
-///   (one per cell of a grid of `coarse_spacing_mm`, plus every node a data row touches), and
-///   interpolated to the other nodes by inverse-distance weighting of the 4 nearest coarse nodes
-///   (the prior's trace varies slowly: it grows with the distance from the fixed region).
+/// - the prior term tr(K0⁻¹)_nn: exact where the dense compliance block (compliance_operator.hpp,
+///   K0⁻¹ on every node a vessel or surface point maps to, precomputed before surgery) holds it;
+///   elsewhere exact by unit loads solved in blocks on a coarse set of nodes (one per cell of a
+///   grid of `coarse_spacing_mm` holding no exact node yet, plus any node a data row touches), and
+///   interpolated to the remaining nodes by inverse-distance weighting of the 4 nearest exact
+///   nodes (the prior's trace varies slowly: it grows with the distance from the fixed region).
 ///   A stochastic (Hutchinson) estimator is not used: K0⁻¹ is a dense Green's function (~1/r),
 ///   whose off-diagonal mass makes the estimate's relative error O(1) at any affordable number of
 ///   probes, while unit loads on the coarse set are exact at the same cost.
@@ -34,7 +36,9 @@
 /// median diag W, as in StepOptions::compliance_ratio), and s² is the maximum-likelihood scale of
 /// the linear-Gaussian model, δ_free ~ N(0, s² (W + A)): s² = δ_freeᵀ (W + A)⁻¹ δ_free / m
 /// (m rows), with δ_free what the rows would be violated by if the model relaxed to its unloaded
-/// shape at the final rotations. `calibration` (dimensionless, default 1) multiplies s².
+/// shape at the final rotations (the default; UncertaintyOptions::scale_estimator also offers the
+/// discrepancy principle, which measured worse on the phantoms: docs/BENCHMARKS.md, "Predicted
+/// error"). `calibration` (dimensionless, default 1) multiplies s².
 /// Positions in mm, model (pre-operative, world RAS) frame.
 
 #include <string>
@@ -52,7 +56,7 @@ struct LoopState;
 struct UncertaintyOptions {
   /// Cell size (mm) of the grid that picks the coarse nodes of the exact prior term; 0 = every
   /// node exact.
-  double coarse_spacing_mm = 12.0;
+  double coarse_spacing_mm = 20.0;
   /// Floor compliance of hard rows, × median diag W (dimensionless).
   double hard_row_ratio = 1e-3;
   /// A unilateral row whose value at the final state exceeds this (mm) is separated: not data.
@@ -62,6 +66,11 @@ struct UncertaintyOptions {
   double no_data_median_mm = 10.0;
   /// Multiplies the estimated s² (dimensionless).
   double calibration = 1.0;
+  /// How s² is estimated from the rows: DISCREPANCY (the fitted rows' residual against its
+  /// expectation: the scatter the data show about the answer sets the scale) or MAXIMUM_LIKELIHOOD
+  /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it).
+  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD };
+  ScaleEstimator scale_estimator = ScaleEstimator::MAXIMUM_LIKELIHOOD;
   int solve_block = 192;  ///< right-hand sides per solve when computing the prior term
   [[nodiscard]] std::string validate() const;
 };
@@ -74,6 +83,8 @@ struct NodalVariance {
   index_t solved_nodes = 0;   ///< of them, solved for here (3 unit loads each)
   double scale = 0.0;         ///< median diag(Gᵀ K0⁻¹ G) (mm/mN; 0 without rows)
   double quadratic = 0.0;     ///< δᵀ (W + A)⁻¹ δ when NodalVarianceExtras::delta was given
+  double residual_sq = 0.0;   ///< ‖A (W + A)⁻¹ δ‖²: the fitted rows' residual (mm²), with delta
+  double residual_dof = 0.0;  ///< tr(A (W + A)⁻¹ A) (mm²/(mN·mm)): E‖r‖² = s² × this
 };
 
 /// Optional inputs of nodal_variance().
