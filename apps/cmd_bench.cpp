@@ -19,10 +19,12 @@
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
 #include "constraints/registration/registration.hpp"
+#include "constraints/registration/uncertainty.hpp"
 #include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "data_synth/cases/case_catalog.hpp"
 #include "data_synth/cases/phantom_case.hpp"
+#include "imaging/evaluation/calibration.hpp"
 #include "imaging/evaluation/metrics.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
@@ -79,6 +81,11 @@ struct Row {
   bool ok = false;         ///< finite answer, no exception
   std::string error;
   std::string note;        ///< e.g. why the B-mode gave no footprint
+  /// Predicted error (issue 16; runs of ours only, else unset): its cost, the median over the
+  /// free nodes, the mean at the landmarks (all, near, far as above) and its calibration against
+  /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
+  std::optional<double> unc_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
+  std::optional<imaging::UncertaintyCalibration> unc_calibration;
 };
 
 // --- machine and memory -------------------------------------------------------------------
@@ -236,6 +243,30 @@ RegistrationResult median_of(int repeat, F&& reg) {
   return std::move(runs[runs.size() / 2]);
 }
 
+/// The predicted error of one of our registrations at the case's landmarks (row.unc_*).
+void score_uncertainty(Row& row, const constraints::RegistrationModel& model, const RegistrationResult& r,
+                       const CaseData& c, const constraints::IntraopData& data, ConstRef<MatrixX3d> predicted) {
+  const constraints::UncertaintyResult u = constraints::predict_uncertainty(model, r, RegistrationOptions{});
+  row.unc_s = u.seconds;
+  std::vector<double> free;
+  for (index_t i = 0; i < model.mesh().num_nodes(); ++i)
+    if (!model.mechanics().dofs().is_fixed_node(i)) free.push_back(u.node_sigma_mm[i]);
+  row.unc_median_mm = imaging::percentile(free, 50.0);
+  const Eigen::VectorXd at = constraints::sigma_at(model.mesh(), u.node_variance, c.truth.a);
+  const std::vector<double> sigma(at.data(), at.data() + at.size());
+  row.unc_calibration = imaging::calibrate_uncertainty(sigma, imaging::landmark_errors(predicted, c.truth.b));
+  row.unc_landmarks_mm = row.unc_calibration->mean_predicted_mm;
+  double near = 0, far = 0;
+  int n_near = 0, n_far = 0;
+  for (Eigen::Index i = 0; i < c.truth.b.rows() && data.vessel_points.rows() > 0; ++i) {
+    const double d = (data.vessel_points.rowwise() - c.truth.b.row(i)).rowwise().norm().minCoeff();
+    if (d <= 5.0) near += at[i], ++n_near;
+    if (d > 10.0) far += at[i], ++n_far;
+  }
+  if (n_near) row.unc_near_mm = near / n_near;
+  if (n_far) row.unc_far_mm = far / n_far;
+}
+
 /// TRE of a result against the case's landmarks: a pre-operative landmark X is predicted at
 /// T⁻¹ (X + u(X)), u interpolated in its tetrahedron (landmarks up to 20 mm outside the mesh are
 /// projected onto it; none are on the phantoms, which landmark the brain).
@@ -274,6 +305,7 @@ void score(Row& row, const constraints::RegistrationModel& model, const Registra
     row.tre_near_mean = row.landmarks_near ? near / static_cast<double>(row.landmarks_near) : std::nan("");
     row.tre_far_mean = row.landmarks_far ? far / static_cast<double>(row.landmarks_far) : std::nan("");
   }
+  if (!r.data_rows.empty() && row.method != "prescribed_displacement") score_uncertainty(row, model, r, c, data, predicted);
   if (row.corrected_pct) *row.corrected_pct += 0.0;  // no "-0.0" in the tables
   row.ok = r.positions.allFinite() && std::isfinite(after.mean);
   if (!row.ok) row.error = "non-finite result";
@@ -375,6 +407,17 @@ nlohmann::json row_json(const Row& r) {
                       {"ok", r.ok},
                       {"error", r.error},
                       {"note", r.note}};
+  auto opt = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); };
+  const auto& cal = r.unc_calibration;
+  j["uncertainty_s"] = opt(r.unc_s);
+  j["uncertainty_median_mm"] = opt(r.unc_median_mm);
+  j["uncertainty_landmarks_mean_mm"] = opt(r.unc_landmarks_mm);
+  j["uncertainty_near_mean_mm"] = opt(r.unc_near_mm);
+  j["uncertainty_far_mean_mm"] = opt(r.unc_far_mm);
+  j["uncertainty_spearman"] = cal ? nlohmann::json(cal->spearman) : nlohmann::json(nullptr);
+  j["uncertainty_within_1_sigma_pct"] = cal ? nlohmann::json(cal->within_1_sigma_pct) : nlohmann::json(nullptr);
+  j["uncertainty_within_2_sigma_pct"] = cal ? nlohmann::json(cal->within_2_sigma_pct) : nlohmann::json(nullptr);
+  j["uncertainty_rms_ratio"] = cal ? nlohmann::json(cal->rms_ratio) : nlohmann::json(nullptr);
   return j;
 }
 
@@ -443,6 +486,21 @@ void write_markdown(const std::filesystem::path& path, const std::vector<Row>& r
       << (r.landmarks_near ? fixed(r.tre_near_mean, 2) : "–") << " (" << r.landmarks_near << ") | "
       << (r.landmarks_far ? fixed(r.tre_far_mean, 2) : "–") << " (" << r.landmarks_far << ") |\n";
   }
+  bool unc = false;
+  for (const Row& r : rows)
+    if (r.unc_calibration) {
+      if (!unc)
+        o << "\nPredicted error (sigma = predicted RMS 3-D error; a calibrated Gaussian has 60.8 % within 1 sigma, "
+             "99.3 % within 2):\n\n| suite | case | run | s | median mm | at landmarks mm | near mm | far mm | Spearman "
+             "| within 1σ % | within 2σ % | RMS actual/predicted |\n|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n";
+      unc = true;
+      const auto f = [](const std::optional<double>& v, int d) { return v ? fixed(*v, d) : std::string("–"); };
+      o << "| " << r.suite << " | " << r.case_name << " | " << label(r) << " | " << f(r.unc_s, 3) << " | "
+        << f(r.unc_median_mm, 2) << " | " << f(r.unc_landmarks_mm, 2) << " | " << f(r.unc_near_mm, 2) << " | "
+        << f(r.unc_far_mm, 2) << " | " << fixed(r.unc_calibration->spearman, 2) << " | "
+        << fixed(r.unc_calibration->within_1_sigma_pct, 0) << " | " << fixed(r.unc_calibration->within_2_sigma_pct, 0)
+        << " | " << fixed(r.unc_calibration->rms_ratio, 2) << " |\n";
+    }
   bool notes = false;
   for (const Row& r : rows)
     if (!r.note.empty()) {

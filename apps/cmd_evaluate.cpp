@@ -7,6 +7,7 @@
 #include <ostream>
 
 #include "core/error.hpp"
+#include "imaging/evaluation/calibration.hpp"
 #include "imaging/evaluation/metrics.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
@@ -67,6 +68,30 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
                       {"unpaired_landmarks", pairs.warnings},
                       {"tre_before_mm", stats_json(before)},
                       {"tre_after_mm", stats_json(after)}};
+  // Predicted error (issue 16): RES/uncertainty.nii.gz at the pre-operative landmarks against
+  // their actual errors (imaging/evaluation/calibration.hpp for the convention).
+  if (const auto unc_path = args.result / "uncertainty.nii.gz"; std::filesystem::exists(unc_path)) {
+    const imaging::VolumeF unc = imaging::read_volume(unc_path);
+    BS_VERIFY(unc.components == 1, unc_path.string() << ": expected a scalar map, got " << unc.components
+                                                      << " components");
+    const std::vector<double> actual = imaging::landmark_errors(predicted, pairs.b);
+    std::vector<double> sigma;
+    for (Eigen::Index i = 0; i < pairs.a.rows(); ++i)
+      sigma.push_back(std::max(0.0F, imaging::sample_trilinear(unc, unc.geometry.world_to_index(pairs.a.row(i).transpose()), 0.0F)));
+    const imaging::UncertaintyCalibration c = imaging::calibrate_uncertainty(sigma, actual);
+    j["uncertainty_calibration"] = {
+        {"landmarks", c.count},
+        {"spearman", c.spearman},
+        {"within_1_sigma_pct", c.within_1_sigma_pct},
+        {"within_2_sigma_pct", c.within_2_sigma_pct},
+        {"expected_within_1_sigma_pct", imaging::expected_within_1_sigma_pct},
+        {"expected_within_2_sigma_pct", imaging::expected_within_2_sigma_pct},
+        {"mean_predicted_mm", c.mean_predicted_mm},
+        {"mean_actual_mm", c.mean_actual_mm},
+        {"rms_actual_over_predicted", c.rms_ratio},
+        {"predicted_mm", sigma},
+        {"convention", "sigma = predicted RMS length of the 3-D error (sqrt tr Σ); within k sigma: |e| <= k sigma"}};
+  }
   const auto pct = imaging::percent_shift_corrected(before.mean, after.mean);
   j["shift_corrected_pct"] = pct ? nlohmann::json(*pct) : nlohmann::json(nullptr);
   if (args.surface_pre) {
@@ -102,6 +127,12 @@ int run_evaluate(const EvaluateArgs& args, std::ostream& out) {
       out << (std::string(k) == "surface_before_mm" ? "surface before" : "surface after ") << ": H95 "
           << j[k]["h95"].get<double>() << ", H75 " << j[k]["h75"].get<double>() << ", H50 "
           << j[k]["h50"].get<double>() << ", H25 " << j[k]["h25"].get<double>() << " mm\n";
+  if (j.contains("uncertainty_calibration")) {
+    const auto& c = j["uncertainty_calibration"];
+    out << "predicted error: Spearman " << c["spearman"].get<double>() << ", within 1 sigma "
+        << c["within_1_sigma_pct"].get<double>() << " % (calibrated: 60.8), within 2 sigma "
+        << c["within_2_sigma_pct"].get<double>() << " % (calibrated: 99.3)\n";
+  }
   for (const auto& w : j["unpaired_landmarks"]) out << "warning: " << w.get<std::string>() << "\n";
   out << "written: " << (args.result / "evaluation.json").string() << "\n";
   return 0;

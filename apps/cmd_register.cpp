@@ -194,13 +194,16 @@ void write_result(const std::filesystem::path& res, const Session& s, const cons
   const auto t0 = Clock::now();
   const core::TetMesh& mesh = s.model->mesh();
   nlohmann::json report = result_report(s, r, in, extra);
+  report["uncertainty"] = uncertainty_report(s, f.uncertainty, in.data);
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
     imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &f.u_intra);
     imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
     imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
     imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
+    imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
     if (f.warped_mri) imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
-    write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr, f.displacement, in.data);
+    write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr, f.displacement, in.data,
+                         &f.uncertainty.map);
     report["timing"]["outputs"] = seconds_fields + since(t0);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();

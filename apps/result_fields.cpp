@@ -47,6 +47,7 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
     wo.rigid = f.intraop_from_model.matrix();
     f.warped_mri = imaging::warp_image(*mri, mesh, f.u_intra, wo);
   }
+  f.uncertainty = compute_result_uncertainty(s, r);
   return f;
 }
 

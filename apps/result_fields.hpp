@@ -27,6 +27,7 @@
 #include "cmd_register.hpp"
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
+#include "result_uncertainty.hpp"
 
 namespace brainshift::apps {
 
@@ -38,6 +39,7 @@ struct ResultFields {
   imaging::VolumeF intraop_to_preop;     ///< d on the pre-op grid, extended beyond the brain
   imaging::VolumeF preop_to_intraop;     ///< v = φ⁻¹(y) − y on the moved pre-op grid (above)
   std::optional<imaging::VolumeF> warped_mri;  ///< the MRI pulled through φ⁻¹ (with an MRI)
+  ResultUncertainty uncertainty;               ///< predicted error (uncertainty.nii.gz; result_uncertainty.hpp)
 };
 
 /// Computes the fields of a result (and warps `mri` when given, on its own grid).

@@ -8,6 +8,7 @@
 #include "constraints/registration/pairing.hpp"
 #include "constraints/registration/registration_stage.hpp"
 #include "constraints/registration/vessel_blocks.hpp"
+#include "constraints/registration/uncertainty.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 
@@ -462,6 +463,8 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   res.stages = std::move(state.stages);
   res.iterations = static_cast<int>(res.history.size());
   res.rows_by_set = state.rows_by_set;
+  res.data_rows = data_rows_at(in, state);
+  res.vessel_compliance_ratio = res.stages.empty() ? ratio0 : last.vessel_compliance_ratio;
   const double t_rigid = res.seconds.rigid;
   res.seconds = state.seconds;
   res.seconds.rigid = t_rigid;

@@ -252,6 +252,11 @@ struct RegistrationResult {
   bool cold_retry = false;          ///< a warm start did not converge and this is the cold answer
   std::array<index_t, num_constraint_sets> rows_by_set{};  ///< of the last iteration
   StageTimes seconds;
+  /// The data rows (vessels, footprint, landmarks; no dura) of the last pairs, rebuilt at the
+  /// final positions: what the predicted error (uncertainty.hpp) conditions on. Empty with NO_DATA.
+  ConstraintRows data_rows;
+  /// The vessel rows' compliance ratio of the answer kept (the FREE stage's, or SMOOTH's when it settled).
+  double vessel_compliance_ratio = 0.0;
   /// Warm-start state: λ per (set, feature, row) of the last iteration, for the next frame.
   std::vector<std::pair<std::array<std::int64_t, 3>, double>> lambda;
 };

@@ -164,6 +164,13 @@ std::string ComplianceOperator::check_precomputed(const ComplianceBlock& b,
   return {};
 }
 
+double ComplianceOperator::block_trace(index_t node) const {
+  if (m_block.size() == 0 || node < 0 || node >= static_cast<index_t>(m_block_pos.size())) return -1.0;
+  const index_t b = m_block_pos[static_cast<std::size_t>(node)];
+  if (b < 0) return -1.0;
+  return m_block(3 * b, 3 * b) + m_block(3 * b + 1, 3 * b + 1) + m_block(3 * b + 2, 3 * b + 2);
+}
+
 std::size_t ComplianceOperator::block_bytes() const {
   return static_cast<std::size_t>(m_block.size()) * sizeof(double);
 }

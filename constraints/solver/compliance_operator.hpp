@@ -74,6 +74,10 @@ class ComplianceOperator {
   /// How many delassus() calls fell back from the block to sparse solves.
   [[nodiscard]] int fallback_count() const { return m_fallbacks; }
   [[nodiscard]] const std::vector<index_t>& block_nodes() const { return m_block_nodes; }
+  /// tr (K0⁻¹)_nn, the trace of node n's 3×3 diagonal block (mm/mN), read from the dense block;
+  /// −1 when n is not a block node or there is no block (SPARSE_SOLVE). The predicted error's
+  /// prior term (registration/uncertainty.hpp) uses it instead of solving.
+  [[nodiscard]] double block_trace(index_t node) const;
   /// The dense block with its fingerprint, for saving (matrix empty for SPARSE_SOLVE).
   [[nodiscard]] ComplianceBlock block() const { return {m_fingerprint, m_block_nodes, m_block}; }
   /// Where the block came from: "computed", "adopted" (from ComplianceOptions::precomputed),

@@ -46,12 +46,20 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   // 0 = converged, 2 = stopped without meeting the convergence test; both write the result.
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.out << r.err;
   for (const char* f : {"report.json", "deformed.vtu", "displacement.nii.gz", "preop_to_intraop.nrrd",
-                        "intraop_to_preop.nrrd", "warped_mri.nii.gz", "overlay.png"})
+                        "intraop_to_preop.nrrd", "warped_mri.nii.gz", "overlay.png", "uncertainty.nii.gz",
+                        "overlay_uncertainty.png"})
     EXPECT_TRUE(std::filesystem::exists(res / f)) << f;
   const auto report = read_json(res / "report.json");
   for (const char* k : {"timing", "iterations", "converged", "stop_reason", "constraints", "rigid"})
     EXPECT_TRUE(report.contains(k)) << k;
   EXPECT_TRUE(report["timing"].contains("total"));
+  // Predicted error (issue 16): estimated from the data, finite, positive over the brain.
+  for (const char* k : {"at_tumour_mm", "median_mm", "p95_mm", "estimation", "seconds"})
+    EXPECT_TRUE(report["uncertainty"].contains(k)) << k << ": " << report["uncertainty"].dump();
+  EXPECT_TRUE(report["uncertainty"]["estimated"].get<bool>()) << report["uncertainty"].dump();
+  EXPECT_GT(report["uncertainty"]["median_mm"].get<double>(), 0.0);
+  EXPECT_GE(report["uncertainty"]["p95_mm"].get<double>(), report["uncertainty"]["median_mm"].get<double>());
+  EXPECT_GT(report["uncertainty"]["at_tumour_mm"].get<double>(), 0.0) << "the phantom has a tumour";
   EXPECT_EQ(report["converged"].get<bool>(), r.exit_code == 0);
   // prepare's compliance block is reloaded, not recomputed.
   EXPECT_EQ(report["model"]["compliance"]["strategy"], "dense_block") << report["model"].dump();
@@ -113,6 +121,16 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   // on seed 1; other seeds do worse — see the README's state of accuracy).
   EXPECT_GT(ev["shift_corrected_pct"].get<double>(), 33.0) << ev.dump();
   EXPECT_TRUE(ev.contains("surface_after_mm"));
+  // The predicted error's calibration on the 13 truth landmarks (independent TLED truth). One case
+  // is too few landmarks to hold the issue's bars (bench: docs/BENCHMARKS.md, "Predicted error");
+  // asked here: reported, the predicted error not off by more than 3× on average either way
+  // (RMS actual/predicted within [1/3, 3]) and most landmarks within 2 sigma.
+  const auto& cal = ev["uncertainty_calibration"];
+  ASSERT_TRUE(cal.is_object()) << ev.dump();
+  EXPECT_EQ(cal["landmarks"].get<int>(), ev["landmarks"].get<int>());
+  EXPECT_GT(cal["rms_actual_over_predicted"].get<double>(), 1.0 / 3.0) << cal.dump();
+  EXPECT_LT(cal["rms_actual_over_predicted"].get<double>(), 3.0) << cal.dump();
+  EXPECT_GE(cal["within_2_sigma_pct"].get<double>(), 50.0) << cal.dump();
 
   // Replay with a broken frame in the middle: it is reported and skipped, the others register.
   std::ofstream(ph / "intraop/frame_001/doppler.nii.gz") << "not an image";

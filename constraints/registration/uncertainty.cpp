@@ -1,0 +1,328 @@
+#include "constraints/registration/uncertainty.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <tuple>
+
+#include "constraints/registration/registration_stage.hpp"
+#include "core/error.hpp"
+#include "core/solver/nodal_rotations.hpp"
+
+namespace brainshift::constraints {
+namespace {
+
+double median_of(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// The coarse set: per grid cell of `spacing` (mm), the free node nearest the cell's centre of
+/// its free nodes; plus every node flagged in `always`.
+std::vector<index_t> coarse_nodes(const core::DofMap& dofs, ConstRef<MatrixX3d> nodes, double spacing,
+                                  const std::vector<bool>& always, const std::vector<bool>& known) {
+  const index_t n = nodes.rows();
+  std::vector<index_t> out;
+  auto wanted = [&](index_t i) { return !dofs.is_fixed_node(i) && !known[static_cast<std::size_t>(i)]; };
+  if (!(spacing > 0)) {
+    for (index_t i = 0; i < n; ++i)
+      if (wanted(i)) out.push_back(i);
+    return out;
+  }
+  const Vector3d lo = nodes.colwise().minCoeff().transpose();
+  std::map<std::tuple<long, long, long>, std::vector<index_t>> cells;
+  for (index_t i = 0; i < n; ++i) {
+    if (dofs.is_fixed_node(i)) continue;
+    const Vector3d c = ((nodes.row(i).transpose() - lo) / spacing).array().floor();
+    cells[{static_cast<long>(c[0]), static_cast<long>(c[1]), static_cast<long>(c[2])}].push_back(i);
+  }
+  std::vector<bool> chosen(static_cast<std::size_t>(n), false);
+  for (const auto& [key, members] : cells) {
+    if (std::any_of(members.begin(), members.end(), [&](index_t i) { return known[static_cast<std::size_t>(i)]; }))
+      continue;  // the cell has an exact value already
+    Vector3d centre = Vector3d::Zero();
+    for (index_t i : members) centre += nodes.row(i).transpose();
+    centre /= static_cast<double>(members.size());
+    index_t best = members.front();
+    double best_d = 1e300;
+    for (index_t i : members)
+      if (const double d = (nodes.row(i).transpose() - centre).squaredNorm(); d < best_d) {
+        best_d = d;
+        best = i;
+      }
+    chosen[static_cast<std::size_t>(best)] = true;
+  }
+  for (index_t i = 0; i < n; ++i)
+    if ((chosen[static_cast<std::size_t>(i)] || always[static_cast<std::size_t>(i)]) && wanted(i))
+      out.push_back(i);
+  return out;
+}
+
+}  // namespace
+
+std::string UncertaintyOptions::validate() const {
+  if (!(coarse_spacing_mm >= 0)) return "uncertainty: coarse_spacing_mm must be ≥ 0";
+  if (!(hard_row_ratio > 0)) return "uncertainty: hard_row_ratio must be > 0";
+  if (!(separated_mm >= 0)) return "uncertainty: separated_mm must be ≥ 0";
+  if (!(no_data_median_mm > 0)) return "uncertainty: no_data_median_mm must be > 0";
+  if (!(calibration > 0)) return "uncertainty: calibration must be > 0";
+  if (solve_block < 1) return "uncertainty: solve_block must be ≥ 1";
+  return {};
+}
+
+NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs, ConstRef<MatrixX3d> nodes,
+                             const SparseMatrix& G, const Eigen::VectorXd& noise, const UncertaintyOptions& options,
+                             const NodalVarianceExtras& extras) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), invalid);
+  const index_t n = nodes.rows();
+  const index_t f = dofs.num_free();
+  BS_VERIFY(dofs.num_full() == 3 * n, "uncertainty: " << n << " nodes for a DOF map of " << dofs.num_full() << " DOFs");
+  BS_VERIFY(G.rows() == f && G.cols() == noise.size(),
+            "uncertainty: data rows " << G.rows() << "×" << G.cols() << " for " << f << " free DOFs and "
+                                      << noise.size() << " noise entries");
+  BS_VERIFY(noise.size() == 0 || (noise.array() > 0).all(), "uncertainty: row noise must be > 0");
+  BS_VERIFY(!extras.known_prior || extras.known_prior->size() == n,
+            "uncertainty: " << extras.known_prior->size() << " known prior traces for " << n << " nodes");
+  BS_VERIFY(!extras.delta || extras.delta->size() == noise.size(),
+            "uncertainty: " << extras.delta->size() << " row values for " << noise.size() << " rows");
+  NodalVariance out;
+  out.prior = Eigen::VectorXd::Zero(n);
+  out.posterior = Eigen::VectorXd::Zero(n);
+
+  // Data term per DOF: column norms² of L⁻¹ Yᵀ, Y = K0⁻¹ G, L the Cholesky factor of W + A.
+  Eigen::VectorXd reduction = Eigen::VectorXd::Zero(f);
+  std::vector<bool> touched(static_cast<std::size_t>(n), false);
+  if (G.cols() > 0) {
+    const Eigen::MatrixXd Y = factor.solve(Eigen::MatrixXd(G));
+    Eigen::MatrixXd S = Eigen::MatrixXd(G.transpose() * Y);
+    S = 0.5 * (S + S.transpose()).eval();
+    const Eigen::VectorXd d = S.diagonal();  // (a Diagonal's data() is strided)
+    const std::vector<double> diag(d.data(), d.data() + d.size());
+    out.scale = median_of(diag);
+    S.diagonal() += extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
+    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    BS_VERIFY(llt.info() == Eigen::Success, "uncertainty: the data rows' covariance is not positive definite");
+    if (extras.delta) {
+      // ML: δᵀ (W + A)⁻¹ δ. Discrepancy: the fitted rows' residual r = A (W + A)⁻¹ δ against its
+      // expectation E‖r‖² = s² tr(A (W + A)⁻¹ A).
+      const Eigen::VectorXd a = extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
+      const Eigen::VectorXd w = llt.solve(*extras.delta);
+      out.quadratic = extras.delta->dot(w);
+      out.residual_sq = (a.array() * w.array()).matrix().squaredNorm();
+      const Eigen::MatrixXd Sinv = llt.solve(Eigen::MatrixXd::Identity(S.rows(), S.cols()));
+      out.residual_dof = (a.array().square() * Sinv.diagonal().array()).sum();
+    }
+    const Eigen::MatrixXd Zt = llt.matrixL().solve(Y.transpose());
+    reduction = Zt.colwise().squaredNorm().transpose();
+    for (int k = 0; k < G.outerSize(); ++k)
+      for (SparseMatrix::InnerIterator it(G, k); it; ++it)
+        touched[static_cast<std::size_t>(dofs.full_index(it.row()) / 3)] = true;
+  }
+
+  // Prior term: exact on the coarse set by unit loads (‖L⁻¹ P eᵢ‖² = (K0⁻¹)ᵢᵢ), in blocks.
+  std::vector<bool> exact(static_cast<std::size_t>(n), false);
+  std::vector<index_t> known;  // from extras.known_prior: exact without a solve
+  if (extras.known_prior)
+    for (index_t i = 0; i < n; ++i)
+      if ((*extras.known_prior)[i] >= 0 && !dofs.is_fixed_node(i)) {
+        out.prior[i] = (*extras.known_prior)[i];
+        exact[static_cast<std::size_t>(i)] = true;
+        known.push_back(i);
+      }
+  std::vector<index_t> coarse = coarse_nodes(dofs, nodes, options.coarse_spacing_mm, touched, exact);
+  out.solved_nodes = static_cast<index_t>(coarse.size());
+  const std::size_t block = static_cast<std::size_t>(options.solve_block);
+  for (std::size_t b0 = 0; b0 < coarse.size(); b0 += block) {
+    const std::size_t b1 = std::min(coarse.size(), b0 + block);
+    std::vector<Eigen::Triplet<double>> t;
+    std::vector<index_t> col_node;
+    for (std::size_t j = b0; j < b1; ++j)
+      for (int c = 0; c < 3; ++c) {
+        const index_t fi = dofs.free_index(3 * coarse[j] + c);
+        if (fi < 0) continue;
+        t.emplace_back(fi, static_cast<index_t>(col_node.size()), 1.0);
+        col_node.push_back(coarse[j]);
+      }
+    SparseMatrix E(f, static_cast<index_t>(col_node.size()));
+    E.setFromTriplets(t.begin(), t.end());
+    const SparseMatrix L = factor.solve_lower_permuted(E);
+    for (int k = 0; k < L.outerSize(); ++k) {
+      double s = 0.0;
+      for (SparseMatrix::InnerIterator it(L, k); it; ++it) s += it.value() * it.value();
+      out.prior[col_node[static_cast<std::size_t>(k)]] += s;
+    }
+    for (std::size_t j = b0; j < b1; ++j) exact[static_cast<std::size_t>(coarse[j])] = true;
+  }
+  coarse.insert(coarse.end(), known.begin(), known.end());
+  out.exact_nodes = static_cast<index_t>(coarse.size());
+  // Elsewhere: inverse-distance weighting (1/d²) of the 4 nearest coarse nodes.
+  if (!coarse.empty())
+    for (index_t i = 0; i < n; ++i) {
+      if (exact[static_cast<std::size_t>(i)] || dofs.is_fixed_node(i)) continue;
+      std::array<std::pair<double, index_t>, 4> best;
+      best.fill({1e300, -1});
+      for (index_t c : coarse) {
+        const double d = (nodes.row(c) - nodes.row(i)).squaredNorm();
+        if (d < best[3].first) {
+          best[3] = {d, c};
+          std::sort(best.begin(), best.end());
+        }
+      }
+      double wsum = 0.0, v = 0.0;
+      for (const auto& [d, c] : best)
+        if (c >= 0) {
+          const double w = 1.0 / std::max(d, 1e-12);
+          wsum += w;
+          v += w * out.prior[c];
+        }
+      out.prior[i] = wsum > 0 ? v / wsum : 0.0;
+    }
+  for (index_t i = 0; i < n; ++i) {
+    double red = 0.0;
+    for (int c = 0; c < 3; ++c)
+      if (const index_t fi = dofs.free_index(3 * i + c); fi >= 0) red += reduction[fi];
+    out.posterior[i] = std::max(0.0, out.prior[i] - red);
+  }
+  return out;
+}
+
+ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {
+  ConstraintRows rows;
+  const RegistrationModel& model = *in.model;
+  const core::TetMesh& mesh = model.mesh();
+  if (in.vessels && !state.vessel_pairs.empty())
+    add_vessel_rows(rows, state.vessel_pairs, model.skeleton(), MappedVertices{&mesh, &model.skeleton_mapping()},
+                    state.positions, in.vessel_points);
+  if (in.footprint && !state.footprint_pairs.empty())
+    add_footprint_rows(rows, state.footprint_pairs, model.surface(), MappedVertices{&mesh, &model.surface_mapping()},
+                       state.positions, in.footprint_points, in.footprint_normals);
+  if (in.landmarks) add_landmark_rows(rows, MappedVertices{&mesh, &in.landmark_map}, state.positions, in.landmark_targets);
+  return rows;
+}
+
+UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
+                                      const RegistrationOptions& options, const UncertaintyOptions& uo) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ConstrainedModel& mech = model.mechanics();
+  const core::TetMesh& mesh = model.mesh();
+  const core::DofMap& dofs = mech.dofs();
+  const index_t n = mesh.num_nodes();
+  BS_VERIFY(r.positions.rows() == n && r.positions.allFinite(),
+            "uncertainty: the result has " << r.positions.rows() << " positions for " << n << " nodes");
+  UncertaintyResult out;
+
+  // The data rows in use at the final state, rotated: G = (H R)ᵀ on the free DOFs.
+  const core::ElementRotations er = mech.model().element_rotations(r.positions);
+  const std::vector<Matrix3d> R = core::nodal_rotations(mesh, er.rotation);
+  std::vector<index_t> used;
+  for (index_t i = 0; i < r.data_rows.size(); ++i) {
+    const ConstraintRow& row = r.data_rows[i];
+    if (row.set == ConstraintSet::DURA || row.set == ConstraintSet::FIXED) continue;
+    if (row.law == ConstraintLaw::UNILATERAL && row.violation > uo.separated_mm) continue;
+    used.push_back(i);
+  }
+  const index_t m = static_cast<index_t>(used.size());
+  std::vector<Eigen::Triplet<double>> t;
+  Eigen::VectorXd ratio(m);
+  for (index_t j = 0; j < m; ++j) {
+    const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
+    for (int k = 0; k < row.stencil.size; ++k) {
+      const index_t node = row.stencil.node[static_cast<std::size_t>(k)];
+      const Vector3d g = row.stencil.weight[static_cast<std::size_t>(k)] *
+                         (R[static_cast<std::size_t>(node)].transpose() * row.direction);
+      for (int c = 0; c < 3; ++c)
+        if (const index_t fi = dofs.free_index(3 * node + c); fi >= 0) t.emplace_back(fi, j, g[c]);
+    }
+    const double set_ratio = row.set == ConstraintSet::VESSELS
+                                 ? r.vessel_compliance_ratio
+                                 : options.step.compliance_ratio[static_cast<std::size_t>(row.set)];
+    ratio[j] = std::max(set_ratio, uo.hard_row_ratio);
+  }
+  SparseMatrix G(dofs.num_free(), m);
+  G.setFromTriplets(t.begin(), t.end());
+  out.rows = m;
+
+  // δ_free: the rows' violation if the model relaxed to its unloaded shape (as the step's).
+  Eigen::VectorXd delta_free(m);
+  if (m > 0) {
+    Eigen::VectorXd f = -mech.model().internal_force(r.positions, er.rotation);
+    if (!options.step.gravity.isZero()) f += mech.model().gravity_force(options.step.gravity, options.step.density);
+    const Eigen::VectorXd dx = mech.compliance().apply(f, R);
+    for (index_t j = 0; j < m; ++j) {
+      const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
+      Vector3d p = Vector3d::Zero();
+      for (int k = 0; k < row.stencil.size; ++k)
+        p += row.stencil.weight[static_cast<std::size_t>(k)] *
+             dx.segment<3>(3 * row.stencil.node[static_cast<std::size_t>(k)]);
+      delta_free[j] = row.violation + row.direction.dot(p);
+    }
+  }
+  // The prior's nodal traces the dense compliance block already holds.
+  Eigen::VectorXd known(n);
+  for (index_t i = 0; i < n; ++i) known[i] = mech.compliance().block_trace(i);
+  const bool usable = m > 0 && delta_free.allFinite();
+  NodalVarianceExtras extras;
+  extras.known_prior = &known;
+  extras.noise_relative = true;
+  extras.delta = &delta_free;
+  const NodalVariance nv = usable ? nodal_variance(mech.factor(), dofs, mesh.nodes(), G, ratio, uo, extras)
+                                  : nodal_variance(mech.factor(), dofs, mesh.nodes(), SparseMatrix(dofs.num_free(), 0),
+                                                   Eigen::VectorXd(), uo, {&known, false, nullptr});
+  const double scale = nv.scale;
+  out.exact_nodes = nv.exact_nodes;
+  out.solved_nodes = nv.solved_nodes;
+  out.vessel_ratio = r.vessel_compliance_ratio;
+  out.vessel_alpha = r.vessel_compliance_ratio * scale;
+  char buf[600];
+  if (usable) {
+    // ML scale of δ_free ~ N(0, s² (W + A)).
+    const bool discrepancy = uo.scale_estimator == UncertaintyOptions::ScaleEstimator::DISCREPANCY;
+    const double quad = discrepancy ? nv.residual_sq * static_cast<double>(m) / std::max(nv.residual_dof, 1e-300)
+                                    : nv.quadratic;
+    if (quad > 0 && std::isfinite(quad) && scale > 0) {
+      out.s2 = uo.calibration * quad / static_cast<double>(m);
+      out.estimated = true;
+      std::snprintf(buf, sizeof buf,
+                    "s² %s of the %lld data rows = %.4g mN·mm%s; α = the "
+                    "registration's vessel compliance (ratio %.3g × median diag W %.4g mm/mN), hard rows %.3g × it; "
+                    "implied vessel-row scatter %.3g mm; dura rows not used",
+                    discrepancy ? "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))"
+                                : "by maximum likelihood (δ_free ~ N(0, s²(W + A)))",
+                    static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
+                    r.vessel_compliance_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
+      out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
+    }
+  }
+  if (!out.estimated) {
+    std::vector<double> free_prior;
+    for (index_t i = 0; i < n; ++i)
+      if (!dofs.is_fixed_node(i)) free_prior.push_back(nv.prior[i]);
+    const double med = median_of(free_prior);
+    out.s2 = med > 0 ? uo.no_data_median_mm * uo.no_data_median_mm / med : 0.0;
+    std::snprintf(buf, sizeof buf,
+                  "no usable data rows (%lld): s² not estimated; the prior alone, scaled to a median predicted error "
+                  "of %.3g mm",
+                  static_cast<long long>(m), uo.no_data_median_mm);
+  }
+  out.estimation = buf;
+  out.node_variance = out.s2 * (out.estimated ? nv.posterior : nv.prior);
+  out.node_sigma_mm = out.node_variance.cwiseSqrt();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance, ConstRef<MatrixX3d> points) {
+  BS_VERIFY(node_variance.size() == mesh.num_nodes(),
+            "uncertainty: " << node_variance.size() << " nodal variances for " << mesh.num_nodes() << " nodes");
+  core::MappingOptions o;
+  o.max_outside_distance = 1e9;  // a landmark just outside the mesh takes its nearest tetrahedron
+  const core::BarycentricMapping map(mesh, points, o);
+  const Eigen::VectorXd v = map.matrix() * node_variance;
+  return v.cwiseMax(0.0).cwiseSqrt();
+}
+
+}  // namespace brainshift::constraints

@@ -1,0 +1,141 @@
+#pragma once
+/// @file
+/// @brief Predicted error of a registration (issue 16): the posterior covariance of the nodal
+/// displacement under the linear-Gaussian reading of the registration's own MAP problem.
+///
+/// Model (the same one noise_model.hpp reads the vessel compliance from): the displacement has
+/// the elastic prior u ~ N(0, s² C), C = R K0⁻¹ Rᵀ the warped compliance at the final rotations
+/// (mm/mN), and the data rows (vessels, footprint, landmarks; linearised at the final state)
+/// observe δ_free = H u + e with e ~ N(0, s² A), A = diag(εᵢ) the rows' compliance. Then
+///   Σ(x) = s² (J_x C J_xᵀ − J_x C Hᵀ (H C Hᵀ + A)⁻¹ H C J_xᵀ)      (mm²)
+/// and the predicted error at x is sqrt(tr Σ(x)) (mm): the RMS length of the 3-D error vector.
+///
+/// How the pieces are computed (cost grows like the registration's: sparse solves with the
+/// factor it already has):
+/// - per node n, tr(R_n M R_nᵀ) = tr M, so the nodal traces need the unrotated K0⁻¹ only; the
+///   rotations enter through the rows (H R);
+/// - the data term: Y = K0⁻¹ (H R)ᵀ by one multi-right-hand-side solve (#rows columns), then
+///   tr(Y_n (W + A)⁻¹ Y_nᵀ) for every node from one Cholesky factor of W + A (#rows²);
+/// - the prior term tr(K0⁻¹)_nn: exact where the dense compliance block (compliance_operator.hpp,
+///   K0⁻¹ on every node a vessel or surface point maps to, precomputed before surgery) holds it;
+///   elsewhere exact by unit loads solved in blocks on a coarse set of nodes (one per cell of a
+///   grid of `coarse_spacing_mm` holding no exact node yet, plus any node a data row touches), and
+///   interpolated to the remaining nodes by inverse-distance weighting of the 4 nearest exact
+///   nodes (the prior's trace varies slowly: it grows with the distance from the fixed region).
+///   A stochastic (Hutchinson) estimator is not used: K0⁻¹ is a dense Green's function (~1/r),
+///   whose off-diagonal mass makes the estimate's relative error O(1) at any affordable number of
+///   probes, while unit loads on the coarse set are exact at the same cost.
+/// - fixed nodes have zero variance (their DOFs are eliminated).
+///
+/// Rows that are not data: dura rows (a boundary condition of the model, not a measurement) are
+/// not used, and neither are unilateral footprint rows that are separated at the final state
+/// (inactive). Hard rows (compliance 0: footprint, landmarks) get a floor compliance of
+/// `hard_row_ratio` × median diag W so the data covariance stays invertible.
+///
+/// s² (mN·mm) and α: α is the compliance the registration used (the vessel rows' ratio ×
+/// median diag W, as in StepOptions::compliance_ratio), and s² is the maximum-likelihood scale of
+/// the linear-Gaussian model, δ_free ~ N(0, s² (W + A)): s² = δ_freeᵀ (W + A)⁻¹ δ_free / m
+/// (m rows), with δ_free what the rows would be violated by if the model relaxed to its unloaded
+/// shape at the final rotations (the default; UncertaintyOptions::scale_estimator also offers the
+/// discrepancy principle, which measured worse on the phantoms: docs/BENCHMARKS.md, "Predicted
+/// error"). `calibration` (dimensionless, default 1) multiplies s².
+/// Positions in mm, model (pre-operative, world RAS) frame.
+
+#include <string>
+#include <vector>
+
+#include "constraints/registration/registration.hpp"
+#include "core/assembly/dof_map.hpp"
+#include "core/solver/cholmod_factor.hpp"
+
+namespace brainshift::constraints {
+
+struct LoopInputs;
+struct LoopState;
+
+struct UncertaintyOptions {
+  /// Cell size (mm) of the grid that picks the coarse nodes of the exact prior term; 0 = every
+  /// node exact.
+  double coarse_spacing_mm = 20.0;
+  /// Floor compliance of hard rows, × median diag W (dimensionless).
+  double hard_row_ratio = 1e-3;
+  /// A unilateral row whose value at the final state exceeds this (mm) is separated: not data.
+  double separated_mm = 0.05;
+  /// Without data rows s² cannot be estimated: the prior is scaled so that the median predicted
+  /// error over the free nodes is this (mm), a brain shift of typical size.
+  double no_data_median_mm = 10.0;
+  /// Multiplies the estimated s² (dimensionless).
+  double calibration = 1.0;
+  /// How s² is estimated from the rows: DISCREPANCY (the fitted rows' residual against its
+  /// expectation: the scatter the data show about the answer sets the scale) or MAXIMUM_LIKELIHOOD
+  /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it).
+  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD };
+  ScaleEstimator scale_estimator = ScaleEstimator::MAXIMUM_LIKELIHOOD;
+  int solve_block = 192;  ///< right-hand sides per solve when computing the prior term
+  [[nodiscard]] std::string validate() const;
+};
+
+/// Traces of the nodal covariance blocks, without the scale s² (mm/mN).
+struct NodalVariance {
+  Eigen::VectorXd prior;      ///< #N: tr (K0⁻¹)_nn (interpolated off the coarse set); 0 on fixed nodes
+  Eigen::VectorXd posterior;  ///< #N: prior − data term, clamped at 0
+  index_t exact_nodes = 0;    ///< nodes whose prior term is exact (known or solved for)
+  index_t solved_nodes = 0;   ///< of them, solved for here (3 unit loads each)
+  double scale = 0.0;         ///< median diag(Gᵀ K0⁻¹ G) (mm/mN; 0 without rows)
+  double quadratic = 0.0;     ///< δᵀ (W + A)⁻¹ δ when NodalVarianceExtras::delta was given
+  double residual_sq = 0.0;   ///< ‖A (W + A)⁻¹ δ‖²: the fitted rows' residual (mm²), with delta
+  double residual_dof = 0.0;  ///< tr(A (W + A)⁻¹ A) (mm²/(mN·mm)): E‖r‖² = s² × this
+};
+
+/// Optional inputs of nodal_variance().
+struct NodalVarianceExtras {
+  /// #N: tr (K0⁻¹)_nn where already known (e.g. from the dense compliance block), < 0 elsewhere.
+  const Eigen::VectorXd* known_prior = nullptr;
+  /// `noise` is relative: A = noise × median diag W (as StepOptions::compliance_ratio).
+  bool noise_relative = false;
+  /// Row values δ (m): NodalVariance::quadratic is then δᵀ (W + A)⁻¹ δ.
+  const Eigen::VectorXd* delta = nullptr;
+};
+
+/// The nodal traces of K0⁻¹ − K0⁻¹ G (Gᵀ K0⁻¹ G + diag(noise))⁻¹ Gᵀ K0⁻¹.
+/// @param[in] factor CHOLMOD factor of K0_ff (free DOFs of `dofs`).
+/// @param[in] dofs the DOF map (fixed nodes: zero variance).
+/// @param[in] nodes #N×3 rest positions (mm), for the coarse grid and the interpolation.
+/// @param[in] G #free × m: the data rows, transposed, on the free DOFs (may have 0 columns).
+/// @param[in] noise m compliances (mm/mN, > 0).
+/// \throws brainshift::Error on mismatched sizes or a non-positive noise entry.
+NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs, ConstRef<MatrixX3d> nodes,
+                             const SparseMatrix& G, const Eigen::VectorXd& noise, const UncertaintyOptions& options,
+                             const NodalVarianceExtras& extras = {});
+
+/// The predicted error of a registration.
+struct UncertaintyResult {
+  bool estimated = false;       ///< s² came from the data (false: no data rows; see estimation)
+  Eigen::VectorXd node_sigma_mm;  ///< #N: sqrt(tr Σ_n), mm; 0 on fixed nodes
+  Eigen::VectorXd node_variance;  ///< #N: tr Σ_n, mm²
+  double s2 = 0.0;              ///< prior scale (mN·mm)
+  double vessel_alpha = 0.0;    ///< the vessel rows' compliance (mm/mN)
+  double vessel_ratio = 0.0;    ///< the same ÷ median diag W
+  double noise_sigma_mm = 0.0;  ///< implied per-row scatter of the vessel rows sqrt(s² α), mm
+  index_t rows = 0;             ///< data rows used
+  index_t exact_nodes = 0;       ///< nodes with an exact prior term (the rest interpolated)
+  index_t solved_nodes = 0;      ///< of them, solved for (the others read from the compliance block)
+  std::string estimation;       ///< one line: how s² and α were estimated
+  double seconds = 0.0;
+};
+
+/// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final
+/// positions: what predict_uncertainty() conditions on. Called by register_model().
+ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state);
+
+/// Predicted error at every node of a registration result (uses r.positions, r.data_rows,
+/// r.vessel_compliance_ratio and options.step's compliance ratios). Never throws on bad data:
+/// non-finite intermediate values give the no-data answer with the reason in `estimation`.
+UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
+                                      const RegistrationOptions& options, const UncertaintyOptions& uo = {});
+
+/// sqrt of the barycentrically interpolated nodal variance at points (#P×3, model frame, mm);
+/// points outside the mesh take the nearest tetrahedron (BarycentricMapping's rule).
+Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance, ConstRef<MatrixX3d> points);
+
+}  // namespace brainshift::constraints
