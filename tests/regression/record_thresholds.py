@@ -14,12 +14,15 @@ cases` runs of the same code, three meshes per case): our mean TRE varied by at 
 margin on our own figure (x 1.1 + 0.15 mm, 5 points of shift corrected) is about 5-10x that
 spread: wide enough not to flake, narrow enough that a 15 % regression fails.
 
-The gap to rigid-only (rigid_gap_mm = 0.05 mm) is a difference of two figures of which only ours
-varies from mesh to mesh (rigid-only does not use the mesh): about twice the largest run-to-run
-spread measured on our mean TRE (0.023 mm), so a gap of 0 does not flake on a new mesh while a real
-loss to rigid (0.07-0.53 mm before the block-CV noise model) fails. With the noise model the
-loop's choice between a deformation and none can flip between meshes where the two are within
-the CV's standard error; re-measure the spread (three full runs) when re-recording.
+The gap to rigid-only (rigid_gap_mm = 0.15 mm) is what the data cannot tell apart. The loop picks
+the vessel rows' compliance by leave-one-branch-out cross-validation at its minimum; on the near-rigid
+cases (standard, offset_*, noisy_doppler) the deformation it keeps and the rigid answer predict the
+held-out vessels within one standard error of each other, and land 0.05-0.11 mm apart in mean TRE
+(measured 2026-12-02). Taking the rigid answer whenever the two are within one standard error (the
+one-SE rule, NoiseOptions::one_standard_error) closes that gap but also throws away the deformation
+where it is worth 1.2 mm off the vessels (deep_tumour_one_side_vessels). So the margin is the CV's
+resolution on these cases (0.11 mm) plus twice the run-to-run spread of our mean TRE (0.023 mm),
+rounded up; a real loss to rigid (0.21-0.51 mm before the block-CV noise model) still fails.
 """
 import json
 import sys
@@ -40,7 +43,7 @@ for r in runs["runs"]:
 out = {
     "_comment": "Recorded by tests/regression/record_thresholds.py from `brainshift bench --suite cases` "
     f"({runs['machine']['date']}, {runs['machine']['build_type']}, seed {runs['seed']}); see that script for the margin.",
-    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0, "rigid_gap_mm": 0.05},
+    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0, "rigid_gap_mm": 0.15},
     "cases": cases,
 }
 json.dump(out, sys.stdout, indent=2)
