@@ -196,14 +196,25 @@ void write_result(const std::filesystem::path& res, const Session& s, const cons
   nlohmann::json report = result_report(s, r, in, extra);
   report["uncertainty"] = uncertainty_report(s, f.uncertainty, in.data);
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
+    auto t = Clock::now();
+    const auto done = [&t](const char* what) {
+      logger().debug("register: wrote {} in {:.3f} s", what, since(t));
+      t = Clock::now();
+    };
     imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &f.u_intra);
+    done("deformed.vtu");
     imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
+    done("displacement.nii.gz");
     imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
     imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
+    done("the two Slicer transforms");
     imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
+    done("uncertainty.nii.gz");
     if (f.warped_mri) imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
+    done("warped_mri.nii.gz");
     write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr, f.displacement, in.data,
                          &f.uncertainty.map);
+    done("overlay.png");
     report["timing"]["outputs"] = seconds_fields + since(t0);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();

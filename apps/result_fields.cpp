@@ -1,5 +1,7 @@
 #include "result_fields.hpp"
 
+#include <utility>
+
 #include "core/error.hpp"
 #include "imaging/warping/warp_image.hpp"
 
@@ -21,11 +23,12 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
   const imaging::ImageGeometry& preop = s.loaded.preop_grid;
   imaging::DisplacementFieldOptions fo;
   fo.rigid = f.intraop_from_model.matrix();
-  f.displacement = imaging::displacement_field(mesh, f.u_intra, preop, fo);
-
   imaging::DisplacementFieldOptions slicer = fo;
   slicer.extension_mm = imaging::trilinear_support_mm(preop);
-  f.intraop_to_preop = imaging::displacement_field(mesh, f.u_intra, preop, slicer);
+  // One rasterisation for both: they differ only by the extension shell beyond the mesh.
+  imaging::ForwardDisplacementFields forward = imaging::displacement_fields(mesh, f.u_intra, preop, slicer);
+  f.displacement = std::move(forward.exact);
+  f.intraop_to_preop = std::move(forward.extended);
   // Where pre-operative content is now: the pre-operative grid moved by the rigid part (its
   // lattice, so no larger than the pre-operative grid unless the deformed brain leaves it) and
   // the deformed brain.

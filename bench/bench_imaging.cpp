@@ -3,7 +3,8 @@
 /// vessel extraction from a 256³ power-Doppler-like volume (synthetic tubes in speckle), warping
 /// a 256³ MRI through a ≈2k-node deformed mesh, and meshing the brain phantom's label volume
 /// (140 × 170 × 120 mm at 1 mm, tumour and ventricles) at the coarse (≈2k nodes) and a refined
-/// (≈18k nodes) size. Inputs are built once in static fixtures (not timed); every run is one
+/// (≈18k nodes) size, register's forward fields (one pass against two) and the .nii.gz
+/// compression levels. Inputs are built once in static fixtures (not timed); every run is one
 /// call, timed in wall-clock (UseRealTime: warping uses threads). See docs/BENCHMARKS.md.
 ///
 /// Targets (issue 6): vessel extraction < 2 s, warping < 2 s, coarse meshing < 30 s.
@@ -12,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -19,6 +21,7 @@
 #include "core/mesh/tet_mesh.hpp"
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
+#include "imaging/io/gzip_file.hpp"
 #include "imaging/io/volume.hpp"
 #include "imaging/meshing/label_mesher.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
@@ -158,6 +161,43 @@ void BM_WarpImage256(benchmark::State& state) {
   state.counters["tets"] = double(s.mesh.num_tets());
 }
 
+/// register's forward fields on the 256³ grid: range(0) = 0, the two displacement_field() calls
+/// (no extension, then extended: the former path); 1, displacement_fields() (one rasterisation).
+void BM_ForwardFields256(benchmark::State& state) {
+  const ImageGeometry& g = mri_volume().geometry;
+  const WarpScene& s = warp_scene();
+  imaging::DisplacementFieldOptions options;
+  options.extension_mm = imaging::trilinear_support_mm(g);
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      imaging::DisplacementFieldOptions exact = options;
+      exact.extension_mm = 0.0;
+      VolumeF a = imaging::displacement_field(s.mesh, s.displacement, g, exact);
+      VolumeF b = imaging::displacement_field(s.mesh, s.displacement, g, options);
+      benchmark::DoNotOptimize(a.data.data());
+      benchmark::DoNotOptimize(b.data.data());
+    } else {
+      imaging::ForwardDisplacementFields f = imaging::displacement_fields(s.mesh, s.displacement, g, options);
+      benchmark::DoNotOptimize(f.exact.data.data());
+    }
+  }
+  state.counters["voxels"] = double(g.voxel_count());
+}
+
+/// gzip of the 256³ MRI-like volume as float (64 MiB): range(0) = zlib level, range(1) = 1 for
+/// the run-length strategy, range(2) = threads (imaging::gzip_buffer, as .nii.gz files are written).
+void BM_Gzip256(benchmark::State& state) {
+  const VolumeF& image = mri_volume();
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "brainshift_bench_gzip.gz";
+  imaging::GzipOptions o;
+  o.level = int(state.range(0));
+  o.run_length = state.range(1) != 0;
+  o.threads = int(state.range(2));
+  for (auto _ : state) imaging::gzip_buffer(image.data.data(), image.data.size() * sizeof(float), out, o);
+  state.counters["ratio"] = double(std::filesystem::file_size(out)) / double(image.data.size() * sizeof(float));
+  std::filesystem::remove(out);
+}
+
 /// The default brain phantom's label volume at 1 mm (brain 140 × 170 × 120 mm before the base
 /// cut, tumour r = 12 mm, two lateral ventricles).
 const imaging::LabelVolume& brain_labels() {
@@ -192,6 +232,17 @@ BENCHMARK(BM_WarpImage256)
     ->UseRealTime()
     ->Iterations(1)
     ->Repetitions(5);
+BENCHMARK(BM_ForwardFields256)->ArgName("one_pass")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Repetitions(5);
+BENCHMARK(BM_Gzip256)
+    ->ArgNames({"level", "rle", "threads"})
+    ->Args({6, 0, 1})
+    ->Args({1, 0, 1})
+    ->Args({1, 1, 1})
+    ->Args({1, 1, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1)
+    ->Repetitions(3);
 BENCHMARK(BM_MeshLabels)
     ->ArgName("refine_x10")
     ->Arg(0)

@@ -1,6 +1,10 @@
 #include "constraints/solver/compliance_operator.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <exception>
+#include <thread>
+#include <vector>
 
 #include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
@@ -113,16 +117,39 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
   std::vector<index_t> cols;  // block DOFs that are free
   for (std::size_t a = 0; a < nb; ++a)
     if (free_of_block[a] >= 0) cols.push_back(static_cast<index_t>(a));
-  const int chunk = std::max(1, options.precompute_chunk);
-  for (std::size_t c0 = 0; c0 < cols.size(); c0 += static_cast<std::size_t>(chunk)) {
+  // Chunks are independent (each writes its own columns): `threads` workers take chunks in turn,
+  // each with its own CHOLMOD workspace (solve_concurrent); every chunk is the same solve as with
+  // one thread.
+  const auto chunk = static_cast<std::size_t>(std::max(1, options.precompute_chunk));
+  const std::size_t chunks = (cols.size() + chunk - 1) / chunk;
+  const auto solve_chunk = [&](std::size_t c) {
+    const std::size_t c0 = c * chunk;
     const auto nc = static_cast<Eigen::Index>(std::min<std::size_t>(chunk, cols.size() - c0));
     Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(dofs.num_free(), nc);
     for (Eigen::Index j = 0; j < nc; ++j) rhs(free_of_block[cols[c0 + j]], j) = 1.0;
-    const Eigen::MatrixXd sol = factor.solve(rhs);
+    const Eigen::MatrixXd sol = factor.solve_concurrent(rhs);
     for (Eigen::Index j = 0; j < nc; ++j)
       for (std::size_t a = 0; a < nb; ++a)
         if (free_of_block[a] >= 0) m_block(static_cast<Eigen::Index>(a), cols[c0 + j]) = sol(free_of_block[a], j);
-  }
+  };
+  const std::size_t threads = std::min<std::size_t>(static_cast<std::size_t>(std::max(1, options.precompute_threads)),
+                                                    std::max<std::size_t>(chunks, 1));
+  std::atomic<std::size_t> next{0};
+  std::vector<std::exception_ptr> failure(threads);
+  const auto worker = [&](std::size_t w) {
+    try {
+      for (std::size_t c = next++; c < chunks; c = next++) solve_chunk(c);
+    } catch (...) {
+      failure[w] = std::current_exception();
+      next = chunks;  // the others stop at their next chunk
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < threads; ++w) pool.emplace_back(worker, w);
+  worker(0);
+  for (auto& t : pool) t.join();
+  for (const auto& f : failure)
+    if (f) std::rethrow_exception(f);
   // K0⁻¹ is symmetric; the solves are to ≈1e-16 relative. Make the block exactly symmetric so a
   // cache that stores one triangle gives back the very same matrix (the loop's answer may depend
   // on the last bit of W).

@@ -48,6 +48,9 @@ struct ComplianceOptions {
   ComplianceStrategy strategy = ComplianceStrategy::AUTO;
   std::size_t memory_budget_bytes = std::size_t{512} << 20;  ///< for the dense block (default 512 MiB)
   int precompute_chunk = 64;  ///< right-hand sides per CHOLMOD solve when precomputing the block
+  /// Threads solving chunks at once when precomputing the block (≥ 1; each chunk is solved as
+  /// with one thread, so the block is the same bit for bit).
+  int precompute_threads = 2;
   /// A block saved by an earlier preparation of the same model (checked before it is used).
   std::shared_ptr<const ComplianceBlock> precomputed;
 };

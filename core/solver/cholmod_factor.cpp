@@ -199,6 +199,29 @@ Eigen::MatrixXd CholmodFactor::solve(ConstRef<Eigen::MatrixXd> B) const {
   return out;
 }
 
+Eigen::MatrixXd CholmodFactor::solve_concurrent(ConstRef<Eigen::MatrixXd> B) const {
+  BS_VERIFY(ok(), "solve_concurrent() on a factor that is not usable: " << m_message);
+  BS_VERIFY(B.rows() == m_rows,
+            "right-hand side has " << B.rows() << " rows, the factor " << m_rows);
+  cholmod_common common{};
+  cholmod_start(&common);
+  common.print = 0;
+  common.error_handler = nullptr;
+  Eigen::MatrixXd rhs = B;
+  cholmod_dense view = dense_view(rhs);
+  cholmod_dense* X = cholmod_solve(CHOLMOD_A, m_impl->factor, &view, &common);
+  if (X == nullptr) {
+    const int status = common.status;
+    cholmod_finish(&common);
+    BS_VERIFY(false, "CHOLMOD solve failed (status " << status << ")");
+  }
+  Eigen::MatrixXd out =
+      Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(X->x), B.rows(), B.cols());
+  cholmod_free_dense(&X, &common);
+  cholmod_finish(&common);
+  return out;
+}
+
 SparseMatrix CholmodFactor::solve_lower_permuted(const SparseMatrix& B) const {
   BS_VERIFY(ok(), "solve_lower_permuted() on a factor that is not usable: " << m_message);
   BS_VERIFY(B.rows() == m_rows,

@@ -53,6 +53,10 @@ class CholmodFactor {
   /// these win overload resolution. Expressions must be evaluated first (`solve(VectorXd(e))`).
   [[nodiscard]] Eigen::VectorXd solve(const Eigen::VectorXd& b) const;
   [[nodiscard]] Eigen::MatrixXd solve(const Eigen::MatrixXd& B) const;
+  /// X = A⁻¹ B like solve(), but with a CHOLMOD workspace of its own (created and freed per
+  /// call), so several threads may call it at once on one factor (CHOLMOD's solve reads the
+  /// factor only); no other method may run meanwhile. Same result as solve(), bit for bit.
+  [[nodiscard]] Eigen::MatrixXd solve_concurrent(ConstRef<Eigen::MatrixXd> B) const;
   /// Y = L⁻¹ P B for a sparse B (rows(A)×k), sparse result: then Bᵀ A⁻¹ B = Yᵀ Y.
   [[nodiscard]] SparseMatrix solve_lower_permuted(const SparseMatrix& B) const;
 

@@ -203,9 +203,13 @@ void check_extension(double extension_mm) {
 /// centres inside no tetrahedron but within margin_mm of the face planes of one take the affine
 /// extension of the tetrahedron they are least outside of (largest face-plane distance, the
 /// smallest over tetrahedra).
+/// With `exact` (and margin_mm > 0), the field without the extension (margin 0) is also
+/// stored there, from the same rasterisation: each slab is copied after the inside pass.
 VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world, const MatrixX3d& values,
-                         const Affine& outside, const ImageGeometry& g, double margin_mm, int threads) {
+                         const Affine& outside, const ImageGeometry& g, double margin_mm, int threads,
+                         VolumeF* exact = nullptr) {
   VolumeF out(g, 3, 0.0F);
+  if (exact) *exact = VolumeF(g, 3, 0.0F);
   const MatrixX3d q = map_rows(world_to_index(g), nodes_world);
   const auto tets = prepare_all(mesh, q, values, nodes_world, g.size);
   std::vector<PreparedTet> wide;
@@ -243,6 +247,11 @@ VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world
         for (int c = 0; c < 3; ++c) data[3 * v + c] = float(d[c]);
         if (extend) outside_by[std::size_t(v)] = 0.0F;
       });
+    }
+    if (exact) {
+      const std::size_t plane = std::size_t(g.size[0]) * std::size_t(g.size[1]) * 3;
+      std::copy(data + plane * std::size_t(k0), data + plane * std::size_t(k1),
+                exact->data.data() + plane * std::size_t(k0));
     }
     for (const PreparedTet& tet : wide) {
       if (tet.empty || tet.hi[2] < k0 || tet.lo[2] >= k1) continue;
@@ -353,6 +362,31 @@ VolumeF displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d> displa
   logger().debug("displacement_field: {}×{}×{} voxels, {} tets, {:.3f} s", geometry.size[0],
                  geometry.size[1], geometry.size[2], mesh.num_tets(), seconds_since(start));
   return out;
+}
+
+ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
+                                              const ImageGeometry& geometry,
+                                              const DisplacementFieldOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  BS_VERIFY(geometry.size.minCoeff() > 0,
+            "displacement_fields: the grid is empty (size " << geometry.size.transpose() << ")");
+  check_mesh_input(mesh, displacement, options.rigid, options.threads);
+  check_extension(options.extension_mm);
+  const Affine rigid_displacement{Matrix3d(options.rigid.topLeftCorner<3, 3>() - Matrix3d::Identity()),
+                                  options.rigid.topRightCorner<3, 1>()};
+  const MatrixX3d u = displacement;
+  ForwardDisplacementFields f;
+  if (options.extension_mm > 0.0) {
+    f.extended = rasterised_field(mesh, mesh.nodes(), u, compose(rigid_displacement, index_to_world(geometry)),
+                                  geometry, options.extension_mm, options.threads, &f.exact);
+  } else {
+    f.exact = rasterised_field(mesh, mesh.nodes(), u, compose(rigid_displacement, index_to_world(geometry)),
+                               geometry, 0.0, options.threads);
+    f.extended = f.exact;
+  }
+  logger().debug("displacement_fields: {}×{}×{} voxels, {} tets, {:.3f} s", geometry.size[0],
+                 geometry.size[1], geometry.size[2], mesh.num_tets(), seconds_since(start));
+  return f;
 }
 
 VolumeF inverse_displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,

@@ -78,6 +78,20 @@ VolumeF displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d> displa
                            const ImageGeometry& geometry,
                            const DisplacementFieldOptions& options = {});
 
+/// The forward field twice from one rasterisation: without and with the extension.
+struct ForwardDisplacementFields {
+  VolumeF exact;     ///< displacement_field() with extension_mm = 0 (the mesh's map, rigid outside)
+  VolumeF extended;  ///< displacement_field() with the options' extension_mm
+};
+
+/// displacement_field() without and with `options.extension_mm`, computed in one pass (the
+/// tetrahedra are rasterised once; the extension is then added to a copy). Both are equal,
+/// voxel for voxel, to the two separate displacement_field() calls.
+/// \throws brainshift::Error as displacement_field().
+ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
+                                              const ImageGeometry& geometry,
+                                              const DisplacementFieldOptions& options);
+
 /// The inverse displacement v(y) = φ⁻¹(y) − y sampled at the voxel centres y of a grid in the
 /// deformed space: y + v(y) is the rest point now at y. Inside a deformed tetrahedron it is exact
 /// (rasterised like warp_image(): Σ λ_a (X_a − x_a) = −Σ λ_a u_a with λ the barycentric

@@ -72,6 +72,26 @@ TEST(ComplianceOperator, DenseBlockAndSparseSolvesGiveTheSameWarpedW) {
   EXPECT_LT(tests::relative_difference(Wd, Wref), 1e-10);
 }
 
+TEST(ComplianceOperator, TheBlockIsTheSameBitForBitWithOneOrSeveralPrecomputeThreads) {
+  // prepare precomputes the block on 2 threads (chunks of right-hand sides solved at once, each
+  // with its own CHOLMOD workspace): every chunk is the same solve, so the block must not change.
+  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {3, 3, 6});
+  ComplianceOptions o;
+  o.strategy = ComplianceStrategy::DENSE_BLOCK;
+  o.precompute_chunk = 7;  // many chunks, a short last one
+  o.precompute_threads = 1;
+  const ConstrainedModel serial(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), o);
+  const Eigen::MatrixXd reference = serial.compliance().block().matrix;
+  ASSERT_GT(reference.rows(), 100);
+  for (const int threads : {2, 3, 64}) {
+    o.precompute_threads = threads;
+    const ConstrainedModel parallel(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), o);
+    const Eigen::MatrixXd block = parallel.compliance().block().matrix;
+    ASSERT_EQ(block.rows(), reference.rows());
+    EXPECT_TRUE((block.array() == reference.array()).all()) << threads << " threads";  // exactly equal
+  }
+}
+
 TEST(ComplianceOperator, AutoPicksTheSparseSolveWhenTheBlockExceedsTheBudget) {
   const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {2, 2, 4});
   ComplianceOptions tiny;

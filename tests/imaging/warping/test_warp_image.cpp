@@ -350,6 +350,43 @@ TEST(DisplacementFields, TheExtensionContinuesTheMeshMapBeyondItsSurface) {
   expect_error([&] { (void)displacement_field(mesh, c.u, g, options); }, {"extension"});
 }
 
+TEST(DisplacementFields, OnePassEqualsTheTwoSeparateFieldsVoxelForVoxel) {
+  // register writes displacement.nii.gz (no extension) and intraop_to_preop.nrrd (extended) from
+  // one rasterisation: both must equal the separate displacement_field() calls exactly (same
+  // float operations), for a non-affine displacement, a rotated grid, 1 and 3 threads.
+  const core::TetMesh mesh = test_box();
+  MatrixX3d u = affine_case(mesh).u;
+  for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) += 0.3 * mesh.nodes().row(n).array().sin().matrix();
+  const ImageGeometry g = test_grid(/*rotated=*/true);
+  DisplacementFieldOptions options;
+  options.rigid = (Eigen::Translation3d(2.0, -1.0, 0.5) * Eigen::AngleAxisd(0.05, Vector3d::UnitZ())).matrix();
+  for (const int threads : {1, 3}) {
+    SCOPED_TRACE("threads " + std::to_string(threads));
+    options.threads = threads;
+    options.extension_mm = trilinear_support_mm(g);
+    const ForwardDisplacementFields both = displacement_fields(mesh, u, g, options);
+    const VolumeF extended = displacement_field(mesh, u, g, options);
+    options.extension_mm = 0.0;
+    const VolumeF exact = displacement_field(mesh, u, g, options);
+    ASSERT_EQ(both.exact.data.size(), exact.data.size());
+    EXPECT_EQ(both.exact.data, exact.data);  // bit-identical: same operations
+    EXPECT_EQ(both.extended.data, extended.data);
+    // They differ only on the extension shell (some voxels, not none, not most).
+    std::size_t differ = 0;
+    for (std::size_t v = 0; v < exact.data.size(); v += 3)
+      differ += (exact.data[v] != extended.data[v] || exact.data[v + 1] != extended.data[v + 1] ||
+                 exact.data[v + 2] != extended.data[v + 2]);
+    EXPECT_GT(differ, 100U);
+    EXPECT_LT(differ, exact.data.size() / 3 / 4);
+    // Without an extension both are the exact field.
+    const ForwardDisplacementFields none = displacement_fields(mesh, u, g, options);
+    EXPECT_EQ(none.exact.data, exact.data);
+    EXPECT_EQ(none.extended.data, exact.data);
+  }
+  options.extension_mm = -1.0;
+  expect_error([&] { (void)displacement_fields(mesh, u, g, options); }, {"extension"});
+}
+
 TEST(CoveringGrid, CoversThePointsOnTheVoxelLatticeOfTheModel) {
   const ImageGeometry like = test_grid(/*rotated=*/true);
   MatrixX3d points(3, 3);

@@ -1,0 +1,36 @@
+#pragma once
+/// @file
+/// @brief Fast gzip compression of a whole file or buffer (RFC 1952, one member), on several
+/// threads: the data is cut into chunks, each deflated independently (raw deflate, the last
+/// one finished, the others ended on a byte boundary by a sync flush), the streams concatenated
+/// and the CRC-32s combined, so any gzip reader (zlib's gzread, Python's gzip, ITK, Slicer)
+/// reads one ordinary member. The bytes written depend only on the data and the options, not
+/// on thread timing.
+
+#include <cstddef>
+#include <filesystem>
+#include <string>
+
+namespace brainshift::imaging {
+
+/// How gzip_buffer() / gzip_file() compress.
+struct GzipOptions {
+  /// zlib level 0 (stored) … 9. Default 1 with the run-length strategy: on float volumes it
+  /// compresses as well as gzip's default level 6 in a third of the time (docs/BENCHMARKS.md).
+  int level = 1;
+  bool run_length = true;  ///< Z_RLE strategy (otherwise Z_DEFAULT_STRATEGY)
+  int threads = 2;         ///< chunks compressed in parallel (≥ 1); more only above 1 MiB each
+};
+
+/// Compresses `size` bytes at `data` into a gzip file at `target` (written directly: wrap the
+/// call in write_atomically() for an atomic file).
+/// \throws brainshift::Error (one line naming `target`) on bad options or a failed write.
+void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path& target,
+                 const GzipOptions& options = {});
+
+/// Compresses the file `source` into the gzip file `target` (see gzip_buffer()).
+/// \throws brainshift::Error naming the file that cannot be read or written.
+void gzip_file(const std::filesystem::path& source, const std::filesystem::path& target,
+               const GzipOptions& options = {});
+
+}  // namespace brainshift::imaging
