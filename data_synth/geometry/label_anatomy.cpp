@@ -116,14 +116,19 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
   a.skull_gap = o.skull_gap;
   a.base_height = o.base_height;
 
-  // The hull: closed, signed distance, smoothed; the skull: the same field shifted by the gap.
+  // The hull: closed, signed distance, smoothed. The skull: the brain closed by a larger ball
+  // (it bridges the concave notches, e.g. between the occipital lobes and the cerebellum, where
+  // a closest-point projection would jump between the two sides), grown by the gap.
   const double pad = o.skull_gap + 3.0 * o.hull_smoothing + 5.0;
-  const imaging::LabelVolume closed = o.closing_radius > 0.0 ? close_mask(mask, o.closing_radius, pad) : mask;
-  imaging::VolumeF phi = signed_distance(closed, o.closing_radius > 0.0 ? 0.0 : pad).volume();
-  if (o.hull_smoothing > 0.0) phi = imaging::filters::gaussian_filter(phi, o.hull_smoothing);
-  imaging::VolumeF skull = phi;
+  auto smooth_distance = [&](double closing) {
+    const imaging::LabelVolume closed = closing > 0.0 ? close_mask(mask, closing, pad) : mask;
+    imaging::VolumeF phi = signed_distance(closed, closing > 0.0 ? 0.0 : pad).volume();
+    if (o.hull_smoothing > 0.0) phi = imaging::filters::gaussian_filter(phi, o.hull_smoothing);
+    return phi;
+  };
+  imaging::VolumeF skull = smooth_distance(std::max(o.closing_radius, o.skull_closing_radius));
   for (float& v : skull.data) v -= float(o.skull_gap);
-  a.hull = std::make_shared<const DistanceField>(std::move(phi));
+  a.hull = std::make_shared<const DistanceField>(smooth_distance(o.closing_radius));
   a.skull = std::make_shared<const DistanceField>(std::move(skull));
 
   // Craniotomy.

@@ -5,7 +5,8 @@
 ///
 /// - Outer surface (dura-like hull): the brain (labels 1-3) closed by a ball of closing_radius
 ///   (fills sulci), as a signed distance field smoothed by a Gaussian of hull_smoothing; the
-///   skull is that surface grown by skull_gap (the truth solve's contact).
+///   skull (the truth solve's contact) is the brain closed by the larger skull_closing_radius
+///   (convex-ish: no notch for a node to flip across), smoothed the same, grown by skull_gap.
 /// - Craniotomy: a given point (projected onto the hull; more than max_craniotomy_distance from
 ///   it is an error), or by default the hull point furthest along `up` tilted 25° toward +R (the
 ///   upper convexity of the right hemisphere, off the midline fissure).
@@ -39,6 +40,7 @@ struct LabelAnatomyOptions {
   double default_tumour_radius = 10.0;    ///< mm
   double skull_gap = 2.5;                 ///< CSF layer between the hull and the skull, mm
   double closing_radius = 5.0;            ///< sulci narrower than ~2× this are filled, mm
+  double skull_closing_radius = 12.0;     ///< the skull's closing (bridges concave notches), mm
   double hull_smoothing = 1.5;            ///< Gaussian sigma on the hull's distance field, mm
   double base_height = 10.0;              ///< fixed base: boundary nodes this close to the lowest, mm
   double max_craniotomy_distance = 15.0;  ///< a given craniotomy this far from the hull at most, mm
