@@ -1,7 +1,6 @@
 #include "data_synth/truth/tled_solver.hpp"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -271,14 +270,6 @@ TledResult TledSolver::solve(const TledProblem& p, const TledOptions& o) const {
     r.estimated_error = e.error;
     r.convergence_rate = e.rate;
     streak = e.error < o.error_tolerance ? streak + 1 : 0;
-    if (it % 2000 == 0 && std::getenv("BS_TLED_DEBUG")) {
-      Eigen::Index worst = 0;
-      (u - u_prev).rowwise().norm().maxCoeff(&worst);
-      const Vector3d X = m_rest.row(worst).transpose(), x = X + u.row(worst).transpose();
-      logger().info("TLED worst node {} X ({:.1f} {:.1f} {:.1f}) |u| {:.2f} du ({:.4f} {:.4f} {:.4f}) phi_rest {:.3f} phi {:.3f}", worst, X.x(), X.y(), X.z(), u.row(worst).norm(),
-        (u - u_prev)(worst, 0), (u - u_prev)(worst, 1), (u - u_prev)(worst, 2),
-        p.contact && p.contact->hull ? p.contact->hull->value(X) : 0.0, p.contact && p.contact->hull ? p.contact->hull->value(x) : 0.0);
-    }
     if (it % 2000 == 0)
       logger().debug("TLED step {}: increment {:.3e} mm, error {:.3e} mm, rate {:.6f}, lambda_min {:.3e}",
                      it, increments.back(), e.error, e.rate, lambda_min);
