@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <ctime>
 #include <fstream>
+#include <iostream>
 #include <iomanip>
 #include <map>
 #include <optional>
@@ -23,6 +25,7 @@
 #include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "data_synth/cases/case_catalog.hpp"
+#include "data_synth/cases/label_case.hpp"
 #include "data_synth/cases/phantom_case.hpp"
 #include "imaging/evaluation/calibration.hpp"
 #include "imaging/evaluation/metrics.hpp"
@@ -136,11 +139,28 @@ struct CaseData {
   imaging::LandmarkPairs truth;  ///< a: pre-operative, b: intra-operative landmarks
 };
 
-CaseData make_case(const std::string& name, std::uint32_t seed, const std::filesystem::path& dir) {
+/// The cases on real anatomy (ICBM152, issue 18): the named recipe after the prefix on the brain
+/// of REAL_DATA/icbm152/labels.nii.gz, default craniotomy and tumour.
+const std::vector<std::string> real_anatomy_cases = {"icbm_standard", "icbm_offset_20mm"};
+bool is_real_anatomy_case(const std::string& name) { return name.rfind("icbm_", 0) == 0; }
+std::filesystem::path icbm_labels(const std::filesystem::path& real_data) {
+  return real_data / "icbm152" / "labels.nii.gz";
+}
+
+CaseData make_case(const std::string& name, std::uint32_t seed, const std::filesystem::path& dir,
+                   const std::filesystem::path& real_data) {
   std::filesystem::create_directories(dir.parent_path());
   data_synth::CaseOptions co;
   co.out = dir;
-  (void)data_synth::generate_case(name, seed, co);
+  if (is_real_anatomy_case(name)) {
+    data_synth::LabelCaseRequest r;
+    r.labels = icbm_labels(real_data);
+    r.case_name = name.substr(5);
+    r.seed = seed;
+    (void)data_synth::generate_label_case(r, co);
+  } else {
+    (void)data_synth::generate_case(name, seed, co);
+  }
   CaseData c{name, dir, {}};
   const imaging::Landmarks pre = imaging::read_landmarks(dir / "truth/landmarks_preop.csv");
   const imaging::Landmarks intra = imaging::read_landmarks(dir / "truth/landmarks_intraop.csv");
@@ -574,6 +594,9 @@ CLI::App* add_bench_command(CLI::App& app, BenchArgs& args) {
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
   c->add_flag("--keep-work", args.keep_work, "keep DIR/work (phantoms and models)");
+  c->add_option("--real-data", args.real_data,
+                "real data folder: the icbm_* cases read DIR/icbm152/labels.nii.gz and are skipped when it is "
+                "absent (default: $BRAINSHIFT_DATA, else ../shared/data)");
   c->add_option("--out", args.out, "output folder DIR (results.csv, results.json, results.md, pareto.png)")->required();
   return c;
 }
@@ -582,10 +605,26 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
   const Progress progress("bench");
   verify_output_folder(args.out);
   std::vector<std::string> cases = args.cases;
-  const auto& known = data_synth::case_names();
+  std::vector<std::string> known = data_synth::case_names();
+  known.insert(known.end(), real_anatomy_cases.begin(), real_anatomy_cases.end());
   for (const auto& c : cases)
     BS_VERIFY(std::find(known.begin(), known.end(), c) != known.end(), "bench: unknown case '" << c << "'");
   if (cases.empty()) cases = args.quick ? std::vector<std::string>{"standard"} : known;
+  std::filesystem::path real_data = args.real_data;
+  if (real_data.empty()) {
+    const char* env = std::getenv("BRAINSHIFT_DATA");
+    real_data = env && *env ? std::filesystem::path(env) : std::filesystem::path("../shared/data");
+  }
+  std::vector<std::string> skipped;
+  if (!std::filesystem::is_regular_file(icbm_labels(real_data))) {
+    for (const auto& c : cases)
+      if (is_real_anatomy_case(c)) {
+        skipped.push_back(c);
+        std::cerr << "brainshift bench: skipping " << c << ": " << icbm_labels(real_data).string()
+                  << " is absent (--real-data DIR)\n";
+      }
+    std::erase_if(cases, is_real_anatomy_case);
+  }
   const bool do_cases = args.suite != "sweeps", do_sweeps = args.suite != "cases";
 
   std::vector<Row> rows;
@@ -594,6 +633,7 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
                          {"quick", args.quick},
                          {"repeat", args.repeat},
                          {"suite", args.suite},
+                         {"skipped", skipped},
                          {"note", "times are wall seconds of this process (2 threads at most); peak_rss_mib is the "
                                   "process's high-water mark during the run (kernel VmHWM, reset before each run)"}};
   write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
@@ -603,7 +643,7 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
     auto case_data = [&](const std::string& name) -> const CaseData& {
       if (!made.count(name)) {
         progress.stage("phantom '" + name + "' (seed " + std::to_string(args.seed) + ")");
-        made.emplace(name, make_case(name, args.seed, work / name / "phantom"));
+        made.emplace(name, make_case(name, args.seed, work / name / "phantom", real_data));
       }
       return made.at(name);
     };

@@ -9,6 +9,7 @@
 #include <iosfwd>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace CLI {
 class App;
@@ -23,6 +24,11 @@ struct PhantomArgs {
   std::optional<std::filesystem::path> vessels;      ///< user tree (.vtp polylines)
   int frames = 0;                                    ///< intra-operative sequence length
   std::filesystem::path out;                         ///< DIR: new or empty
+  /// A label volume (0 background, 1 brain, 2 tumour, 3 ventricles): the case's recipe on its
+  /// brain instead of the analytic phantom (data_synth/cases/label_case.hpp).
+  std::optional<std::filesystem::path> labels;
+  std::vector<double> tumour;      ///< X,Y,Z,RADIUS (mm, world RAS), with --labels
+  std::vector<double> craniotomy;  ///< X,Y,Z (mm, world RAS), with --labels
 };
 
 /// Registers the `phantom` subcommand on `app`. `args` is not owned and must outlive `app`.
@@ -32,7 +38,8 @@ CLI::App* add_phantom_command(CLI::App& app, PhantomArgs& args);
 /// @return 0 on success (the truth solve converged), 2 when it stopped without converging (the
 /// case is written anyway and says so in case.json).
 /// \throws brainshift::Error, one line, for bad inputs (unknown case name listing the valid
-/// ones, existing non-empty DIR, unreadable vessel file).
+/// ones, existing non-empty DIR, unreadable vessel file; with --labels: unreadable labels, no
+/// brain, a tumour or craniotomy outside the brain, --tumour/--craniotomy without --labels).
 int run_phantom(const PhantomArgs& args, std::ostream& out);
 
 }  // namespace brainshift::apps

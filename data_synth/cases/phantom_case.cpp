@@ -11,6 +11,7 @@
 
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "data_synth/cases/case_anatomy.hpp"
 #include "data_synth/cases/case_outputs.hpp"
 #include "data_synth/truth/truth_field.hpp"
 #include "data_synth/vessels/tree_graph.hpp"
@@ -35,30 +36,22 @@ void say(const CaseOptions& o, const std::string& message) {
   if (o.progress) o.progress(message);
 }
 
-/// The truth mesh; for a resection the tumour elements become a soft compressible cavity.
-PhantomMesh case_mesh(const CaseParameters& p) {
-  PhantomMesh pm = make_phantom_mesh(p.geometry, p.mesh);
-  if (!p.resection) return pm;
-  Eigen::VectorXd E = pm.mesh.youngs_modulus(), nu = pm.mesh.poisson_ratio();
-  for (index_t t = 0; t < pm.mesh.num_tets(); ++t)
-    if (pm.tet_labels[std::size_t(t)] == imaging::TUMOUR) {
-      E[t] = p.cavity_youngs_modulus;
-      nu[t] = p.cavity_poisson_ratio;
-    }
-  pm.mesh = core::TetMesh(pm.mesh.nodes(), pm.mesh.tets(), E, nu);
-  return pm;
-}
-
 /// One deformed state: the solve and its field.
 struct TruthState {
   TledResult result;
   std::unique_ptr<TruthField> field;
 };
 
-TruthState solve_truth(const CaseParameters& p, const PhantomMesh& pm, const TledSolver& solver,
+TruthState solve_truth(const CaseParameters& p, const CaseAnatomy& an, const TledSolver& solver,
                        const SagLoad& load) {
+  const PhantomMesh& pm = an.mesh;
+  TledProblem problem;
+  problem.external_force = sag_nodal_force(pm.mesh, load);
+  for (const index_t i : pm.base_nodes) problem.constraints.push_back({i, {true, true, true}, Vector3d::Zero()});
+  problem.contact = an.contact;
+  problem.contact->candidate_nodes = pm.surface_nodes;
   TruthState s;
-  s.result = solver.solve(make_sag_problem(p.geometry, pm, load), p.tled);
+  s.result = solver.solve(problem, p.tled);
   BS_VERIFY(s.result.status != TledStatus::DIVERGED,
             "the truth solve of case '" << p.name << "' diverged: " << s.result.message);
   if (s.result.status != TledStatus::CONVERGED)
@@ -69,10 +62,9 @@ TruthState solve_truth(const CaseParameters& p, const PhantomMesh& pm, const Tle
 
 /// The probe on the deformed cortex under the craniotomy, pressed in by probe_indent, looking
 /// along the inward normal of the rest surface there.
-Probe place_probe(const CaseParameters& p, const TruthField& field) {
-  const Ellipsoid brain = p.geometry.brain_ellipsoid();
-  const Vector3d cc = p.geometry.craniotomy_center_on_brain();
-  const Vector3d n = brain.normal(cc);
+Probe place_probe(const CaseParameters& p, const CaseAnatomy& an, const TruthField& field) {
+  const Vector3d cc = an.shape.craniotomy_center;
+  const Vector3d n = an.shape.surface_normal(cc);
   constexpr double inside = 0.5;  // mm: sample the field just inside the surface
   const Vector3d surface = field.deform(cc - inside * n) + inside * n;
   return make_probe(surface - p.probe_indent * n, -n, p.probe);
@@ -86,7 +78,7 @@ VesselTree deformed(const VesselTree& tree, const TruthField& field) {
 }
 
 /// Landmarks (rest positions): tree bifurcations that land in the field of view, then points around the tumour along ±R, ±A, ±S.
-std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const VesselTree& tree,
+std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const CaseAnatomy& an, const VesselTree& tree,
                                        const TruthField& field, const Probe& probe,
                                        index_t& vessel_count) {
   std::vector<Vector3d> out;
@@ -96,11 +88,11 @@ std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const VesselTree
     if (u && probe.in_field_of_view(X + *u)) out.push_back(X);
   }
   vessel_count = index_t(out.size());
-  const double r = p.geometry.tumour_radius + p.deep_landmark_offset;
+  const double r = an.shape.tumour_radius + p.deep_landmark_offset;
   for (int axis = 0; axis < 3; ++axis)
     for (const double sign : {-1.0, 1.0}) {
-      const Vector3d X = p.geometry.tumour_center() + sign * r * Vector3d::Unit(axis);
-      if (p.geometry.label_at(X) == imaging::BRAIN && field.try_displacement_at(X)) out.push_back(X);
+      const Vector3d X = an.shape.tumour_center + sign * r * Vector3d::Unit(axis);
+      if (an.shape.label_at(X) == imaging::BRAIN && field.try_displacement_at(X)) out.push_back(X);
     }
   return out;
 }
@@ -111,16 +103,17 @@ std::vector<Vector3d> deform_points(const std::vector<Vector3d>& X, const TruthF
   return x;
 }
 
-ShiftStats shift_stats(const CaseParameters& p, const PhantomMesh& pm, const MatrixX3d& u,
-                       const std::vector<Vector3d>& pre, const std::vector<Vector3d>& intra) {
+ShiftStats shift_stats(const CaseAnatomy& an, const MatrixX3d& u, const std::vector<Vector3d>& pre,
+                       const std::vector<Vector3d>& intra) {
   ShiftStats s;
-  const Vector3d cc = p.geometry.craniotomy_center_on_brain();
+  const PhantomMesh& pm = an.mesh;
+  const Vector3d cc = an.shape.craniotomy_center;
   double sum = 0.0;
   int count = 0;
   for (const index_t i : pm.surface_nodes) {
     const double d = u.row(i).norm();
     s.max_cortical_shift = std::max(s.max_cortical_shift, d);
-    if ((pm.mesh.nodes().row(i).transpose() - cc).norm() <= p.geometry.craniotomy_radius) {
+    if ((pm.mesh.nodes().row(i).transpose() - cc).norm() <= an.shape.craniotomy_radius) {
       sum += d;
       ++count;
     }
@@ -150,10 +143,10 @@ std::vector<Vector3d> in_truth_frame(const CaseParameters& p, const Probe& probe
 }
 
 /// Doppler and B-mode of one deformed state into `dir`; the headers carry the tracking error.
-void write_ultrasound(const CaseParameters& p, const VesselTree& tree, const TruthField& field,
-                      const Probe& probe, const fs::path& dir) {
+void write_ultrasound(const CaseParameters& p, const CaseAnatomy& an, const VesselTree& tree,
+                      const TruthField& field, const Probe& probe, const fs::path& dir) {
   const imaging::ImageGeometry grid = probe.grid();
-  const imaging::LabelVolume labels = deformed_labels(field, p.geometry, grid, p.resection);
+  const imaging::LabelVolume labels = deformed_labels(field, an.image_label, grid, p.resection);
   imaging::VolumeF doppler = make_doppler(probe, deformed(tree, field), labels, p.doppler);
   imaging::VolumeF bmode = make_bmode(probe, labels, p.bmode);
   if (!p.tracking.is_zero()) {
@@ -164,15 +157,9 @@ void write_ultrasound(const CaseParameters& p, const VesselTree& tree, const Tru
   imaging::write_volume(dir / "bmode.nii.gz", bmode);
 }
 
-json parameters_json(const CaseParameters& p) {
-  const PhantomGeometry& g = p.geometry;
+json parameters_json(const CaseParameters& p, const CaseAnatomy& an) {
   return {
-      {"geometry",
-       {{"center_mm", to_json(g.center)}, {"semi_axes_mm", to_json(g.semi_axes)},
-        {"base_depth", g.base_depth}, {"tumour_center_mm", to_json(g.tumour_center())},
-        {"tumour_radius_mm", g.tumour_radius}, {"ventricle_scale", g.ventricle_scale},
-        {"craniotomy_center_mm", to_json(g.craniotomy_center_on_brain())},
-        {"craniotomy_radius_mm", g.craniotomy_radius}, {"skull_gap_mm", g.skull_gap}}},
+      {"geometry", an.geometry},
       {"truth_mesh",
        {{"cell_size_mm", p.mesh.cell_size}, {"brain_youngs_modulus_kPa", p.mesh.brain_youngs_modulus},
         {"tumour_youngs_modulus_kPa", p.mesh.tumour_youngs_modulus},
@@ -211,7 +198,7 @@ fs::path temporary_sibling(const fs::path& dir) {
 }
 
 /// Everything of one case into `root` (a fresh folder).
-CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::path& root) {
+CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const CaseOptions& o, const fs::path& root) {
   const auto t0 = Clock::now();
   CaseSummary summary;
   summary.name = p.name;
@@ -221,14 +208,15 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
   say(o, "vessels");
   VesselTree tree;
   if (o.user_vessels) {
-    tree = place_user_tree(from_vessel_graph(imaging::read_skeleton_vtp(*o.user_vessels)), p.geometry);
+    BS_VERIFY(an.analytic, "a user vessel tree (--vessels) can only be placed into the analytic phantom");
+    tree = place_user_tree(from_vessel_graph(imaging::read_skeleton_vtp(*o.user_vessels)), *an.analytic);
   } else {
-    tree = make_vessel_tree(p.geometry, p.vessels);
+    tree = make_vessel_tree(an.shape, p.vessels);
   }
   summary.vessel_points = tree.size();
 
   say(o, "pre-operative images");
-  const imaging::LabelVolume labels = case_labels(p);
+  const imaging::LabelVolume& labels = an.labels;
   imaging::write_labels(root / "preop/labels.nii.gz", labels);
   imaging::write_volume(root / "preop/mri.nii.gz", make_mri(labels, p.mri));
   imaging::write_volume(root / "preop/mra.nii.gz", make_mra(labels, tree, p.mra));
@@ -236,9 +224,9 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
 
   say(o, "truth solve");
   const auto t_solve = Clock::now();
-  const PhantomMesh pm = case_mesh(p);
+  const PhantomMesh& pm = an.mesh;
   const TledSolver solver(pm.mesh);
-  const TruthState truth = solve_truth(p, pm, solver, p.load);
+  const TruthState truth = solve_truth(p, an, solver, p.load);
   const double solve_seconds = seconds_since(t_solve);
   summary.solver_status = truth.result.status;
   summary.solver_message = truth.result.message;
@@ -246,9 +234,9 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
   say(o, "truth field, landmarks, surfaces");
   imaging::write_volume(root / "truth/displacement.nii.gz",
                         truth.field->displacement_image(labels.geometry));
-  const Probe probe = place_probe(p, *truth.field);
+  const Probe probe = place_probe(p, an, *truth.field);
   const std::vector<Vector3d> pre =
-      choose_landmarks(p, tree, *truth.field, probe, summary.vessel_landmarks);
+      choose_landmarks(p, an, tree, *truth.field, probe, summary.vessel_landmarks);
   const std::vector<Vector3d> intra = deform_points(pre, *truth.field);
   summary.landmarks = index_t(pre.size());
   write_landmarks_csv(root / "truth/landmarks_preop.csv", pre);
@@ -261,27 +249,27 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
   }
   write_surface_vtp(root / "truth/ventricles_preop.vtp", ventricles.vertices, ventricles.faces);
   write_surface_vtp(root / "truth/ventricles_intraop.vtp", moved, ventricles.faces);
-  summary.stats = shift_stats(p, pm, truth.result.displacement, pre, intra);
+  summary.stats = shift_stats(an, truth.result.displacement, pre, intra);
 
   say(o, "intra-operative ultrasound");
-  write_ultrasound(p, tree, *truth.field, probe, root / "intraop");
+  write_ultrasound(p, an, tree, *truth.field, probe, root / "intraop");
 
   json frames = json::array();
   for (int k = 1; k <= o.frames; ++k) {
     say(o, "frame " + std::to_string(k) + "/" + std::to_string(o.frames));
     SagLoad load = p.load;
     load.drain_depth = p.load.drain_depth * double(k) / double(o.frames);
-    const TruthState state = k == o.frames ? TruthState{} : solve_truth(p, pm, solver, load);
+    const TruthState state = k == o.frames ? TruthState{} : solve_truth(p, an, solver, load);
     const TruthField& field = k == o.frames ? *truth.field : *state.field;
     std::ostringstream name;
     name << "frame_" << std::setw(3) << std::setfill('0') << (k - 1);
     const fs::path dir = root / "intraop" / name.str();
     fs::create_directories(dir);
-    const Probe frame_probe = place_probe(p, field);
-    write_ultrasound(p, tree, field, frame_probe, dir);
+    const Probe frame_probe = place_probe(p, an, field);
+    write_ultrasound(p, an, tree, field, frame_probe, dir);
     const std::vector<Vector3d> x = deform_points(pre, field);
     write_landmarks_csv(dir / "landmarks_intraop.csv", in_truth_frame(p, frame_probe, x));
-    const ShiftStats s = shift_stats(p, pm, field.nodal_displacement(), pre, x);
+    const ShiftStats s = shift_stats(an, field.nodal_displacement(), pre, x);
     summary.frames.push_back(s);
     frames.push_back({{"frame", k - 1}, {"drain_depth_mm", load.drain_depth}, {"stats", to_json(s)}});
   }
@@ -292,7 +280,7 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
       {"seed", p.seed},
       {"generator", "brainshift data_synth (neo-Hookean TLED truth)"},
       {"frame", "world RAS, mm"},
-      {"parameters", parameters_json(p)},
+      {"parameters", parameters_json(p, an)},
       {"user_vessels", o.user_vessels ? o.user_vessels->string() : ""},
       {"stats", to_json(summary.stats)},
       {"frames", frames},
@@ -313,6 +301,37 @@ CaseSummary write_case(const CaseParameters& p, const CaseOptions& o, const fs::
 }
 
 }  // namespace
+
+void apply_resection(const CaseParameters& p, PhantomMesh& pm) {
+  if (!p.resection) return;
+  Eigen::VectorXd E = pm.mesh.youngs_modulus(), nu = pm.mesh.poisson_ratio();
+  for (index_t t = 0; t < pm.mesh.num_tets(); ++t)
+    if (pm.tet_labels[std::size_t(t)] == imaging::TUMOUR) {
+      E[t] = p.cavity_youngs_modulus;
+      nu[t] = p.cavity_poisson_ratio;
+    }
+  pm.mesh = core::TetMesh(pm.mesh.nodes(), pm.mesh.tets(), E, nu);
+}
+
+CaseAnatomy analytic_anatomy(const CaseParameters& p) {
+  const PhantomGeometry& g = p.geometry;
+  CaseAnatomy an;
+  an.shape = brain_shape(g);
+  an.image_label = [g](const Vector3d& X) { return g.label_at(X); };
+  an.labels = case_labels(p);
+  an.mesh = make_phantom_mesh(g, p.mesh);
+  apply_resection(p, an.mesh);
+  an.contact.skull = g.skull();
+  an.contact.opening_center = g.craniotomy_center_on_skull();
+  an.contact.opening_radius = g.craniotomy_radius;
+  an.geometry = {{"center_mm", to_json(g.center)}, {"semi_axes_mm", to_json(g.semi_axes)},
+                 {"base_depth", g.base_depth}, {"tumour_center_mm", to_json(g.tumour_center())},
+                 {"tumour_radius_mm", g.tumour_radius}, {"ventricle_scale", g.ventricle_scale},
+                 {"craniotomy_center_mm", to_json(g.craniotomy_center_on_brain())},
+                 {"craniotomy_radius_mm", g.craniotomy_radius}, {"skull_gap_mm", g.skull_gap}};
+  an.analytic = g;
+  return an;
+}
 
 imaging::LabelVolume case_labels(const CaseParameters& p) {
   PhantomImageOptions io;
@@ -346,6 +365,11 @@ CaseSummary generate_case(const std::string& name, std::uint32_t seed, const Cas
 }
 
 CaseSummary generate_case(const CaseParameters& parameters, const CaseOptions& options) {
+  check_case_options(options);
+  return generate_case(parameters, analytic_anatomy(parameters), options);
+}
+
+void check_case_options(const CaseOptions& options) {
   BS_VERIFY(!options.out.empty(), "no output folder given");
   BS_VERIFY(options.frames >= 0, "frames must be >= 0, got " << options.frames);
   const fs::path dir = fs::absolute(options.out);
@@ -356,9 +380,14 @@ CaseSummary generate_case(const CaseParameters& parameters, const CaseOptions& o
   if (options.user_vessels)
     BS_VERIFY(fs::is_regular_file(*options.user_vessels),
               "vessel file " << options.user_vessels->string() << " does not exist");
+}
+
+CaseSummary generate_case(const CaseParameters& parameters, const CaseAnatomy& anatomy, const CaseOptions& options) {
+  check_case_options(options);
+  const fs::path dir = fs::absolute(options.out);
   const fs::path tmp = temporary_sibling(dir);
   try {
-    CaseSummary summary = write_case(parameters, options, tmp);
+    CaseSummary summary = write_case(parameters, anatomy, options, tmp);
     if (fs::exists(dir)) fs::remove(dir);  // empty, checked above
     fs::rename(tmp, dir);
     return summary;

@@ -70,6 +70,18 @@ CaseSummary generate_case(const std::string& name, std::uint32_t seed, const Cas
 /// Generates a case from explicit parameters (see named_case()).
 CaseSummary generate_case(const CaseParameters& parameters, const CaseOptions& options);
 
+struct CaseAnatomy;  // case_anatomy.hpp
+
+/// Generates a case from explicit parameters on a given anatomy (analytic_anatomy(), or a label
+/// volume's: label_case.hpp); parameters.geometry is not used then.
+CaseSummary generate_case(const CaseParameters& parameters, const CaseAnatomy& anatomy,
+                          const CaseOptions& options);
+
+/// The checks of generate_case on the options alone (output folder new or empty, its parent
+/// present, frames ≥ 0, the user tree exists), before anything is computed or written.
+/// \throws brainshift::Error, one line.
+void check_case_options(const CaseOptions& options);
+
 /// The label volume of a case: the phantom's, plus the thin structures when asked for.
 imaging::LabelVolume case_labels(const CaseParameters& parameters);
 

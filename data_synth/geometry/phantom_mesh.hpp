@@ -17,7 +17,9 @@
 /// E a tenth of the brain's by default) rather than holes, so the mesh stays simply connected and
 /// the CSF inside cannot collapse.
 
+#include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -52,5 +54,29 @@ struct PhantomMesh {
 /// Builds the mesh. \throws brainshift::Error on invalid geometry or options, or when the mesh
 /// would be empty (cell size larger than the brain).
 PhantomMesh make_phantom_mesh(const PhantomGeometry& geometry, const PhantomMeshOptions& options = {});
+
+// --- building blocks of voxel truth meshes (also used by label_anatomy.hpp) ------------------
+
+/// Cubes of edge h on the grid origin + h·(i, j, k), 0 ≤ (i, j, k) < cells, kept where
+/// inside(cube centre), each split into five positively oriented tetrahedra.
+struct CubeTets {
+  MatrixX3d nodes;                             ///< #N×3 grid positions of the kept cubes' corners, mm
+  std::vector<std::array<index_t, 4>> tets;    ///< #T
+  std::vector<Eigen::Vector3i> ijk;            ///< #N grid index of each node
+  std::vector<char> boundary;                  ///< #N 1 on a face of a kept cube with no kept neighbour
+};
+CubeTets make_cube_tets(const Vector3d& origin, double h, const Eigen::Vector3i& cells,
+                        const std::function<bool(const Vector3d&)>& inside);
+
+/// While a tetrahedron of `nodes` is thinner than min_fraction of its `rest` volume, undoes the
+/// largest snap among its nodes (`snapped` flags, updated).
+void undo_flattening_snaps(const MatrixX3d& rest, const std::vector<std::array<index_t, 4>>& tets,
+                           double min_fraction, MatrixX3d& nodes, std::vector<char>& snapped);
+
+/// Labels and materials by the label at each tetrahedron's centroid (background → brain); sets
+/// out.mesh (validated) and out.tet_labels.
+void assign_materials(MatrixX3d nodes, const std::vector<std::array<index_t, 4>>& tets,
+                      const std::function<imaging::Label(const Vector3d&)>& label_at,
+                      const PhantomMeshOptions& options, PhantomMesh& out);
 
 }  // namespace brainshift::data_synth

@@ -31,13 +31,19 @@ std::string BmodeOptions::validate() const {
 
 imaging::LabelVolume deformed_labels(const TruthField& truth, const PhantomGeometry& geometry,
                                      const imaging::ImageGeometry& grid, bool resected) {
+  return deformed_labels(truth, [&](const Vector3d& X) { return geometry.label_at(X); }, grid, resected);
+}
+
+imaging::LabelVolume deformed_labels(const TruthField& truth,
+                                     const std::function<imaging::Label(const Vector3d&)>& label_at,
+                                     const imaging::ImageGeometry& grid, bool resected) {
   imaging::LabelVolume labels(grid, 1, imaging::BACKGROUND);
   const MatrixX3d& rest = truth.rest_nodes();
   const MatrixX4i& tets = truth.tets();
   rasterize_tets(truth.deformed_nodes(), tets, grid, [&](std::int64_t v, index_t t, const Vector4d& w) {
     Vector3d X = Vector3d::Zero();
     for (int a = 0; a < 4; ++a) X += w[a] * rest.row(tets(t, a)).transpose();
-    imaging::Label l = geometry.label_at(X);
+    imaging::Label l = label_at(X);
     if (l == imaging::BACKGROUND) l = imaging::BRAIN;  // truth-mesh slivers outside the ellipsoid
     if (resected && l == imaging::TUMOUR) l = imaging::BACKGROUND;
     labels.data[std::size_t(v)] = l;

@@ -6,6 +6,7 @@
 /// carries signal (exactly 0). Intensities in [0, 255] (arbitrary units).
 
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "data_synth/geometry/brain_phantom.hpp"
@@ -20,6 +21,10 @@ namespace brainshift::data_synth {
 /// mapped back to its rest position X (barycentric) and takes geometry.label_at(X); voxels
 /// outside the deformed brain are 0. With `resected`, tumour voxels become 0 (a fluid cavity).
 imaging::LabelVolume deformed_labels(const TruthField& truth, const PhantomGeometry& geometry,
+                                     const imaging::ImageGeometry& grid, bool resected);
+/// The same with the rest labels of any anatomy (e.g. a label volume).
+imaging::LabelVolume deformed_labels(const TruthField& truth,
+                                     const std::function<imaging::Label(const Vector3d&)>& label_at,
                                      const imaging::ImageGeometry& grid, bool resected);
 
 struct DopplerOptions {

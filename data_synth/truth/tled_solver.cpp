@@ -57,11 +57,19 @@ index_t enforce_contact(const SkullContact& sc, const std::vector<index_t>& cand
   index_t count = 0;
   for (const index_t i : candidates) {
     const Vector3d x = X.row(i).transpose() + u_next.row(i).transpose();
-    if (sc.skull.level(x) <= 1.0) continue;
-    const Vector3d q = sc.skull.closest_point(x);
+    Vector3d q, n;
+    if (sc.hull) {
+      const double rest = std::max(0.0, sc.hull->value(X.row(i).transpose()));
+      if (sc.hull->value(x) <= rest) continue;
+      q = sc.hull->closest_point(x, rest);
+      n = sc.hull->normal(q);
+    } else {
+      if (sc.skull.level(x) <= 1.0) continue;
+      q = sc.skull.closest_point(x);
+      n = sc.skull.normal(q);
+    }
     if (sc.opening_radius > 0.0 && (q - sc.opening_center).norm() < sc.opening_radius) continue;
     u_next.row(i) = (q - X.row(i).transpose()).transpose();
-    const Vector3d n = sc.skull.normal(q);
     const Vector3d d = (u_next.row(i) - u.row(i)).transpose();
     const double dn = d.dot(n);
     // Velocity for the next step is u_next − u_prev_out: keep only its tangential part.

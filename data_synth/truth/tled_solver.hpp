@@ -21,15 +21,19 @@
 ///
 /// Contact: frictionless, kinematic (Joldes et al. 2009): a candidate node that leaves the rigid
 /// skull ellipsoid (outside its opening) is put back on the closest skull point and its outward
-/// normal velocity is removed.
+/// normal velocity is removed. With a hull (a distance field: the skull of a label anatomy) the
+/// skull is its zero level instead; a node that rests outside it (a stair corner of the voxel
+/// truth mesh) may not move further out than where it rests.
 
 #include <array>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "data_synth/geometry/distance_field.hpp"
 #include "data_synth/geometry/ellipsoid.hpp"
 #include "data_synth/truth/neo_hookean.hpp"
 
@@ -45,7 +49,10 @@ struct NodeConstraint {
 /// Rigid skull with an opening (the craniotomy): nodes may not leave the ellipsoid except
 /// where the closest skull point is within opening_radius of opening_center.
 struct SkullContact {
-  Ellipsoid skull;                            ///< world RAS mm
+  Ellipsoid skull;                            ///< world RAS mm (unused with a hull)
+  /// The skull as the zero level of a signed distance field (mm, negative inside) instead of the
+  /// ellipsoid: the brain's outer surface grown by the CSF gap (label anatomies).
+  std::shared_ptr<const DistanceField> hull;
   Vector3d opening_center = Vector3d::Zero(); ///< on the skull, mm
   double opening_radius = 0.0;                ///< mm, ≥ 0 (0: closed skull)
   std::vector<index_t> candidate_nodes;       ///< nodes that can touch the skull (empty: all)

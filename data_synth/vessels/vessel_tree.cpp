@@ -87,8 +87,7 @@ struct BranchJob {
 
 class TreeGrower {
  public:
-  TreeGrower(const PhantomGeometry& g, const VesselTreeOptions& o)
-      : m_g(g), m_o(o), m_rng(o.seed), m_brain(g.brain_ellipsoid()) {}
+  TreeGrower(const BrainShape& g, const VesselTreeOptions& o) : m_g(g), m_o(o), m_rng(o.seed) {}
 
   VesselTree grow() {
     for (int t = 0; t < m_o.cortical_trees; ++t) grow_cortical_tree(t);
@@ -103,22 +102,21 @@ class TreeGrower {
   static double deg(double d) { return d * std::numbers::pi / 180.0; }
 
   [[nodiscard]] bool valid(const Vector3d& p) const {
-    return m_g.inside_brain(p) && m_g.label_at(p) == imaging::BRAIN &&
-           (p - m_g.tumour_center()).norm() >= m_g.tumour_radius + 1.0 &&
-           p.z() >= m_g.base_level() + 3.0;
+    return m_g.label_at(p) == imaging::BRAIN &&
+           (p - m_g.tumour_center).norm() >= m_g.tumour_radius + 1.0 && p.z() >= m_g.base_level + 3.0;
   }
 
   /// Unit normal of the guide surface near p (outward).
   [[nodiscard]] Vector3d guide_normal(const Vector3d& p, const Guide& guide) const {
-    if (guide.cortical) return m_brain.normal(m_brain.closest_point(p));
-    return (p - m_g.tumour_center()).normalized();
+    if (guide.cortical) return m_g.surface_normal(m_g.closest_surface_point(p));
+    return (p - m_g.tumour_center).normalized();
   }
   [[nodiscard]] Vector3d project(const Vector3d& q, const Guide& guide) const {
     if (guide.cortical) {
-      const Vector3d c = m_brain.closest_point(q);
-      return c - guide.offset * m_brain.normal(c);
+      const Vector3d c = m_g.closest_surface_point(q);
+      return c - guide.offset * m_g.surface_normal(c);
     }
-    const Vector3d tc = m_g.tumour_center();
+    const Vector3d tc = m_g.tumour_center;
     return tc + (m_g.tumour_radius + guide.offset) * (q - tc).normalized();
   }
 
@@ -137,8 +135,8 @@ class TreeGrower {
   }
 
   void grow_cortical_tree(int t) {
-    const Vector3d cc = m_g.craniotomy_center_on_brain();
-    const Vector3d n = m_brain.normal(cc);
+    const Vector3d cc = m_g.craniotomy_center;
+    const Vector3d n = m_g.surface_normal(cc);
     const Vector3d t1 = (Vector3d::UnitX() - Vector3d::UnitX().dot(n) * n).normalized();
     const Vector3d t2 = n.cross(t1);
     const double pi = std::numbers::pi;
@@ -215,7 +213,7 @@ class TreeGrower {
 
   /// A penetrating branch from a cortical point toward the tumour, then branching on the shell.
   void grow_deep_branch(index_t cortical_points) {
-    const Vector3d tc = m_g.tumour_center();
+    const Vector3d tc = m_g.tumour_center;
     std::vector<index_t> candidates;
     for (index_t i = 0; i < cortical_points; ++i)
       if (m_tree.generation[std::size_t(i)] <= 2 &&
@@ -260,10 +258,9 @@ class TreeGrower {
     }
   }
 
-  const PhantomGeometry& m_g;
+  const BrainShape& m_g;
   const VesselTreeOptions& m_o;
   std::mt19937 m_rng;
-  Ellipsoid m_brain;
   VesselTree m_tree;
 };
 
@@ -272,9 +269,13 @@ class TreeGrower {
 VesselTree make_vessel_tree(const PhantomGeometry& geometry, const VesselTreeOptions& options) {
   const std::string bad_geometry = geometry.validate();
   BS_VERIFY(bad_geometry.empty(), "invalid phantom geometry: " << bad_geometry);
+  return make_vessel_tree(brain_shape(geometry), options);
+}
+
+VesselTree make_vessel_tree(const BrainShape& shape, const VesselTreeOptions& options) {
   const std::string bad = options.validate();
   BS_VERIFY(bad.empty(), "invalid vessel tree options: " << bad);
-  VesselTree tree = TreeGrower(geometry, options).grow();
+  VesselTree tree = TreeGrower(shape, options).grow();
   tree.verify();
   return tree;
 }

@@ -18,6 +18,7 @@
 
 #include "core/config.hpp"
 #include "data_synth/geometry/brain_phantom.hpp"
+#include "data_synth/geometry/brain_shape.hpp"
 
 namespace brainshift::data_synth {
 
@@ -75,5 +76,9 @@ struct VesselTreeOptions {
 /// tumour; radii lie in [min_radius, max_radius].
 /// \throws brainshift::Error on invalid geometry or options.
 VesselTree make_vessel_tree(const PhantomGeometry& geometry, const VesselTreeOptions& options);
+
+/// The same on any brain shape (e.g. one from a label volume): the cortical trees follow its
+/// outer surface offset inward. \throws brainshift::Error on invalid options.
+VesselTree make_vessel_tree(const BrainShape& shape, const VesselTreeOptions& options);
 
 }  // namespace brainshift::data_synth

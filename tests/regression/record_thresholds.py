@@ -1,7 +1,13 @@
 #!/usr/bin/env python3
 """Writes tests/regression/thresholds.json from a `brainshift bench --suite cases` run.
 
-Usage: tests/regression/record_thresholds.py DIR/results.json > tests/regression/thresholds.json
+Usage: tests/regression/record_thresholds.py DIR/results.json [OLD_thresholds.json] > NEW_thresholds.json
+
+Run the bench with the real data (`--real-data ../shared/data`, the default from the project root)
+so that the ICBM152 cases (icbm_standard, icbm_offset_20mm; issue 18) are recorded too. A case the
+run skipped (results.json -> skipped: the real data were absent) keeps its entry from
+OLD_thresholds.json when given (write to a new file, then move it over the old one); without it the
+case is left out and its regression test fails with "no recorded figures" when the data are there.
 
 The recorded figures are the constraint-ICP runs (Release build, the seed of the run); the test
 allows mean TRE up to recorded x tre_factor + tre_add_mm, shift corrected down to recorded -
@@ -40,6 +46,16 @@ for r in runs["runs"]:
             # Recorded for the reader (the test asserts gap <= margin.rigid_gap_mm, not this).
             "gap_to_rigid_mm": round(r["tre_mean_mm"] - rigid[r["case"]], 3),
         }
+skipped = runs.get("skipped", [])
+if len(sys.argv) > 2:
+    old = json.load(open(sys.argv[2]))["cases"]
+    for name in skipped:
+        if name in old and name not in cases:
+            cases[name] = old[name]
+if skipped:
+    print("record_thresholds: the run skipped " + ", ".join(skipped) +
+          (" (kept from " + sys.argv[2] + ")" if len(sys.argv) > 2 else " (left out: pass the old thresholds.json)"),
+          file=sys.stderr)
 out = {
     "_comment": "Recorded by tests/regression/record_thresholds.py from `brainshift bench --suite cases` "
     f"({runs['machine']['date']}, {runs['machine']['build_type']}, seed {runs['seed']}); see that script for the margin.",

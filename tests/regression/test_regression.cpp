@@ -1,4 +1,5 @@
-// The phantom regression suite (issue 8 item 3, CTest label `regression`): every named case
+// The phantom regression suite (issue 8 item 3, CTest label `regression`): every named case, and
+// the two cases on the real ICBM152 anatomy (issue 18; skipped when ../shared/data is absent),
 // registered end to end by `brainshift bench --suite cases --cases NAME`, with thresholds on TRE
 // and shift corrected taken from the recorded figures (tests/regression/thresholds.json) plus a
 // stated margin; every run must give a finite answer with a stop reason, ours must converge, the
@@ -37,13 +38,19 @@ class PhantomCase : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
   const std::string name = GetParam();
+  // The cases on real anatomy (issue 18) read ../shared/data/icbm152: skipped when absent.
+  const bool real = name.rfind("icbm_", 0) == 0;
+  const std::filesystem::path real_data = tests::shared_data_dir;
+  if (real && !std::filesystem::exists(real_data / "icbm152/labels.nii.gz"))
+    GTEST_SKIP() << "no real data: " << (real_data / "icbm152").string() << " is absent (case " << name << ")";
   const auto& t = thresholds();
   ASSERT_TRUE(t["cases"].contains(name)) << "no recorded figures for " << name;
   const auto& rec = t["cases"][name];
   const auto& margin = t["margin"];
 
   const tests::TempFolder dir;
-  const CliRun r = run_brainshift(dir, "bench --suite cases --cases " + name + " --out " + q(dir / "b"));
+  const CliRun r = run_brainshift(dir, "bench --suite cases --cases " + name + " --real-data " + q(real_data) +
+                                          " --out " + q(dir / "b"));
   // 0: every run finite; 2 would mean a run failed or diverged.
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const auto j = read_json(dir / "b" / "results.json");
@@ -82,7 +89,7 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
 INSTANTIATE_TEST_SUITE_P(Cases, PhantomCase,
                          ::testing::Values("standard", "large_shift", "deep_tumour_one_side_vessels", "noisy_doppler",
                                            "tracking_error", "sparse_vessels", "resection", "thin_structures",
-                                           "offset_12mm", "offset_20mm"),
+                                           "offset_12mm", "offset_20mm", "icbm_standard", "icbm_offset_20mm"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
 }  // namespace
