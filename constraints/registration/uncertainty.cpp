@@ -240,7 +240,10 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
     const double set_ratio = row.set == ConstraintSet::VESSELS
                                  ? r.vessel_compliance_ratio
                                  : options.step.compliance_ratio[static_cast<std::size_t>(row.set)];
-    ratio[j] = std::max(set_ratio, uo.hard_row_ratio);
+    // ε → ∞ (the loop kept its rigid start: no compliance predicted the held-out vessels better)
+    // is read as the stiffest candidate the noise model weighed, so the rows stay finite data
+    // that barely condition the prior.
+    ratio[j] = std::max(std::isfinite(set_ratio) ? set_ratio : options.noise.max_ratio, uo.hard_row_ratio);
   }
   SparseMatrix G(dofs.num_free(), m);
   G.setFromTriplets(t.begin(), t.end());
@@ -275,8 +278,8 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   const double scale = nv.scale;
   out.exact_nodes = nv.exact_nodes;
   out.solved_nodes = nv.solved_nodes;
-  out.vessel_ratio = r.vessel_compliance_ratio;
-  out.vessel_alpha = r.vessel_compliance_ratio * scale;
+  out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio : options.noise.max_ratio;
+  out.vessel_alpha = out.vessel_ratio * scale;
   char buf[600];
   if (usable) {
     // ML scale of δ_free ~ N(0, s² (W + A)).
@@ -293,7 +296,7 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                     discrepancy ? "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))"
                                 : "by maximum likelihood (δ_free ~ N(0, s²(W + A)))",
                     static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
-                    r.vessel_compliance_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
+                    out.vessel_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
       out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
     }
   }
