@@ -60,6 +60,7 @@ for path in args.results:
             "pct": r["shift_corrected_pct"] or 0.0,
             "before": r["tre_before_mean_mm"],
             "gap": max(0.0, r["tre_mean_mm"] - rigid[(r["case"], r["seed"])]),
+            "stop": r["stop"],
             "file": path,
         })
 if not samples:
@@ -96,6 +97,13 @@ for case, by_seed in samples.items():
     spread[case] = max(max(s["tre"] for s in v) - min(s["tre"] for s in v) for v in by_seed.values())
     worst_by_seed = [max(s["tre"] for s in v) for v in by_seed.values()]
     seed_range[case] = (min(worst_by_seed), max(worst_by_seed))
+# Runs that the thresholds cannot describe, on any seed: said on stderr (the output stays valid).
+for case, by_seed in sorted(samples.items()):
+    for seed, v in sorted(by_seed.items()):
+        for smp in v:
+            if smp["stop"] != "converged" or smp["gap"] > 0.5:
+                print(f"record_thresholds.py: warning: {case} seed {seed} ({smp['file']}): stop {smp['stop']}, mean TRE "
+                      f"{smp['tre']:.3f} mm, {smp['gap']:.3f} mm worse than rigid only", file=sys.stderr)
 runs = {"machine": {"date": ", ".join(sorted(dates)), "build_type": build_types.pop()}, "seed": args.seed}
 per_case_runs = {c: {str(seed): len(v) for seed, v in sorted(by_seed.items())} for c, by_seed in samples.items()}
 
