@@ -131,13 +131,16 @@ def main():
     ap.add_argument("build_dir", type=Path, help="an existing, configured build folder (e.g. build)")
     ap.add_argument("--list", type=Path, default=ROOT / "tests" / "mutants.txt")
     ap.add_argument("--only", default="", help="comma-separated mutant names")
-    ap.add_argument("--timeout", type=int, default=120, help="seconds per test (ctest --timeout)")
+    ap.add_argument("--timeout", type=int, default=120, help="ctest --timeout: seconds for a test without its own TIMEOUT (ours all have one, "
+                    "which applies); the whole ctest call is capped at 50x this + 60 s")
     ap.add_argument("--no-baseline", action="store_true", help="skip the unmutated run of the named tests")
     ap.add_argument("--jobs", type=int, default=1)
     a = ap.parse_args()
     build_dir = a.build_dir if a.build_dir.is_absolute() else (Path.cwd() / a.build_dir)
     if not (build_dir / "CMakeCache.txt").exists():
         sys.exit(f"mutate.py: {build_dir} is not a configured build folder (no CMakeCache.txt)")
+    journal = build_dir / "mutate-journal.json"
+    restore_journal(journal)  # first of all: a run killed outright left a mutant in the worktree
     mutants = parse_list(a.list)
     if a.only:
         want = set(a.only.split(","))
@@ -145,12 +148,10 @@ def main():
         if unknown:
             sys.exit(f"mutate.py: unknown mutant(s) {sorted(unknown)} in {a.list}")
         mutants = [m for m in mutants if m["name"] in want]
-    journal = build_dir / "mutate-journal.json"
     log = build_dir / "mutate.log"
     log.write_text("")
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    restore_journal(journal)
 
     # Every mutant must apply (its text exactly once) before anything is run.
     for m in mutants:
