@@ -31,8 +31,10 @@ fi
 flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all"
 launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-# Shared cache between worktrees (paths under /work are rewritten relative): set only when unset.
-export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$(cd .. && pwd)}"
+# One cache for the main checkout and its worktrees: paths under the folder that holds the main
+# checkout are rewritten relative (the default when CCACHE_BASEDIR is unset).
+common="$(git rev-parse --path-format=absolute --git-common-dir 2> /dev/null || echo "$PWD/.git")"
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$(dirname "$(dirname "$common")")}"
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS="$flags" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
