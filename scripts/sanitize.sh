@@ -8,14 +8,15 @@
 # Usage: scripts/sanitize.sh [ctest label regex, default "unit"] [executable ...]
 #   scripts/sanitize.sh                              # every unit executable
 #   scripts/sanitize.sh unit test_core test_data_synth   # a subset of the executables
-# Environment: BS_ASAN_DIR (build folder, default build-asan), BS_JOBS (default 1: the build is
-# niced and serial so that it can run on a shared machine).
+# Environment: BS_ASAN_DIR (build folder, default build-asan), BS_JOBS (default 1) and BS_NICE
+# (default 10): the build and the tests are niced and serial so that they can run on a shared machine.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 label="${1:-unit}"
 shift || true
 build="${BS_ASAN_DIR:-build-asan}"
 jobs="${BS_JOBS:-1}"
+niceness="${BS_NICE:-10}"
 
 # The test executables carrying the label, from their bs_add_test(...) registrations.
 if [ "$#" -gt 0 ]; then
@@ -30,8 +31,12 @@ fi
 flags="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all"
 launcher=()
 command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+# One cache for the main checkout and its worktrees: paths under the folder that holds the main
+# checkout are rewritten relative (the default when CCACHE_BASEDIR is unset).
+common="$(git rev-parse --path-format=absolute --git-common-dir 2> /dev/null || echo "$PWD/.git")"
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$(dirname "$(dirname "$common")")}"
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" -DCMAKE_CXX_FLAGS="$flags" \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS="$flags" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DCMAKE_SHARED_LINKER_FLAGS="-fsanitize=address,undefined" \
   -DBS_BUILD_BENCH=OFF -DBS_TEST_TIMEOUT_SCALE=10 "${launcher[@]}"
@@ -42,8 +47,8 @@ export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:halt_on_error=1:strict_stri
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/tests/sanitize/lsan.supp:print_suppressions=0"
 echo "sanitize.sh: building ${targets[*]}"
-nice -n 19 cmake --build "$build" -j "$jobs" --target "${targets[@]}"
+nice -n "$niceness" cmake --build "$build" -j "$jobs" --target "${targets[@]}"
 
 # Executables of the label that were not built (a subset was asked for) register a
 # <name>_NOT_BUILT placeholder test: leave those out.
-nice -n 19 ctest --test-dir "$build" -L "$label" -E '_NOT_BUILT' -j "$jobs" --output-on-failure
+nice -n "$niceness" ctest --test-dir "$build" -L "$label" -E '_NOT_BUILT' -j "$jobs" --output-on-failure
