@@ -20,6 +20,8 @@ PACKAGES=(
   zlib1g-dev
   calculix-ccx           # independent FEM reference for verification tests
   gnuplot-nox            # benchmark plots
+  clang-format           # scripts/lint.sh: formatting checked by scripts/test.sh (CI)
+  clang-tidy             # scripts/lint.sh --tidy: the naming rules of .clang-tidy (on demand)
 )
 
 missing=()
