@@ -10,7 +10,7 @@
 //   brainshift register --model MODEL --doppler D.nii.gz [--bmode B.nii.gz] [--mri M.nii.gz]
 //                       [--init rigid|identity] --out RES
 //       One intra-operative registration: RES/{report.json, deformed.vtu, displacement.nii.gz,
-//       preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, overlay.png}.
+//       preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz, overlay.png[, overlay_uncertainty.png]}.
 //   brainshift replay --model MODEL --sequence DIR --out RES
 //       Every DIR/frame_*/ in order, warm-started; latency summary in RES/replay.json.
 //   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv

@@ -82,7 +82,7 @@ int run_demo(const DemoArgs& args, std::ostream& out) {
       << " mm, max " << ev["tre_before_mm"]["max"].get<double>() << " -> " << ev["tre_after_mm"]["max"].get<double>()
       << " mm); shift corrected " << ev["shift_corrected_pct"].get<double>() << " %\n";
   out << "  outputs: " << result.string() << "/{report.json, evaluation.json, deformed.vtu, displacement.nii.gz, "
-      << "preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, overlay.png}\n";
+      << "preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz, overlay.png, overlay_uncertainty.png}\n";
   out << "  inputs:  " << phantom.string() << " (phantom), " << model.string() << " (model)\n";
   if (reg_code != 0)
     out << "  note: the registration stopped without meeting its convergence test (" << report["stop"].get<std::string>()
