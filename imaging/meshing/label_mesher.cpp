@@ -32,7 +32,7 @@ using Criteria = CGAL::Mesh_criteria_3<Triangulation>;
 
 /// Background voxels added on every side, so that labels touching the border still give a closed
 /// surface (CGAL's image function is 0 beyond the outermost voxel centres).
-constexpr int PAD = 2;
+constexpr int kPad = 2;
 
 /// Counts the voxels of each label value and rejects values outside 0–3 and all-background volumes.
 void check_labels(const LabelVolume& labels) {
@@ -58,9 +58,9 @@ void check_labels(const LabelVolume& labels) {
 /// The padded label image in CGAL's format.
 CGAL::Image_3 make_image(const LabelVolume& labels) {
   const auto& g = labels.geometry;
-  const std::size_t nx = std::size_t(g.size[0] + 2 * PAD);
-  const std::size_t ny = std::size_t(g.size[1] + 2 * PAD);
-  const std::size_t nz = std::size_t(g.size[2] + 2 * PAD);
+  const std::size_t nx = std::size_t(g.size[0] + 2 * kPad);
+  const std::size_t ny = std::size_t(g.size[1] + 2 * kPad);
+  const std::size_t nz = std::size_t(g.size[2] + 2 * kPad);
   _image* im = ::_createImage(nx, ny, nz, 1, g.spacing[0], g.spacing[1], g.spacing[2], 1,
                               WK_FIXED, SGN_UNSIGNED);
   BS_VERIFY(im != nullptr, "could not allocate a " << nx << "×" << ny << "×" << nz
@@ -71,7 +71,7 @@ CGAL::Image_3 make_image(const LabelVolume& labels) {
     for (int j = 0; j < g.size[1]; ++j) {
       for (int i = 0; i < g.size[0]; ++i) {
         const std::uint8_t v = labels.at(i, j, k);
-        out[(std::size_t(k + PAD) * ny + std::size_t(j + PAD)) * nx + std::size_t(i + PAD)] = v;
+        out[(std::size_t(k + kPad) * ny + std::size_t(j + kPad)) * nx + std::size_t(i + kPad)] = v;
       }
     }
   }
@@ -184,8 +184,8 @@ MeshingResult to_tet_mesh(const Complex& c3t3, const ImageGeometry& g,
     if (it == node_of.end()) continue;
     it->second = index_t(nodes.size());
     const auto& q = tr.point(v);
-    const Vector3d ijk(q.x() / g.spacing[0] - PAD, q.y() / g.spacing[1] - PAD,
-                       q.z() / g.spacing[2] - PAD);
+    const Vector3d ijk(q.x() / g.spacing[0] - kPad, q.y() / g.spacing[1] - kPad,
+                       q.z() / g.spacing[2] - kPad);
     nodes.push_back(g.origin + index_to_world * ijk);
   }
   std::vector<std::array<index_t, 4>> tets;

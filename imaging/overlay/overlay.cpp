@@ -34,12 +34,12 @@ ViewAxes axes_of(SliceView v) {
   BS_UNREACHABLE();
 }
 
-constexpr std::array<SliceView, 3> VIEWS{SliceView::AXIAL, SliceView::CORONAL, SliceView::SAGITTAL};
-constexpr std::array<const char*, 3> VIEW_NAMES{"axial", "coronal", "sagittal"};
+constexpr std::array<SliceView, 3> kViews{SliceView::AXIAL, SliceView::CORONAL, SliceView::SAGITTAL};
+constexpr std::array<const char*, 3> kViewNames{"axial", "coronal", "sagittal"};
 /// Screen-edge letters of each view: left, right, top, bottom.
-constexpr std::array<std::array<const char*, 4>, 3> EDGE_LETTERS{
+constexpr std::array<std::array<const char*, 4>, 3> kEdgeLetters{
     {{"R", "L", "A", "P"}, {"R", "L", "S", "I"}, {"A", "P", "S", "I"}}};
-constexpr std::array<char, 3> AXIS_LETTERS{'R', 'A', 'S'};
+constexpr std::array<char, 3> kAxisLetters{'R', 'A', 'S'};
 
 cv::Scalar bgr(const std::array<std::uint8_t, 3>& rgb) { return {double(rgb[2]), double(rgb[1]), double(rgb[0])}; }
 
@@ -104,7 +104,7 @@ std::string caption(const std::string& label, SliceView v, const Vector3d& targe
   std::ostringstream s;
   s.setf(std::ios::fixed);
   s.precision(1);
-  s << label << (label.empty() ? "" : " ") << VIEW_NAMES[std::size_t(v)] << ' ' << AXIS_LETTERS[std::size_t(n)]
+  s << label << (label.empty() ? "" : " ") << kViewNames[std::size_t(v)] << ' ' << kAxisLetters[std::size_t(n)]
     << '=' << target[n];
   return s.str();
 }
@@ -114,7 +114,7 @@ void draw_volume(cv::Mat& image, const OverlayLayout& layout, int c, const Volum
                  const std::string& label, const OverlayInput& input, const OverlayOptions& o) {
   const auto [lo, hi] = intensity_window(volume, o.low_percentile, o.high_percentile, c == 0 ? "left" : "right");
   const float outside = std::numeric_limits<float>::quiet_NaN();
-  for (const SliceView v : VIEWS) {
+  for (const SliceView v : kViews) {
     const auto vi = std::size_t(v);
     const Eigen::Vector2i origin = layout.panel_origin[std::size_t(c)][vi];
     const Eigen::Vector2i size = layout.panel_size[vi];
@@ -132,7 +132,7 @@ void draw_volume(cv::Mat& image, const OverlayLayout& layout, int c, const Volum
     }
     if (o.orientation_letters && size.minCoeff() >= 24) {
       const cv::Scalar colour(0, 200, 255);  // BGR: orange
-      const auto& letters = EDGE_LETTERS[vi];
+      const auto& letters = kEdgeLetters[vi];
       draw_text(panel, letters[0], {2, size.y() / 2 + 4}, 0.35, colour);
       draw_text(panel, letters[1], {size.x() - 9, size.y() / 2 + 4}, 0.35, colour);
       draw_text(panel, letters[2], {size.x() / 2 - 3, 10}, 0.35, colour);
@@ -231,12 +231,12 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
   for (int d = 0; d < 3; ++d) {
     const double count = std::ceil((L.hi[d] - L.lo[d]) / L.pixel_size_mm - 1e-9);
     BS_VERIFY(count <= options.max_panel_px,
-              "overlay: a slice would be " << count << " pixels along " << AXIS_LETTERS[std::size_t(d)]
+              "overlay: a slice would be " << count << " pixels along " << kAxisLetters[std::size_t(d)]
                                            << " (more than max_panel_px " << options.max_panel_px
                                            << "); choose a larger pixel_size_mm than " << L.pixel_size_mm);
     n[d] = std::max(1, int(count));
   }
-  for (const SliceView v : VIEWS) {
+  for (const SliceView v : kViews) {
     const ViewAxes a = axes_of(v);
     L.panel_size[std::size_t(v)] = {n[a.horizontal], n[a.vertical]};
   }
@@ -250,7 +250,7 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
     return in_columns ? std::pair{c, int(v)} : std::pair{int(v), c};  // (column, row)
   };
   for (int c = 0; c < volumes; ++c)
-    for (const SliceView v : VIEWS) {
+    for (const SliceView v : kViews) {
       const auto [col, row] = grid(c, v);
       const Eigen::Vector2i s = L.panel_size[std::size_t(v)];
       col_width[std::size_t(col)] = std::max(col_width[std::size_t(col)], s.x());
@@ -269,7 +269,7 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
     L.height += row_height[std::size_t(row)] + g;
   }
   for (int c = 0; c < volumes; ++c)
-    for (const SliceView v : VIEWS) {
+    for (const SliceView v : kViews) {
       const auto [col, row] = grid(c, v);
       L.panel_origin[std::size_t(c)][std::size_t(v)] = {col_x[std::size_t(col)],
                                                         row_y[std::size_t(row)] + options.label_height_px};

@@ -37,7 +37,7 @@ struct PreparedTet {
 };
 
 /// Barycentric tolerance: voxel centres on a face (λ = 0 up to rounding) count as inside.
-constexpr double INSIDE_TOL = 1e-9;
+constexpr double kInsideTol = 1e-9;
 
 /// `q`: vertices in output index space; `a`: attributes; `w`: vertices in world mm (for the
 /// extension margin); `margin_mm` > 0 dilates the tetrahedron by that distance beyond each face
@@ -59,7 +59,7 @@ PreparedTet prepare(const std::array<Vector3d, 4>& q, const std::array<Vector3d,
   D << a[1] - a[0], a[2] - a[0], a[3] - a[0];
   t.G = D * M;
   t.h = a[0] - t.G * q[0];
-  t.tol.setConstant(INSIDE_TOL);
+  t.tol.setConstant(kInsideTol);
   Matrix3d Ew;
   Ew << w[1] - w[0], w[2] - w[0], w[3] - w[0];
   const double det_w = Ew.determinant();
