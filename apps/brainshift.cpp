@@ -10,7 +10,8 @@
 //   brainshift register --model MODEL --doppler D.nii.gz [--bmode B.nii.gz] [--mri M.nii.gz]
 //                       [--init rigid|identity] --out RES
 //       One intra-operative registration: RES/{report.json, deformed.vtu, displacement.nii.gz,
-//       preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz, overlay.png[, overlay_uncertainty.png]}.
+//       preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz,
+//       overlay.png[, overlay_uncertainty.png]}.
 //   brainshift replay --model MODEL --sequence DIR --out RES
 //       Every DIR/frame_*/ in order, warm-started; latency summary in RES/replay.json.
 //   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv
@@ -19,12 +20,14 @@
 //   brainshift phantom --case NAME [--seed N] [--vessels FILE.vtp] [--frames K] --out DIR
 //       Synthetic phantom case with known truth (pre-op MRI/labels/MRA, intra-op Doppler/B-mode,
 //       truth displacement and landmarks); an unknown NAME lists the valid ones.
-//   brainshift bench [--quick] [--suite all|cases|sweeps] [--cases a,b] [--seed N] [--repeat N] [--keep-work]
+//   brainshift bench [--quick] [--suite all|cases|sweeps] [--cases a,b] [--seed N] [--repeat N]
+//   [--keep-work]
 //                    --out DIR
-//       Speed against error on the phantom cases (baselines rigid_only and prescribed_displacement) and
-//       sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and constraint
-//       sets: DIR/{results.csv, results.json, results.md, pareto.png}.
-//   brainshift extract vessels --image FILE --out SKELETON.vtp [--report REPORT.json] [--png MIP.png]
+//       Speed against error on the phantom cases (baselines rigid_only and prescribed_displacement)
+//       and sweeps over mesh size, vessel sampling, compliance strategy, PGS tolerance and
+//       constraint sets: DIR/{results.csv, results.json, results.md, pareto.png}.
+//   brainshift extract vessels --image FILE --out SKELETON.vtp [--report REPORT.json] [--png
+//   MIP.png]
 //       One extraction alone, to check an input: the vessel skeleton of an MRA, CTA or power
 //       Doppler (as prepare writes vessels.vtp), a report and a maximum-intensity projection.
 //   brainshift extract footprint --bmode B.nii.gz [--probe-direction X,Y,Z] --out FOOTPRINT.vtp
@@ -44,11 +47,6 @@
 //
 // Units: mm, kg, s (force mN, stress kPa); world frame RAS, mm.
 
-#include <CLI/CLI.hpp>
-
-#include <exception>
-#include <iostream>
-
 #include "cmd_bench.hpp"
 #include "cmd_demo.hpp"
 #include "cmd_evaluate.hpp"
@@ -59,7 +57,13 @@
 #include "cmd_register.hpp"
 #include "cmd_replay.hpp"
 #include "cmd_simulate.hpp"
+
 #include "core/error.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <exception>
+#include <iostream>
 
 int main(int argc, char** argv) {
   namespace apps = brainshift::apps;
@@ -85,9 +89,11 @@ int main(int argc, char** argv) {
   // `extract` and its subcommands, one file each (cmd_extract*.cpp).
   CLI::App* extract = apps::add_extract_command(app);
   apps::ExtractVesselsArgs extract_vessels_args;
-  const CLI::App* extract_vessels = apps::add_extract_vessels_command(*extract, extract_vessels_args);
+  const CLI::App* extract_vessels =
+      apps::add_extract_vessels_command(*extract, extract_vessels_args);
   apps::ExtractFootprintArgs extract_footprint_args;
-  const CLI::App* extract_footprint = apps::add_extract_footprint_command(*extract, extract_footprint_args);
+  const CLI::App* extract_footprint =
+      apps::add_extract_footprint_command(*extract, extract_footprint_args);
 
   try {
     app.parse(argc, argv);
@@ -109,8 +115,10 @@ int main(int argc, char** argv) {
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
-    if (extract_vessels->parsed()) return apps::run_extract_vessels(extract_vessels_args, std::cout);
-    if (extract_footprint->parsed()) return apps::run_extract_footprint(extract_footprint_args, std::cout);
+    if (extract_vessels->parsed())
+      return apps::run_extract_vessels(extract_vessels_args, std::cout);
+    if (extract_footprint->parsed())
+      return apps::run_extract_footprint(extract_footprint_args, std::cout);
   } catch (const brainshift::Error& e) {
     std::cerr << "brainshift: error: " << e.what() << '\n';
     return 1;

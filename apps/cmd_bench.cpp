@@ -1,25 +1,11 @@
 #include "cmd_bench.hpp"
 
-#include <CLI/CLI.hpp>
-
-#include <algorithm>
-#include <chrono>
-#include <cmath>
-#include <cstdlib>
-#include <ctime>
-#include <fstream>
-#include <iostream>
-#include <iomanip>
-#include <map>
-#include <optional>
-#include <ostream>
-#include <sstream>
-#include <thread>
-
-#include <nlohmann/json.hpp>
-
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
+#include "intraop_footprint.hpp"
+#include "model_folder.hpp"
+#include "progress.hpp"
+
 #include "constraints/registration/registration.hpp"
 #include "constraints/registration/uncertainty.hpp"
 #include "core/error.hpp"
@@ -32,9 +18,23 @@
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
-#include "intraop_footprint.hpp"
-#include "model_folder.hpp"
-#include "progress.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <ctime>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <ostream>
+#include <sstream>
+#include <thread>
 
 #ifndef BRAINSHIFT_BUILD_TYPE
 #define BRAINSHIFT_BUILD_TYPE "unknown"
@@ -44,7 +44,9 @@ namespace brainshift::apps {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 using constraints::ConstraintSet;
 using constraints::RegistrationOptions;
 using constraints::RegistrationResult;
@@ -55,23 +57,28 @@ constexpr double refinements[] = {0.85, 1.1, 1.6, 2.1, 2.75, 3.9};
 
 /// One benchmark run: a row of results.csv.
 struct Row {
-  std::string suite;   ///< cases | sweeps
+  std::string suite;  ///< cases | sweeps
   std::string case_name;
   std::uint32_t seed = 0;
-  std::string sweep;   ///< for suite sweeps: mesh_size, vessel_sampling, compliance, pgs_tolerance, constraint_sets
+  std::string sweep;   ///< for suite sweeps: mesh_size, vessel_sampling, compliance, pgs_tolerance,
+                       ///< constraint_sets
   std::string value;   ///< the swept setting
   std::string method;  ///< constraint_icp | rigid_only | prescribed_displacement; full runs also
-                       ///< fixed_compliance | gcv_compliance | dura_sliding | dura_unilateral (variants of ours)
-  index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0, footprint_points = 0;
+                       ///< fixed_compliance | gcv_compliance | dura_sliding | dura_unilateral
+                       ///< (variants of ours)
+  index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0,
+          footprint_points = 0;
   index_t rows = 0;
   int iterations = 0;
   bool converged = false;
   std::string stop;
-  double prepare_s = 0.0;  ///< pre-operative: the whole `prepare` (meshing, factor, compliance block)
-  double setup_s = 0.0;    ///< intra-operative model set-up: load MODEL, factorise, adopt the block
+  double prepare_s =
+      0.0;               ///< pre-operative: the whole `prepare` (meshing, factor, compliance block)
+  double setup_s = 0.0;  ///< intra-operative model set-up: load MODEL, factorise, adopt the block
   constraints::StageTimes t;
-  double rss_before_mib = 0.0;  ///< resident memory when the run started (what the process already held)
-  double peak_rss_mib = 0.0;    ///< high-water mark during the run, including rss_before_mib
+  double rss_before_mib =
+      0.0;  ///< resident memory when the run started (what the process already held)
+  double peak_rss_mib = 0.0;  ///< high-water mark during the run, including rss_before_mib
   double tre_before_mean = 0.0, tre_before_p95 = 0.0;
   double tre_mean = 0.0, tre_p95 = 0.0, tre_max = 0.0;
   /// Mean TRE over the landmarks near (≤ 5 mm) and far (> 10 mm) from the intra-operative vessel
@@ -81,9 +88,9 @@ struct Row {
   index_t landmarks_near = 0, landmarks_far = 0;
   std::optional<double> corrected_pct;
   double max_displacement_mm = 0.0;
-  bool ok = false;         ///< finite answer, no exception
+  bool ok = false;  ///< finite answer, no exception
   std::string error;
-  std::string note;        ///< e.g. why the B-mode gave no footprint
+  std::string note;  ///< e.g. why the B-mode gave no footprint
   /// Predicted error (issue 16; runs of ours only, else unset): its cost, the median over the
   /// free nodes, the mean at the landmarks (all, near, far as above) and its calibration against
   /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
@@ -193,7 +200,8 @@ MatrixX3d doppler_points(const Session& s, const CaseData& c, double step_mm) {
 // --- methods --------------------------------------------------------------------------------
 
 /// The rigid start alone: no deformation.
-RegistrationResult rigid_only(constraints::RegistrationModel& model, const constraints::IntraopData& data,
+RegistrationResult rigid_only(constraints::RegistrationModel& model,
+                              const constraints::IntraopData& data,
                               const RegistrationOptions& options) {
   const auto t0 = Clock::now();
   RegistrationResult r;
@@ -212,8 +220,9 @@ RegistrationResult rigid_only(constraints::RegistrationModel& model, const const
 /// pairing distance); each skeleton point so chosen is displaced onto the mean of its points by
 /// point-to-point rows (as soft as our vessel rows), and the corotational model is solved with
 /// these displacements. No sliding along the vessels and no re-pairing.
-RegistrationResult prescribed_displacement(constraints::RegistrationModel& model, const constraints::IntraopData& data,
-                              const RegistrationOptions& options) {
+RegistrationResult prescribed_displacement(constraints::RegistrationModel& model,
+                                           const constraints::IntraopData& data,
+                                           const RegistrationOptions& options) {
   const auto t0 = Clock::now();
   const constraints::RigidInitResult rigid = options.start == constraints::RigidStart::RIGID
                                                  ? constraints::rigid_start(model, data, options)
@@ -224,7 +233,8 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
   for (Eigen::Index i = 0; i < data.vessel_points.rows(); ++i) {
     const Vector3d q = rigid.transform * Vector3d(data.vessel_points.row(i).transpose());
     Eigen::Index best = -1;
-    const double d2 = S.rows() ? (S.rowwise() - q.transpose()).rowwise().squaredNorm().minCoeff(&best) : 0.0;
+    const double d2 =
+        S.rows() ? (S.rowwise() - q.transpose()).rowwise().squaredNorm().minCoeff(&best) : 0.0;
     if (best < 0 || std::sqrt(d2) > options.pair_max_distance_mm) continue;
     auto& [s, n] = sum.try_emplace(static_cast<index_t>(best), Vector3d::Zero(), 0).first->second;
     s += q;
@@ -244,7 +254,8 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
   o.use_landmarks = true;
   o.dura.mode = constraints::DuraOptions::Mode::NONE;
   const auto vessels = static_cast<std::size_t>(ConstraintSet::VESSELS);
-  o.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::LANDMARK)] = o.step.compliance_ratio[vessels];
+  o.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::LANDMARK)] =
+      o.step.compliance_ratio[vessels];
   RegistrationResult r = constraints::register_model(model, d, o);
   r.rigid = rigid;
   r.seconds.rigid = t_rigid;
@@ -258,15 +269,18 @@ template <typename F>
 RegistrationResult median_of(int repeat, F&& reg) {
   std::vector<RegistrationResult> runs;
   for (int i = 0; i < std::max(1, repeat); ++i) runs.push_back(reg());
-  std::sort(runs.begin(), runs.end(),
-            [](const RegistrationResult& a, const RegistrationResult& b) { return a.seconds.total < b.seconds.total; });
+  std::sort(runs.begin(), runs.end(), [](const RegistrationResult& a, const RegistrationResult& b) {
+    return a.seconds.total < b.seconds.total;
+  });
   return std::move(runs[runs.size() / 2]);
 }
 
 /// The predicted error of one of our registrations at the case's landmarks (row.unc_*).
-void score_uncertainty(Row& row, const constraints::RegistrationModel& model, const RegistrationResult& r,
-                       const CaseData& c, const constraints::IntraopData& data, ConstRef<MatrixX3d> predicted) {
-  const constraints::UncertaintyResult u = constraints::predict_uncertainty(model, r, RegistrationOptions{});
+void score_uncertainty(Row& row, const constraints::RegistrationModel& model,
+                       const RegistrationResult& r, const CaseData& c,
+                       const constraints::IntraopData& data, ConstRef<MatrixX3d> predicted) {
+  const constraints::UncertaintyResult u =
+      constraints::predict_uncertainty(model, r, RegistrationOptions{});
   row.unc_s = u.seconds;
   std::vector<double> free;
   for (index_t i = 0; i < model.mesh().num_nodes(); ++i)
@@ -274,7 +288,8 @@ void score_uncertainty(Row& row, const constraints::RegistrationModel& model, co
   row.unc_median_mm = imaging::percentile(free, 50.0);
   const Eigen::VectorXd at = constraints::sigma_at(model.mesh(), u.node_variance, c.truth.a);
   const std::vector<double> sigma(at.data(), at.data() + at.size());
-  row.unc_calibration = imaging::calibrate_uncertainty(sigma, imaging::landmark_errors(predicted, c.truth.b));
+  row.unc_calibration =
+      imaging::calibrate_uncertainty(sigma, imaging::landmark_errors(predicted, c.truth.b));
   row.unc_landmarks_mm = row.unc_calibration->mean_predicted_mm;
   double near = 0, far = 0;
   int n_near = 0, n_far = 0;
@@ -290,21 +305,23 @@ void score_uncertainty(Row& row, const constraints::RegistrationModel& model, co
 /// TRE of a result against the case's landmarks: a pre-operative landmark X is predicted at
 /// T⁻¹ (X + u(X)), u interpolated in its tetrahedron (landmarks up to 20 mm outside the mesh are
 /// projected onto it; none are on the phantoms, which landmark the brain).
-void score(Row& row, const constraints::RegistrationModel& model, const RegistrationResult& r, const CaseData& c,
-           const constraints::IntraopData& data) {
+void score(Row& row, const constraints::RegistrationModel& model, const RegistrationResult& r,
+           const CaseData& c, const constraints::IntraopData& data) {
   row.iterations = r.iterations;
   row.converged = r.converged;
   row.stop = constraints::to_string(r.stop);
   row.rows = r.history.empty() ? 0 : r.history.back().rows;
   row.t = r.seconds;
-  row.max_displacement_mm = r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
+  row.max_displacement_mm =
+      r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
   core::MappingOptions mo;
   mo.max_outside_distance = 20.0;
   const core::BarycentricMapping map(model.mesh(), c.truth.a, mo);
   const MatrixX3d moved = map.apply(r.positions);
   const Eigen::Isometry3d to_intra = r.rigid.transform.inverse();
   MatrixX3d predicted(moved.rows(), 3);
-  for (Eigen::Index i = 0; i < moved.rows(); ++i) predicted.row(i) = (to_intra * Vector3d(moved.row(i).transpose())).transpose();
+  for (Eigen::Index i = 0; i < moved.rows(); ++i)
+    predicted.row(i) = (to_intra * Vector3d(moved.row(i).transpose())).transpose();
   const auto before = imaging::error_stats(imaging::landmark_errors(c.truth.a, c.truth.b));
   const auto after = imaging::error_stats(imaging::landmark_errors(predicted, c.truth.b));
   row.tre_before_mean = before.mean;
@@ -318,14 +335,18 @@ void score(Row& row, const constraints::RegistrationModel& model, const Registra
     double near = 0, far = 0;
     row.landmarks_near = row.landmarks_far = 0;
     for (Eigen::Index i = 0; i < c.truth.b.rows() && data.vessel_points.rows() > 0; ++i) {
-      const double d = (data.vessel_points.rowwise() - c.truth.b.row(i)).rowwise().norm().minCoeff();
+      const double d =
+          (data.vessel_points.rowwise() - c.truth.b.row(i)).rowwise().norm().minCoeff();
       if (d <= 5.0) near += err[static_cast<std::size_t>(i)], ++row.landmarks_near;
       if (d > 10.0) far += err[static_cast<std::size_t>(i)], ++row.landmarks_far;
     }
-    row.tre_near_mean = row.landmarks_near ? near / static_cast<double>(row.landmarks_near) : std::nan("");
-    row.tre_far_mean = row.landmarks_far ? far / static_cast<double>(row.landmarks_far) : std::nan("");
+    row.tre_near_mean =
+        row.landmarks_near ? near / static_cast<double>(row.landmarks_near) : std::nan("");
+    row.tre_far_mean =
+        row.landmarks_far ? far / static_cast<double>(row.landmarks_far) : std::nan("");
   }
-  if (!r.data_rows.empty() && row.method != "prescribed_displacement") score_uncertainty(row, model, r, c, data, predicted);
+  if (!r.data_rows.empty() && row.method != "prescribed_displacement")
+    score_uncertainty(row, model, r, c, data, predicted);
   if (row.corrected_pct) *row.corrected_pct += 0.0;  // no "-0.0" in the tables
   row.ok = r.positions.allFinite() && std::isfinite(after.mean);
   if (!row.ok) row.error = "non-finite result";
@@ -334,7 +355,8 @@ void score(Row& row, const constraints::RegistrationModel& model, const Registra
 /// Runs `f` (which fills the row) with the peak memory measured and any error recorded.
 template <typename F>
 Row measured(Row row, const Progress& progress, F&& f) {
-  progress.stage(row.case_name + " " + (row.sweep.empty() ? row.method : row.sweep + "=" + row.value));
+  progress.stage(row.case_name + " " +
+                 (row.sweep.empty() ? row.method : row.sweep + "=" + row.value));
   reset_peak_rss();
   row.rss_before_mib = status_mib("VmRSS:");
   try {
@@ -386,48 +408,54 @@ std::optional<double> log_slope(const std::vector<std::pair<double, double>>& xy
 }
 
 nlohmann::json row_json(const Row& r) {
-  nlohmann::json j = {{"suite", r.suite},
-                      {"case", r.case_name},
-                      {"seed", r.seed},
-                      {"sweep", r.sweep},
-                      {"value", r.value},
-                      {"method", r.method},
-                      {"nodes", r.nodes},
-                      {"tets", r.tets},
-                      {"surface_vertices", r.surface_vertices},
-                      {"skeleton_points", r.skeleton_points},
-                      {"vessel_points", r.vessel_points},
-                      {"footprint_points", r.footprint_points},
-                      {"rows", r.rows},
-                      {"iterations", r.iterations},
-                      {"converged", r.converged},
-                      {"stop", r.stop},
-                      {"prepare_s", r.prepare_s},
-                      {"setup_s", r.setup_s},
-                      {"rigid_s", r.t.rigid},
-                      {"pairing_s", r.t.pairing},
-                      {"free_motion_s", r.t.free_motion},
-                      {"delassus_s", r.t.delassus},
-                      {"pgs_s", r.t.pgs},
-                      {"correction_s", r.t.correction},
-                      {"registration_s", r.t.total},
-                      {"rss_before_mib", r.rss_before_mib},
-                      {"peak_rss_mib", r.peak_rss_mib},
-                      {"tre_before_mean_mm", r.tre_before_mean},
-                      {"tre_before_p95_mm", r.tre_before_p95},
-                      {"tre_mean_mm", r.tre_mean},
-                      {"tre_p95_mm", r.tre_p95},
-                      {"tre_max_mm", r.tre_max},
-                      {"tre_near_mean_mm", std::isfinite(r.tre_near_mean) ? nlohmann::json(r.tre_near_mean) : nlohmann::json(nullptr)},
-                      {"landmarks_near", r.landmarks_near},
-                      {"tre_far_mean_mm", std::isfinite(r.tre_far_mean) ? nlohmann::json(r.tre_far_mean) : nlohmann::json(nullptr)},
-                      {"landmarks_far", r.landmarks_far},
-                      {"shift_corrected_pct", r.corrected_pct ? nlohmann::json(*r.corrected_pct) : nlohmann::json(nullptr)},
-                      {"max_displacement_mm", r.max_displacement_mm},
-                      {"ok", r.ok},
-                      {"error", r.error},
-                      {"note", r.note}};
-  auto opt = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); };
+  nlohmann::json j = {
+      {"suite", r.suite},
+      {"case", r.case_name},
+      {"seed", r.seed},
+      {"sweep", r.sweep},
+      {"value", r.value},
+      {"method", r.method},
+      {"nodes", r.nodes},
+      {"tets", r.tets},
+      {"surface_vertices", r.surface_vertices},
+      {"skeleton_points", r.skeleton_points},
+      {"vessel_points", r.vessel_points},
+      {"footprint_points", r.footprint_points},
+      {"rows", r.rows},
+      {"iterations", r.iterations},
+      {"converged", r.converged},
+      {"stop", r.stop},
+      {"prepare_s", r.prepare_s},
+      {"setup_s", r.setup_s},
+      {"rigid_s", r.t.rigid},
+      {"pairing_s", r.t.pairing},
+      {"free_motion_s", r.t.free_motion},
+      {"delassus_s", r.t.delassus},
+      {"pgs_s", r.t.pgs},
+      {"correction_s", r.t.correction},
+      {"registration_s", r.t.total},
+      {"rss_before_mib", r.rss_before_mib},
+      {"peak_rss_mib", r.peak_rss_mib},
+      {"tre_before_mean_mm", r.tre_before_mean},
+      {"tre_before_p95_mm", r.tre_before_p95},
+      {"tre_mean_mm", r.tre_mean},
+      {"tre_p95_mm", r.tre_p95},
+      {"tre_max_mm", r.tre_max},
+      {"tre_near_mean_mm",
+       std::isfinite(r.tre_near_mean) ? nlohmann::json(r.tre_near_mean) : nlohmann::json(nullptr)},
+      {"landmarks_near", r.landmarks_near},
+      {"tre_far_mean_mm",
+       std::isfinite(r.tre_far_mean) ? nlohmann::json(r.tre_far_mean) : nlohmann::json(nullptr)},
+      {"landmarks_far", r.landmarks_far},
+      {"shift_corrected_pct",
+       r.corrected_pct ? nlohmann::json(*r.corrected_pct) : nlohmann::json(nullptr)},
+      {"max_displacement_mm", r.max_displacement_mm},
+      {"ok", r.ok},
+      {"error", r.error},
+      {"note", r.note}};
+  auto opt = [](const std::optional<double>& v) {
+    return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
+  };
   const auto& cal = r.unc_calibration;
   j["uncertainty_s"] = opt(r.unc_s);
   j["uncertainty_median_mm"] = opt(r.unc_median_mm);
@@ -435,8 +463,10 @@ nlohmann::json row_json(const Row& r) {
   j["uncertainty_near_mean_mm"] = opt(r.unc_near_mm);
   j["uncertainty_far_mean_mm"] = opt(r.unc_far_mm);
   j["uncertainty_spearman"] = cal ? nlohmann::json(cal->spearman) : nlohmann::json(nullptr);
-  j["uncertainty_within_1_sigma_pct"] = cal ? nlohmann::json(cal->within_1_sigma_pct) : nlohmann::json(nullptr);
-  j["uncertainty_within_2_sigma_pct"] = cal ? nlohmann::json(cal->within_2_sigma_pct) : nlohmann::json(nullptr);
+  j["uncertainty_within_1_sigma_pct"] =
+      cal ? nlohmann::json(cal->within_1_sigma_pct) : nlohmann::json(nullptr);
+  j["uncertainty_within_2_sigma_pct"] =
+      cal ? nlohmann::json(cal->within_2_sigma_pct) : nlohmann::json(nullptr);
   j["uncertainty_rms_ratio"] = cal ? nlohmann::json(cal->rms_ratio) : nlohmann::json(nullptr);
   return j;
 }
@@ -464,12 +494,14 @@ void write_csv(const std::filesystem::path& path, const std::vector<Row>& rows) 
     std::ofstream f(tmp);
     const nlohmann::json first = row_json(Row{});
     bool head = true;
-    for (auto it = first.begin(); it != first.end(); ++it) f << (head ? "" : ",") << it.key(), head = false;
+    for (auto it = first.begin(); it != first.end(); ++it)
+      f << (head ? "" : ",") << it.key(), head = false;
     f << '\n';
     for (const Row& r : rows) {
       const nlohmann::json j = row_json(r);
       bool firstcol = true;
-      for (auto it = j.begin(); it != j.end(); ++it) f << (firstcol ? "" : ",") << csv_field(it.value()), firstcol = false;
+      for (auto it = j.begin(); it != j.end(); ++it)
+        f << (firstcol ? "" : ",") << csv_field(it.value()), firstcol = false;
       f << '\n';
     }
     BS_VERIFY(f.good(), tmp.string() << ": write failed");
@@ -487,44 +519,58 @@ std::string label(const Row& r) {
   return r.sweep + "=" + r.value;
 }
 
-void write_markdown(const std::filesystem::path& path, const std::vector<Row>& rows, const nlohmann::json& meta) {
+void write_markdown(const std::filesystem::path& path, const std::vector<Row>& rows,
+                    const nlohmann::json& meta) {
   std::ostringstream o;
-  o << "Benchmark " << meta["machine"]["date"].get<std::string>() << ", " << meta["machine"]["cpu"].get<std::string>()
-    << " (" << meta["machine"]["hardware_threads"] << " threads), " << meta["machine"]["build_type"].get<std::string>()
-    << " build, seed " << meta["seed"] << ", times of the median of " << meta["repeat"] << " registration(s) per run"
+  o << "Benchmark " << meta["machine"]["date"].get<std::string>() << ", "
+    << meta["machine"]["cpu"].get<std::string>() << " (" << meta["machine"]["hardware_threads"]
+    << " threads), " << meta["machine"]["build_type"].get<std::string>() << " build, seed "
+    << meta["seed"] << ", times of the median of " << meta["repeat"] << " registration(s) per run"
     << (meta["quick"].get<bool>() ? ", --quick" : "") << ".\n\n";
-  o << "| suite | case | run | nodes | vessel pts | footprint pts | rows | iter | stop | prepare s | set-up s "
-       "| registration s | peak MiB | TRE before mm | TRE mean mm | TRE p95 mm | corrected % | TRE near (n) | TRE far (n) |\n";
+  o << "| suite | case | run | nodes | vessel pts | footprint pts | rows | iter | stop | prepare s "
+       "| set-up s "
+       "| registration s | peak MiB | TRE before mm | TRE mean mm | TRE p95 mm | corrected % | TRE "
+       "near (n) | TRE far (n) |\n";
   o << "|---|---|---|--:|--:|--:|--:|--:|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n";
   for (const Row& r : rows) {
-    o << "| " << r.suite << " | " << r.case_name << " | " << label(r) << " | " << r.nodes << " | " << r.vessel_points
-      << " | " << r.footprint_points << " | " << r.rows << " | " << r.iterations << " | " << (r.ok ? r.stop : "FAILED: " + r.error) << " | "
+    o << "| " << r.suite << " | " << r.case_name << " | " << label(r) << " | " << r.nodes << " | "
+      << r.vessel_points << " | " << r.footprint_points << " | " << r.rows << " | " << r.iterations
+      << " | " << (r.ok ? r.stop : "FAILED: " + r.error) << " | "
       << (r.prepare_s > 0 ? fixed(r.prepare_s, 2) : "") << " | " << fixed(r.setup_s, 2) << " | "
-      << fixed(r.t.total, 3) << " | " << fixed(r.peak_rss_mib, 0) << " | " << fixed(r.tre_before_mean, 2) << " | "
-      << fixed(r.tre_mean, 2) << " | " << fixed(r.tre_p95, 2) << " | "
-      << (r.corrected_pct ? fixed(*r.corrected_pct, 1) : "–") << " | "
-      << (r.landmarks_near ? fixed(r.tre_near_mean, 2) : "–") << " (" << r.landmarks_near << ") | "
-      << (r.landmarks_far ? fixed(r.tre_far_mean, 2) : "–") << " (" << r.landmarks_far << ") |\n";
+      << fixed(r.t.total, 3) << " | " << fixed(r.peak_rss_mib, 0) << " | "
+      << fixed(r.tre_before_mean, 2) << " | " << fixed(r.tre_mean, 2) << " | "
+      << fixed(r.tre_p95, 2) << " | " << (r.corrected_pct ? fixed(*r.corrected_pct, 1) : "–")
+      << " | " << (r.landmarks_near ? fixed(r.tre_near_mean, 2) : "–") << " (" << r.landmarks_near
+      << ") | " << (r.landmarks_far ? fixed(r.tre_far_mean, 2) : "–") << " (" << r.landmarks_far
+      << ") |\n";
   }
   bool unc = false;
   for (const Row& r : rows)
     if (r.unc_calibration) {
       if (!unc)
-        o << "\nPredicted error (sigma = predicted RMS 3-D error; a calibrated Gaussian has 60.8 % within 1 sigma, "
-             "99.3 % within 2):\n\n| suite | case | run | s | median mm | at landmarks mm | near mm | far mm | Spearman "
-             "| within 1σ % | within 2σ % | RMS actual/predicted |\n|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n";
+        o << "\nPredicted error (sigma = predicted RMS 3-D error; a calibrated Gaussian has 60.8 % "
+             "within 1 sigma, "
+             "99.3 % within 2):\n\n| suite | case | run | s | median mm | at landmarks mm | near "
+             "mm | far mm | Spearman "
+             "| within 1σ % | within 2σ % | RMS actual/predicted "
+             "|\n|---|---|---|--:|--:|--:|--:|--:|--:|--:|--:|--:|\n";
       unc = true;
-      const auto f = [](const std::optional<double>& v, int d) { return v ? fixed(*v, d) : std::string("–"); };
-      o << "| " << r.suite << " | " << r.case_name << " | " << label(r) << " | " << f(r.unc_s, 3) << " | "
-        << f(r.unc_median_mm, 2) << " | " << f(r.unc_landmarks_mm, 2) << " | " << f(r.unc_near_mm, 2) << " | "
-        << f(r.unc_far_mm, 2) << " | " << fixed(r.unc_calibration->spearman, 2) << " | "
-        << fixed(r.unc_calibration->within_1_sigma_pct, 0) << " | " << fixed(r.unc_calibration->within_2_sigma_pct, 0)
-        << " | " << fixed(r.unc_calibration->rms_ratio, 2) << " |\n";
+      const auto f = [](const std::optional<double>& v, int d) {
+        return v ? fixed(*v, d) : std::string("–");
+      };
+      o << "| " << r.suite << " | " << r.case_name << " | " << label(r) << " | " << f(r.unc_s, 3)
+        << " | " << f(r.unc_median_mm, 2) << " | " << f(r.unc_landmarks_mm, 2) << " | "
+        << f(r.unc_near_mm, 2) << " | " << f(r.unc_far_mm, 2) << " | "
+        << fixed(r.unc_calibration->spearman, 2) << " | "
+        << fixed(r.unc_calibration->within_1_sigma_pct, 0) << " | "
+        << fixed(r.unc_calibration->within_2_sigma_pct, 0) << " | "
+        << fixed(r.unc_calibration->rms_ratio, 2) << " |\n";
     }
   bool notes = false;
   for (const Row& r : rows)
     if (!r.note.empty()) {
-      o << (notes ? "" : "\nNotes:\n\n") << "- " << r.case_name << " " << label(r) << ": " << r.note << "\n";
+      o << (notes ? "" : "\nNotes:\n\n") << "- " << r.case_name << " " << label(r) << ": " << r.note
+        << "\n";
       notes = true;
     }
   if (meta.contains("fits") && !meta["fits"].empty()) {
@@ -546,7 +592,8 @@ std::string write_pareto(const std::filesystem::path& dir, const std::vector<Row
   for (const Row& r : rows)
     if (r.ok && r.case_name == "standard" && r.t.total > 0) pts.push_back(&r);
   if (pts.empty()) return "no finite run on 'standard' to plot";
-  std::sort(pts.begin(), pts.end(), [](const Row* a, const Row* b) { return a->t.total < b->t.total; });
+  std::sort(pts.begin(), pts.end(),
+            [](const Row* a, const Row* b) { return a->t.total < b->t.total; });
   {
     std::ofstream d(dir / "pareto.dat");
     d << "# registration_s tre_mean_mm label\n";
@@ -583,21 +630,27 @@ std::string write_pareto(const std::filesystem::path& dir, const std::vector<Row
 }  // namespace
 
 CLI::App* add_bench_command(CLI::App& app, BenchArgs& args) {
-  CLI::App* c = app.add_subcommand("bench", "Speed against error on the phantom cases: sweeps, baselines, Pareto plot");
+  CLI::App* c = app.add_subcommand(
+      "bench", "Speed against error on the phantom cases: sweeps, baselines, Pareto plot");
   c->add_flag("--quick", args.quick, "standard case and a few sweep points (< 2 min)");
-  c->add_option("--suite", args.suite, "all, cases (every named case + baselines) or sweeps (on standard)")
+  c->add_option("--suite", args.suite,
+                "all, cases (every named case + baselines) or sweeps (on standard)")
       ->check(CLI::IsMember({"all", "cases", "sweeps"}))
       ->capture_default_str();
-  c->add_option("--cases", args.cases, "named cases for the cases suite (default: all)")->delimiter(',');
+  c->add_option("--cases", args.cases, "named cases for the cases suite (default: all)")
+      ->delimiter(',');
   c->add_option("--seed", args.seed, "phantom seed")->capture_default_str();
   c->add_option("--repeat", args.repeat, "registrations per run; times are of the median run")
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
   c->add_flag("--keep-work", args.keep_work, "keep DIR/work (phantoms and models)");
   c->add_option("--real-data", args.real_data,
-                "real data folder: the icbm_* cases read DIR/icbm152/labels.nii.gz and are skipped when it is "
+                "real data folder: the icbm_* cases read DIR/icbm152/labels.nii.gz and are skipped "
+                "when it is "
                 "absent (default: $BRAINSHIFT_DATA, else ../shared/data)");
-  c->add_option("--out", args.out, "output folder DIR (results.csv, results.json, results.md, pareto.png)")->required();
+  c->add_option("--out", args.out,
+                "output folder DIR (results.csv, results.json, results.md, pareto.png)")
+      ->required();
   return c;
 }
 
@@ -608,7 +661,8 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
   std::vector<std::string> known = data_synth::case_names();
   known.insert(known.end(), real_anatomy_cases.begin(), real_anatomy_cases.end());
   for (const auto& c : cases)
-    BS_VERIFY(std::find(known.begin(), known.end(), c) != known.end(), "bench: unknown case '" << c << "'");
+    BS_VERIFY(std::find(known.begin(), known.end(), c) != known.end(),
+              "bench: unknown case '" << c << "'");
   if (cases.empty()) cases = args.quick ? std::vector<std::string>{"standard"} : known;
   std::filesystem::path real_data = args.real_data;
   if (real_data.empty()) {
@@ -628,14 +682,16 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
   const bool do_cases = args.suite != "sweeps", do_sweeps = args.suite != "cases";
 
   std::vector<Row> rows;
-  nlohmann::json meta = {{"machine", machine()},
-                         {"seed", args.seed},
-                         {"quick", args.quick},
-                         {"repeat", args.repeat},
-                         {"suite", args.suite},
-                         {"skipped", skipped},
-                         {"note", "times are wall seconds of this process (2 threads at most); peak_rss_mib is the "
-                                  "process's high-water mark during the run (kernel VmHWM, reset before each run)"}};
+  nlohmann::json meta = {
+      {"machine", machine()},
+      {"seed", args.seed},
+      {"quick", args.quick},
+      {"repeat", args.repeat},
+      {"suite", args.suite},
+      {"skipped", skipped},
+      {"note",
+       "times are wall seconds of this process (2 threads at most); peak_rss_mib is the "
+       "process's high-water mark during the run (kernel VmHWM, reset before each run)"}};
   write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
     const auto work = dir / "work";
     std::filesystem::create_directories(work);
@@ -673,10 +729,11 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
           const RegistrationOptions o = product_options(s);
           // Variants of our loop (full runs only; --quick keeps the three methods):
           // fixed_compliance — the loop before the block-CV noise model (the global start with the
-          // bulk response, vessel rows at the fixed default ratio, no SMOOTH stage): the old loop; gcv_compliance — the
-          // SMOOTH stage at the compliance chosen by generalised cross-validation instead of block
-          // CV; dura_sliding / dura_unilateral — dura contact outside the craniotomy on (the
-          // default is none): what the boundary conditions do off the vessels (far-landmark TRE).
+          // bulk response, vessel rows at the fixed default ratio, no SMOOTH stage): the old loop;
+          // gcv_compliance — the SMOOTH stage at the compliance chosen by generalised
+          // cross-validation instead of block CV; dura_sliding / dura_unilateral — dura contact
+          // outside the craniotomy on (the default is none): what the boundary conditions do off
+          // the vessels (far-landmark TRE).
           std::map<std::string, RegistrationOptions> variants;
           variants["constraint_icp"] = o;
           std::vector<std::string> methods = {"constraint_icp"};
@@ -691,7 +748,8 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             variants["dura_sliding"].dura.mode = constraints::DuraOptions::Mode::SLIDING;
             variants["dura_unilateral"] = o;
             variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
-            methods.insert(methods.end(), {"fixed_compliance", "gcv_compliance", "dura_sliding", "dura_unilateral"});
+            methods.insert(methods.end(), {"fixed_compliance", "gcv_compliance", "dura_sliding",
+                                           "dura_unilateral"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {
@@ -702,15 +760,17 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
               r.prepare_s = prepare_s;
               const std::string& m = method;
               const RegistrationResult res = median_of(args.repeat, [&] {
-                return m == "rigid_only"                ? rigid_only(*s.model, data, o)
-                       : m == "prescribed_displacement" ? prescribed_displacement(*s.model, data, o)
-                                                        : constraints::register_model(*s.model, data, variants.at(m));
+                return m == "rigid_only" ? rigid_only(*s.model, data, o)
+                       : m == "prescribed_displacement"
+                           ? prescribed_displacement(*s.model, data, o)
+                           : constraints::register_model(*s.model, data, variants.at(m));
               });
               score(r, *s.model, res, c, data);
               // Which vessel compliance the loop ended with (the noise model's choice, if applied).
               if (variants.count(m) && res.noise.valid)
-                r.note = variants.at(m).noise.enabled ? "vessel compliance: " + res.noise.message
-                                                      : "vessel compliance fixed; " + res.noise.message;
+                r.note = variants.at(m).noise.enabled
+                             ? "vessel compliance: " + res.noise.message
+                             : "vessel compliance fixed; " + res.noise.message;
             }));
           }
         } catch (const std::exception& e) {  // the case itself could not be built
@@ -725,8 +785,9 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
         const CaseData& c = case_data(name);
 
         // Mesh size: a model per refinement (the pre-operative cost is part of the figure).
-        const std::vector<double> refine = args.quick ? std::vector<double>{0.85, 1.1}
-                                                      : std::vector<double>(std::begin(refinements), std::end(refinements));
+        const std::vector<double> refine =
+            args.quick ? std::vector<double>{0.85, 1.1}
+                       : std::vector<double>(std::begin(refinements), std::end(refinements));
         for (double r : refine) {
           Row row = base_row("sweeps", name);
           row.sweep = "mesh_size";
@@ -740,9 +801,14 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             describe(out_row, s, data);
             out_row.value = std::to_string(s.model->mesh().num_nodes()) + " nodes";
             score(out_row, *s.model,
-                  median_of(args.repeat, [&] { return constraints::register_model(*s.model, data, product_options(s)); }), c,
-                  data);
-            std::filesystem::remove_all(model_dir);  // 50k-node models are large; the figures are kept
+                  median_of(args.repeat,
+                            [&] {
+                              return constraints::register_model(*s.model, data,
+                                                                 product_options(s));
+                            }),
+                  c, data);
+            std::filesystem::remove_all(
+                model_dir);  // 50k-node models are large; the figures are kept
           }));
         }
 
@@ -751,8 +817,9 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
         Session s = open_session(model_dir);
         constraints::IntraopData data;
         data.vessel_points = doppler_points(s, c, 2.5);
-        auto sweep = [&](const std::string& what, const std::string& value, const constraints::IntraopData& d,
-                         const RegistrationOptions& o, constraints::RegistrationModel* model = nullptr) {
+        auto sweep = [&](const std::string& what, const std::string& value,
+                         const constraints::IntraopData& d, const RegistrationOptions& o,
+                         constraints::RegistrationModel* model = nullptr) {
           Row row = base_row("sweeps", name);
           row.sweep = what;
           row.value = value;
@@ -760,32 +827,38 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             describe(r, s, d);
             r.prepare_s = standard_prepare_s.value_or(0.0);
             constraints::RegistrationModel& m = model ? *model : *s.model;
-            score(r, m, median_of(args.repeat, [&] { return constraints::register_model(m, d, o); }), c, d);
+            score(r, m,
+                  median_of(args.repeat, [&] { return constraints::register_model(m, d, o); }), c,
+                  d);
           }));
         };
 
         // The start: identity, or the robust rigid fit (which also absorbs any bulk brain motion).
-        for (const auto start : {constraints::RigidStart::IDENTITY, constraints::RigidStart::RIGID}) {
+        for (const auto start :
+             {constraints::RigidStart::IDENTITY, constraints::RigidStart::RIGID}) {
           RegistrationOptions o = product_options(s);
           o.start = start;
           sweep("start", start == constraints::RigidStart::RIGID ? "rigid" : "identity", data, o);
         }
 
         // Intra-operative vessel sampling.
-        for (double step : args.quick ? std::vector<double>{5.0} : std::vector<double>{1.25, 2.5, 5.0}) {
+        for (double step :
+             args.quick ? std::vector<double>{5.0} : std::vector<double>{1.25, 2.5, 5.0}) {
           constraints::IntraopData d;
           d.vessel_points = doppler_points(s, c, step);
           sweep("vessel_sampling", fixed(step, 2) + " mm", d, product_options(s));
         }
 
         // Compliance strategy: the precomputed block (default), per-iteration sparse solves (a
-        // model of its own: the strategy is chosen when the model is built), unwarped K0 (ablation).
+        // model of its own: the strategy is chosen when the model is built), unwarped K0
+        // (ablation).
         sweep("compliance", "dense_block", data, product_options(s));
         {
           constraints::ComplianceOptions sparse = s.loaded.scene.compliance;
           sparse.strategy = constraints::ComplianceStrategy::SPARSE_SOLVE;
           const auto& sc = s.loaded.scene;
-          constraints::RegistrationModel m(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface, sparse);
+          constraints::RegistrationModel m(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
+                                           sparse);
           sweep("compliance", "sparse_solve", data, product_options(s), &m);
         }
         {
@@ -796,7 +869,8 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
 
         // PGS tolerance, with Gauss–Seidel forced (the default active-set solve is exact and
         // uses PGS only to verify).
-        for (double tol : args.quick ? std::vector<double>{1e-2, 1e-4} : std::vector<double>{1e-2, 1e-3, 1e-4, 1e-6}) {
+        for (double tol : args.quick ? std::vector<double>{1e-2, 1e-4}
+                                     : std::vector<double>{1e-2, 1e-3, 1e-4, 1e-6}) {
           RegistrationOptions o = product_options(s);
           o.step.solver = constraints::ConstraintSolver::GAUSS_SEIDEL;
           o.step.pgs.tolerance = tol;
@@ -812,7 +886,9 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
           with_fp.footprint_points = fp.points;
           with_fp.footprint_normals = fp.normals;
           const std::string fp_note =
-              fp.points.rows() ? "" : "the B-mode gave no footprint: " + fp.report.value("message", std::string());
+              fp.points.rows()
+                  ? ""
+                  : "the B-mode gave no footprint: " + fp.report.value("message", std::string());
           RegistrationOptions o = s.loaded.scene.options;
           o.use_footprint = false;
           sweep("constraint_sets", "vessels", data, o);
@@ -868,16 +944,18 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
   for (const Row& r : rows) {
     if (!r.ok) ++failed;
     if (r.suite != "cases") continue;
-    out << "  " << std::left << std::setw(30) << r.case_name << std::setw(24) << r.method << std::right;
+    out << "  " << std::left << std::setw(30) << r.case_name << std::setw(24) << r.method
+        << std::right;
     if (r.ok)
-      out << " TRE " << r.tre_before_mean << " -> " << r.tre_mean << " mm (near " << r.tre_near_mean << ", far "
-          << r.tre_far_mean << "), " << r.t.total << " s, " << r.stop << "\n";
+      out << " TRE " << r.tre_before_mean << " -> " << r.tre_mean << " mm (near " << r.tre_near_mean
+          << ", far " << r.tre_far_mean << "), " << r.t.total << " s, " << r.stop << "\n";
     else
       out << " FAILED: " << r.error << "\n";
   }
   out << "  results: " << (args.out / "results.md").string() << ", results.csv, results.json"
       << (meta["plot"] == "pareto.png" ? ", pareto.png" : "") << "\n";
-  if (meta["plot"] != "pareto.png") out << "  warning: no plot: " << meta["plot"].get<std::string>() << "\n";
+  if (meta["plot"] != "pareto.png")
+    out << "  warning: no plot: " << meta["plot"].get<std::string>() << "\n";
   if (failed) out << "  " << failed << " run(s) failed; see results.md\n";
   return failed ? 2 : 0;
 }

@@ -7,8 +7,8 @@
 ///
 ///   suite `cases`:  each named phantom case with the product's defaults (vessels only), and two
 ///                   baselines on the same data: `rigid_only` (the loop's rigid start alone) and
-///                   `prescribed_displacement` (the seeds' forward model: each vessel point's nearest skeleton
-///                   point is displaced onto it, no sliding, no re-pairing);
+///                   `prescribed_displacement` (the seeds' forward model: each vessel point's
+///                   nearest skeleton point is displaced onto it, no sliding, no re-pairing);
 ///   suite `sweeps`: on `standard`: mesh size (≈1k … 50k nodes), start (identity or rigid),
 ///                   intra-operative vessel sampling
 ///                   (1.25, 2.5, 5 mm), compliance strategy (dense block, sparse solves, unwarped
@@ -32,16 +32,17 @@ class App;
 namespace brainshift::apps {
 
 struct BenchArgs {
-  bool quick = false;               ///< standard case and a few sweep points (CI smoke test, < 2 min)
-  std::string suite = "all";        ///< all | cases | sweeps
-  std::vector<std::string> cases;   ///< named cases for suite `cases` (default: every case)
-  std::uint32_t seed = 1;           ///< phantom seed
-  int repeat = 1;                   ///< registrations per run; the median run's times are recorded
-  bool keep_work = false;           ///< keep DIR/work (phantoms and models)
+  bool quick = false;         ///< standard case and a few sweep points (CI smoke test, < 2 min)
+  std::string suite = "all";  ///< all | cases | sweeps
+  std::vector<std::string> cases;  ///< named cases for suite `cases` (default: every case)
+  std::uint32_t seed = 1;          ///< phantom seed
+  int repeat = 1;                  ///< registrations per run; the median run's times are recorded
+  bool keep_work = false;          ///< keep DIR/work (phantoms and models)
   /// Real data (the icbm_* cases read DIR/icbm152/labels.nii.gz); absent: those cases are
-  /// skipped with a message (results.json → skipped). Default: $BRAINSHIFT_DATA, else ../shared/data.
+  /// skipped with a message (results.json → skipped). Default: $BRAINSHIFT_DATA, else
+  /// ../shared/data.
   std::filesystem::path real_data;
-  std::filesystem::path out;        ///< DIR
+  std::filesystem::path out;  ///< DIR
 };
 
 CLI::App* add_bench_command(CLI::App& app, BenchArgs& args);

@@ -1,5 +1,13 @@
 #include "cmd_demo.hpp"
 
+#include "cmd_evaluate.hpp"
+#include "cmd_prepare.hpp"
+#include "cmd_register.hpp"
+#include "progress.hpp"
+
+#include "core/error.hpp"
+#include "data_synth/cases/phantom_case.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <fstream>
@@ -7,13 +15,6 @@
 #include <ostream>
 #include <sstream>
 #include <system_error>
-
-#include "cmd_evaluate.hpp"
-#include "cmd_prepare.hpp"
-#include "cmd_register.hpp"
-#include "core/error.hpp"
-#include "data_synth/cases/phantom_case.hpp"
-#include "progress.hpp"
 
 namespace brainshift::apps {
 
@@ -30,7 +31,8 @@ int run_demo(const DemoArgs& args, std::ostream& out) {
   std::error_code ec;
   std::filesystem::create_directories(args.out, ec);
   BS_VERIFY(!ec, args.out.string() << ": cannot create the output folder: " << ec.message());
-  const auto phantom = args.out / "phantom", model = args.out / "model", result = args.out / "result";
+  const auto phantom = args.out / "phantom", model = args.out / "model",
+             result = args.out / "result";
   std::filesystem::remove_all(phantom, ec);  // generate_case wants a fresh folder
 
   std::ostringstream log;  // the stages' own summaries, shown after ours
@@ -74,19 +76,25 @@ int run_demo(const DemoArgs& args, std::ostream& out) {
   out << std::fixed << std::setprecision(2);
   out << "brainshift demo: phantom 'standard' (seed " << args.seed << "), cortical shift "
       << truth.stats.max_cortical_shift << " mm max, " << truth.landmarks << " landmarks\n";
-  out << "  time: phantom " << t_phantom << " s, prepare " << t_prepare << " s, register " << t_register
-      << " s (registration itself " << report["timing"]["registration"].get<double>() << " s, "
-      << report["iterations"].get<int>() << " iterations, " << report["stop"].get<std::string>() << ")\n";
-  out << "  TRE mean " << ev["tre_before_mm"]["mean"].get<double>() << " -> " << ev["tre_after_mm"]["mean"].get<double>()
-      << " mm (p95 " << ev["tre_before_mm"]["p95"].get<double>() << " -> " << ev["tre_after_mm"]["p95"].get<double>()
-      << " mm, max " << ev["tre_before_mm"]["max"].get<double>() << " -> " << ev["tre_after_mm"]["max"].get<double>()
-      << " mm); shift corrected " << ev["shift_corrected_pct"].get<double>() << " %\n";
-  out << "  outputs: " << result.string() << "/{report.json, evaluation.json, deformed.vtu, displacement.nii.gz, "
-      << "preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz, overlay.png, overlay_uncertainty.png}\n";
+  out << "  time: phantom " << t_phantom << " s, prepare " << t_prepare << " s, register "
+      << t_register << " s (registration itself " << report["timing"]["registration"].get<double>()
+      << " s, " << report["iterations"].get<int>() << " iterations, "
+      << report["stop"].get<std::string>() << ")\n";
+  out << "  TRE mean " << ev["tre_before_mm"]["mean"].get<double>() << " -> "
+      << ev["tre_after_mm"]["mean"].get<double>() << " mm (p95 "
+      << ev["tre_before_mm"]["p95"].get<double>() << " -> "
+      << ev["tre_after_mm"]["p95"].get<double>() << " mm, max "
+      << ev["tre_before_mm"]["max"].get<double>() << " -> "
+      << ev["tre_after_mm"]["max"].get<double>() << " mm); shift corrected "
+      << ev["shift_corrected_pct"].get<double>() << " %\n";
+  out << "  outputs: " << result.string()
+      << "/{report.json, evaluation.json, deformed.vtu, displacement.nii.gz, "
+      << "preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz, "
+         "overlay.png, overlay_uncertainty.png}\n";
   out << "  inputs:  " << phantom.string() << " (phantom), " << model.string() << " (model)\n";
   if (reg_code != 0)
-    out << "  note: the registration stopped without meeting its convergence test (" << report["stop"].get<std::string>()
-        << "); the result above is its last iterate\n";
+    out << "  note: the registration stopped without meeting its convergence test ("
+        << report["stop"].get<std::string>() << "); the result above is its last iterate\n";
   out << log.str();
   return 0;
 }

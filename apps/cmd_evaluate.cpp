@@ -1,11 +1,5 @@
 #include "cmd_evaluate.hpp"
 
-#include <CLI/CLI.hpp>
-
-#include <fstream>
-#include <iomanip>
-#include <ostream>
-
 #include "core/error.hpp"
 #include "imaging/evaluation/calibration.hpp"
 #include "imaging/evaluation/metrics.hpp"
@@ -15,6 +9,12 @@
 #include "imaging/io/surface_io.hpp"
 #include "imaging/warping/warp_image.hpp"
 
+#include <CLI/CLI.hpp>
+
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+
 namespace brainshift::apps {
 namespace {
 
@@ -23,26 +23,33 @@ MatrixX3d moved(const imaging::VolumeF& field, ConstRef<MatrixX3d> p) {
   MatrixX3d out(p.rows(), 3);
   for (Eigen::Index i = 0; i < p.rows(); ++i) {
     const Vector3d ijk = field.geometry.world_to_index(p.row(i).transpose());
-    for (int c = 0; c < 3; ++c) out(i, c) = p(i, c) + imaging::sample_trilinear(field, ijk, 0.0F, c);
+    for (int c = 0; c < 3; ++c)
+      out(i, c) = p(i, c) + imaging::sample_trilinear(field, ijk, 0.0F, c);
   }
   return out;
 }
 
 nlohmann::json stats_json(const imaging::ErrorStats& s) {
-  return {{"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"count", s.count}};
+  return {
+      {"mean", s.mean}, {"median", s.median}, {"p95", s.p95}, {"max", s.max}, {"count", s.count}};
 }
 
 nlohmann::json surface_json(const imaging::SurfaceDistanceStats& s) {
-  return {{"h95", s.h95}, {"h75", s.h75}, {"h50", s.h50}, {"h25", s.h25}, {"max", s.max}, {"mean", s.mean}};
+  return {{"h95", s.h95}, {"h75", s.h75}, {"h50", s.h50},
+          {"h25", s.h25}, {"max", s.max}, {"mean", s.mean}};
 }
 
 }  // namespace
 
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateArgs& args) {
-  CLI::App* c = app.add_subcommand("evaluate", "TRE and surface distances of a result against truth");
+  CLI::App* c =
+      app.add_subcommand("evaluate", "TRE and surface distances of a result against truth");
   c->add_option("--result", args.result, "result folder RES from register")->required();
-  c->add_option("--landmarks-pre", args.landmarks_pre, "pre-operative landmarks CSV id,x,y,z (mm)")->required();
-  c->add_option("--landmarks-intra", args.landmarks_intra, "intra-operative landmarks CSV id,x,y,z (mm)")->required();
+  c->add_option("--landmarks-pre", args.landmarks_pre, "pre-operative landmarks CSV id,x,y,z (mm)")
+      ->required();
+  c->add_option("--landmarks-intra", args.landmarks_intra,
+                "intra-operative landmarks CSV id,x,y,z (mm)")
+      ->required();
   c->add_option("--surface-pre", args.surface_pre, "pre-operative surface .vtp (e.g. ventricles)");
   c->add_option("--surface-intra", args.surface_intra, "intra-operative surface .vtp");
   return c;
@@ -53,16 +60,21 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
             "evaluate: give both --surface-pre and --surface-intra, or neither");
   const std::filesystem::path field_path = args.result / "displacement.nii.gz";
   const imaging::VolumeF field = imaging::read_volume(field_path);
-  BS_VERIFY(field.components == 3, field_path.string() << ": expected a 3-component displacement field, got "
-                                                       << field.components);
+  BS_VERIFY(field.components == 3, field_path.string()
+                                       << ": expected a 3-component displacement field, got "
+                                       << field.components);
   const imaging::Landmarks pre = imaging::read_landmarks(args.landmarks_pre);
   const imaging::Landmarks intra = imaging::read_landmarks(args.landmarks_intra);
-  const imaging::LandmarkPairs pairs = imaging::match_landmarks_by_id(pre.ids, pre.points, intra.ids, intra.points);
-  BS_VERIFY(!pairs.ids.empty(), args.landmarks_pre.string() << " and " << args.landmarks_intra.string()
-                                                            << ": no landmark id in common");
+  const imaging::LandmarkPairs pairs =
+      imaging::match_landmarks_by_id(pre.ids, pre.points, intra.ids, intra.points);
+  BS_VERIFY(!pairs.ids.empty(), args.landmarks_pre.string()
+                                    << " and " << args.landmarks_intra.string()
+                                    << ": no landmark id in common");
   const MatrixX3d predicted = moved(field, pairs.a);
-  const imaging::ErrorStats before = imaging::error_stats(imaging::landmark_errors(pairs.a, pairs.b));
-  const imaging::ErrorStats after = imaging::error_stats(imaging::landmark_errors(predicted, pairs.b));
+  const imaging::ErrorStats before =
+      imaging::error_stats(imaging::landmark_errors(pairs.a, pairs.b));
+  const imaging::ErrorStats after =
+      imaging::error_stats(imaging::landmark_errors(predicted, pairs.b));
   nlohmann::json j = {{"result", args.result.string()},
                       {"landmarks", pairs.ids.size()},
                       {"unpaired_landmarks", pairs.warnings},
@@ -72,12 +84,14 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
   // their actual errors (imaging/evaluation/calibration.hpp for the convention).
   if (const auto unc_path = args.result / "uncertainty.nii.gz"; std::filesystem::exists(unc_path)) {
     const imaging::VolumeF unc = imaging::read_volume(unc_path);
-    BS_VERIFY(unc.components == 1, unc_path.string() << ": expected a scalar map, got " << unc.components
-                                                      << " components");
+    BS_VERIFY(unc.components == 1, unc_path.string() << ": expected a scalar map, got "
+                                                     << unc.components << " components");
     const std::vector<double> actual = imaging::landmark_errors(predicted, pairs.b);
     std::vector<double> sigma;
     for (Eigen::Index i = 0; i < pairs.a.rows(); ++i)
-      sigma.push_back(std::max(0.0F, imaging::sample_trilinear(unc, unc.geometry.world_to_index(pairs.a.row(i).transpose()), 0.0F)));
+      sigma.push_back(
+          std::max(0.0F, imaging::sample_trilinear(
+                             unc, unc.geometry.world_to_index(pairs.a.row(i).transpose()), 0.0F)));
     const imaging::UncertaintyCalibration c = imaging::calibrate_uncertainty(sigma, actual);
     j["uncertainty_calibration"] = {
         {"landmarks", c.count},
@@ -90,7 +104,9 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
         {"mean_actual_mm", c.mean_actual_mm},
         {"rms_actual_over_predicted", c.rms_ratio},
         {"predicted_mm", sigma},
-        {"convention", "sigma = predicted RMS length of the 3-D error (sqrt tr Σ); within k sigma: |e| <= k sigma"}};
+        {"convention",
+         "sigma = predicted RMS length of the 3-D error (sqrt tr Σ); within k sigma: |e| <= k "
+         "sigma"}};
   }
   const auto pct = imaging::percent_shift_corrected(before.mean, after.mean);
   j["shift_corrected_pct"] = pct ? nlohmann::json(*pct) : nlohmann::json(nullptr);
@@ -116,17 +132,18 @@ int run_evaluate(const EvaluateArgs& args, std::ostream& out) {
   out << "           mean  median     p95     max\n";
   for (const char* k : {"tre_before_mm", "tre_after_mm"}) {
     const auto& s = j[k];
-    out << (std::string(k) == "tre_before_mm" ? "  before " : "  after  ") << std::setw(6) << s["mean"].get<double>()
-        << std::setw(8) << s["median"].get<double>() << std::setw(8) << s["p95"].get<double>() << std::setw(8)
-        << s["max"].get<double>() << "\n";
+    out << (std::string(k) == "tre_before_mm" ? "  before " : "  after  ") << std::setw(6)
+        << s["mean"].get<double>() << std::setw(8) << s["median"].get<double>() << std::setw(8)
+        << s["p95"].get<double>() << std::setw(8) << s["max"].get<double>() << "\n";
   }
   if (!j["shift_corrected_pct"].is_null())
     out << "shift corrected: " << j["shift_corrected_pct"].get<double>() << " %\n";
   if (j.contains("surface_after_mm"))
     for (const char* k : {"surface_before_mm", "surface_after_mm"})
-      out << (std::string(k) == "surface_before_mm" ? "surface before" : "surface after ") << ": H95 "
-          << j[k]["h95"].get<double>() << ", H75 " << j[k]["h75"].get<double>() << ", H50 "
-          << j[k]["h50"].get<double>() << ", H25 " << j[k]["h25"].get<double>() << " mm\n";
+      out << (std::string(k) == "surface_before_mm" ? "surface before" : "surface after ")
+          << ": H95 " << j[k]["h95"].get<double>() << ", H75 " << j[k]["h75"].get<double>()
+          << ", H50 " << j[k]["h50"].get<double>() << ", H25 " << j[k]["h25"].get<double>()
+          << " mm\n";
   if (j.contains("uncertainty_calibration")) {
     const auto& c = j["uncertainty_calibration"];
     out << "predicted error: Spearman " << c["spearman"].get<double>() << ", within 1 sigma "

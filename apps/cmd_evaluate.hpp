@@ -7,11 +7,11 @@
 /// maps the pre-operative frame to the intra-operative one, rigid part included). Writes
 /// RES/evaluation.json and prints a table.
 
+#include <nlohmann/json.hpp>
+
 #include <filesystem>
 #include <iosfwd>
 #include <optional>
-
-#include <nlohmann/json.hpp>
 
 namespace CLI {
 class App;

@@ -3,7 +3,8 @@
 /// @brief `brainshift extract`: one extraction alone, to check an input before registering or to
 /// script. This file holds the `extract` command and its `vessels` subcommand:
 ///
-///   brainshift extract vessels --image FILE --out SKELETON.vtp [--report REPORT.json] [--png MIP.png]
+///   brainshift extract vessels --image FILE --out SKELETON.vtp [--report REPORT.json] [--png
+///   MIP.png]
 ///
 /// The skeleton is the vessel graph of imaging::extract_vessels() (MRA, CTA or power Doppler),
 /// written as `prepare` writes MODEL/vessels.vtp (imaging::write_skeleton_vtp: one polyline per

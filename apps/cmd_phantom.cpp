@@ -1,13 +1,13 @@
 #include "cmd_phantom.hpp"
 
+#include "core/error.hpp"
+#include "data_synth/cases/label_case.hpp"
+#include "data_synth/cases/phantom_case.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <cmath>
 #include <iostream>
-
-#include "core/error.hpp"
-#include "data_synth/cases/label_case.hpp"
-#include "data_synth/cases/phantom_case.hpp"
 
 namespace brainshift::apps {
 
@@ -17,17 +17,21 @@ CLI::App* add_phantom_command(CLI::App& app, PhantomArgs& args) {
   CLI::App* cmd = app.add_subcommand(
       "phantom", "Synthetic phantom case with known truth (images, landmarks, displacement)");
   cmd->add_option("--case", args.case_name,
-                  "Case name: " + names + " (required without --labels; with it, the recipe, default standard)");
-  cmd->add_option("--labels", args.labels,
-                  "Label volume (0 background, 1 brain, 2 tumour, 3 ventricles): the case on its brain");
-  cmd->add_option("--tumour", args.tumour,
-                  "With --labels: tumour X,Y,Z,RADIUS (mm, world RAS; default: the labels' tumour, else "
-                  "30 mm beneath the craniotomy, radius 10 mm)")
+                  "Case name: " + names +
+                      " (required without --labels; with it, the recipe, default standard)");
+  cmd->add_option(
+      "--labels", args.labels,
+      "Label volume (0 background, 1 brain, 2 tumour, 3 ventricles): the case on its brain");
+  cmd->add_option(
+         "--tumour", args.tumour,
+         "With --labels: tumour X,Y,Z,RADIUS (mm, world RAS; default: the labels' tumour, else "
+         "30 mm beneath the craniotomy, radius 10 mm)")
       ->delimiter(',')
       ->expected(4);
-  cmd->add_option("--craniotomy", args.craniotomy,
-                  "With --labels: craniotomy centre X,Y,Z near the brain surface (mm, world RAS; default: "
-                  "the upper convexity)")
+  cmd->add_option(
+         "--craniotomy", args.craniotomy,
+         "With --labels: craniotomy centre X,Y,Z near the brain surface (mm, world RAS; default: "
+         "the upper convexity)")
       ->delimiter(',')
       ->expected(3);
   cmd->add_option("--seed", args.seed, "Seed of the vessels and all noise")->capture_default_str();
@@ -46,7 +50,8 @@ namespace {
 
 data_synth::CaseSummary generate(const PhantomArgs& args, const data_synth::CaseOptions& options) {
   if (!args.labels) {
-    BS_VERIFY(args.tumour.empty() && args.craniotomy.empty(), "--tumour and --craniotomy need --labels FILE");
+    BS_VERIFY(args.tumour.empty() && args.craniotomy.empty(),
+              "--tumour and --craniotomy need --labels FILE");
     BS_VERIFY(!args.case_name.empty(), "--case NAME is required without --labels");
     return data_synth::generate_case(args.case_name, args.seed, options);
   }
@@ -55,14 +60,16 @@ data_synth::CaseSummary generate(const PhantomArgs& args, const data_synth::Case
   r.case_name = args.case_name.empty() ? "standard" : args.case_name;
   r.seed = args.seed;
   if (!args.tumour.empty()) {
-    BS_VERIFY(args.tumour.size() == 4, "--tumour needs X,Y,Z,RADIUS, got " << args.tumour.size() << " values");
+    BS_VERIFY(args.tumour.size() == 4,
+              "--tumour needs X,Y,Z,RADIUS, got " << args.tumour.size() << " values");
     r.tumour_center = Vector3d(args.tumour[0], args.tumour[1], args.tumour[2]);
     BS_VERIFY(std::isfinite(args.tumour[3]) && args.tumour[3] > 0.0,
               "--tumour radius " << args.tumour[3] << " mm must be positive");
     r.tumour_radius = args.tumour[3];
   }
   if (!args.craniotomy.empty()) {
-    BS_VERIFY(args.craniotomy.size() == 3, "--craniotomy needs X,Y,Z, got " << args.craniotomy.size() << " values");
+    BS_VERIFY(args.craniotomy.size() == 3,
+              "--craniotomy needs X,Y,Z, got " << args.craniotomy.size() << " values");
     r.craniotomy = Vector3d(args.craniotomy[0], args.craniotomy[1], args.craniotomy[2]);
   }
   return data_synth::generate_label_case(r, options);
@@ -79,8 +86,9 @@ int run_phantom(const PhantomArgs& args, std::ostream& out) {
     std::cerr << "brainshift phantom: " << step << "...\n";
   };
   const data_synth::CaseSummary s = generate(args, options);
-  out << "brainshift phantom: case " << s.name << (args.labels ? " on " + args.labels->string() : "") << ", seed "
-      << s.seed << " -> " << args.out.string() << '\n'
+  out << "brainshift phantom: case " << s.name
+      << (args.labels ? " on " + args.labels->string() : "") << ", seed " << s.seed << " -> "
+      << args.out.string() << '\n'
       << "  truth solve:          " << data_synth::to_string(s.solver_status) << " ("
       << s.solver_message << ")\n"
       << "  max cortical shift:   " << s.stats.max_cortical_shift << " mm\n"

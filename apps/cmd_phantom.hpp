@@ -19,11 +19,11 @@ namespace brainshift::apps {
 
 /// Arguments of `brainshift phantom`.
 struct PhantomArgs {
-  std::string case_name;                             ///< one of data_synth::case_names()
+  std::string case_name;  ///< one of data_synth::case_names()
   std::uint32_t seed = 1;
-  std::optional<std::filesystem::path> vessels;      ///< user tree (.vtp polylines)
-  int frames = 0;                                    ///< intra-operative sequence length
-  std::filesystem::path out;                         ///< DIR: new or empty
+  std::optional<std::filesystem::path> vessels;  ///< user tree (.vtp polylines)
+  int frames = 0;                                ///< intra-operative sequence length
+  std::filesystem::path out;                     ///< DIR: new or empty
   /// A label volume (0 background, 1 brain, 2 tumour, 3 ventricles): the case's recipe on its
   /// brain instead of the analytic phantom (data_synth/cases/label_case.hpp).
   std::optional<std::filesystem::path> labels;

@@ -1,13 +1,7 @@
 #include "cmd_prepare.hpp"
 
-#include <CLI/CLI.hpp>
-
-#include <array>
-#include <chrono>
-#include <fstream>
-#include <functional>
-#include <sstream>
-#include <iostream>
+#include "model_folder.hpp"
+#include "progress.hpp"
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
@@ -23,8 +17,15 @@
 #include "imaging/meshing/model_defaults.hpp"
 #include "imaging/meshing/skeleton_in_mesh.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
-#include "model_folder.hpp"
-#include "progress.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <array>
+#include <chrono>
+#include <fstream>
+#include <functional>
+#include <iostream>
+#include <sstream>
 
 namespace brainshift::apps {
 namespace {
@@ -51,22 +52,26 @@ std::array<std::int64_t, 256> count_labels(const imaging::LabelVolume& labels) {
 /// at least min_brain_ml of it.
 void verify_labels(const std::filesystem::path& path, const imaging::LabelVolume& labels,
                    const std::array<std::int64_t, 256>& n) {
-  BS_VERIFY(!labels.empty() && labels.geometry.voxel_count() > 0, path.string() << ": empty label volume (no voxel)");
+  BS_VERIFY(!labels.empty() && labels.geometry.voxel_count() > 0,
+            path.string() << ": empty label volume (no voxel)");
   for (int v = 4; v < 256; ++v)
-    BS_VERIFY(n[std::size_t(v)] == 0, path.string() << ": label value " << v << " (" << n[std::size_t(v)]
-                                                    << " voxels); allowed: 0 background, 1 brain, 2 tumour, 3 ventricles");
+    BS_VERIFY(n[std::size_t(v)] == 0,
+              path.string() << ": label value " << v << " (" << n[std::size_t(v)]
+                            << " voxels); allowed: 0 background, 1 brain, 2 tumour, 3 ventricles");
   BS_VERIFY(n[0] < labels.geometry.voxel_count(),
             path.string() << ": no brain in it (every voxel is background, label 0)");
-  BS_VERIFY(n[1] > 0, path.string() << ": no brain in it (no voxel has label 1; " << n[2] << " tumour and " << n[3]
-                                    << " ventricle voxels)");
+  BS_VERIFY(n[1] > 0, path.string() << ": no brain in it (no voxel has label 1; " << n[2]
+                                    << " tumour and " << n[3] << " ventricle voxels)");
   const double ml = double(n[1] + n[2] + n[3]) * labels.geometry.spacing.prod() / 1000.0;
-  BS_VERIFY(ml >= min_brain_ml, path.string() << ": the labelled brain is only " << ml << " mL ("
-                                              << n[1] + n[2] + n[3] << " voxels of " << labels.geometry.spacing.prod()
-                                              << " mm³); an adult brain is ≈ 1,200 mL (wrong labels or voxel size?)");
+  BS_VERIFY(ml >= min_brain_ml,
+            path.string() << ": the labelled brain is only " << ml << " mL (" << n[1] + n[2] + n[3]
+                          << " voxels of " << labels.geometry.spacing.prod()
+                          << " mm³); an adult brain is ≈ 1,200 mL (wrong labels or voxel size?)");
 }
 
 /// Materials by label and how many tetrahedra carry each.
-nlohmann::json materials_json(const imaging::MeshingOptions& o, const std::vector<std::uint8_t>& tet_label) {
+nlohmann::json materials_json(const imaging::MeshingOptions& o,
+                              const std::vector<std::uint8_t>& tet_label) {
   std::array<std::int64_t, 4> tets{};
   for (auto l : tet_label) ++tets[std::min<std::size_t>(l, 3)];
   return {{"brain", {{"youngs_modulus_kpa", o.brain_youngs_modulus}, {"tets", tets[1]}}},
@@ -105,9 +110,11 @@ std::string mm(double x) {
   return s.str();
 }
 
-nlohmann::json surface_json(const imaging::CollisionSurface& c, const imaging::CollisionSurfaceOptions& o) {
-  const std::string method = c.wrapped ? "alpha wrap of the non-manifold boundary (alpha " + mm(o.wrap_alpha_mm) +
-                                             " mm, offset " + mm(o.wrap_offset_mm) + " mm), decimated"
+nlohmann::json surface_json(const imaging::CollisionSurface& c,
+                            const imaging::CollisionSurfaceOptions& o) {
+  const std::string method = c.wrapped ? "alpha wrap of the non-manifold boundary (alpha " +
+                                             mm(o.wrap_alpha_mm) + " mm, offset " +
+                                             mm(o.wrap_offset_mm) + " mm), decimated"
                                        : std::string("boundary decimated");
   return {{"vertices", c.surface.vertices.rows()},
           {"triangles", c.surface.triangles.rows()},
@@ -146,7 +153,8 @@ nlohmann::json vessels_json(const imaging::SkeletonFit& fit) {
 }
 
 /// The MRA's vessel skeleton fitted to the mesh (skeleton_in_mesh.hpp), with its progress lines
-/// and warnings. \throws brainshift::Error naming the MRA when it has vessels but none near the mesh.
+/// and warnings. \throws brainshift::Error naming the MRA when it has vessels but none near the
+/// mesh.
 imaging::SkeletonFit mra_vessels(const std::filesystem::path& path, const imaging::VolumeF& mra,
                                  const core::TetMesh& mesh, const Progress& progress,
                                  const std::function<void(const std::string&)>& warn) {
@@ -160,20 +168,25 @@ imaging::SkeletonFit mra_vessels(const std::filesystem::path& path, const imagin
   if (vessels.status == imaging::VesselStatus::OK) {
     fit = imaging::fit_skeleton_to_mesh(vessels.graph, mesh, vessel_snap_mm);
     BS_VERIFY(!fit.graph.branches.empty(),
-              path.string() << ": none of its " << fit.points << " vessel points lies in the brain mesh or within "
-                            << vessel_snap_mm << " mm of it (different patient or frame?)");
-    progress.stage("vessels: " + std::to_string(fit.points) + " skeleton points, " + std::to_string(fit.inside) +
-                   " inside the mesh, " + std::to_string(fit.snapped) + " outside within " + mm(vessel_snap_mm) +
-                   " mm moved onto it (up to " + mm(fit.max_snap_mm) + " mm), " + std::to_string(fit.dropped) +
+              path.string() << ": none of its " << fit.points
+                            << " vessel points lies in the brain mesh or within " << vessel_snap_mm
+                            << " mm of it (different patient or frame?)");
+    progress.stage("vessels: " + std::to_string(fit.points) + " skeleton points, " +
+                   std::to_string(fit.inside) + " inside the mesh, " + std::to_string(fit.snapped) +
+                   " outside within " + mm(vessel_snap_mm) + " mm moved onto it (up to " +
+                   mm(fit.max_snap_mm) + " mm), " + std::to_string(fit.dropped) +
                    " dropped (farther out, or alone)");
     if (2 * fit.dropped > fit.points)
-      warn(std::to_string(fit.dropped) + " of the " + std::to_string(fit.points) + " vessel points of " +
-           path.string() + " are farther than " + mm(vessel_snap_mm) + " mm from the brain mesh and were dropped");
+      warn(std::to_string(fit.dropped) + " of the " + std::to_string(fit.points) +
+           " vessel points of " + path.string() + " are farther than " + mm(vessel_snap_mm) +
+           " mm from the brain mesh and were dropped");
     if (fit.graph.total_length() < weak_vessels_mm)
-      warn("only " + mm(fit.graph.total_length()) + " mm of vessels from " + path.string() + " in the brain (" +
-           std::to_string(fit.graph.branches.size()) + " branches): few points to register on");
+      warn("only " + mm(fit.graph.total_length()) + " mm of vessels from " + path.string() +
+           " in the brain (" + std::to_string(fit.graph.branches.size()) +
+           " branches): few points to register on");
   } else {
-    warn("no vessels in " + path.string() + " (" + vessels.message + "); registration will need footprint data");
+    warn("no vessels in " + path.string() + " (" + vessels.message +
+         "); registration will need footprint data");
   }
   return fit;
 }
@@ -187,14 +200,20 @@ nlohmann::json input_entry(const std::filesystem::path& p) {
 }  // namespace
 
 CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
-  CLI::App* c = app.add_subcommand("prepare", "Pre-operative model: mesh, surface, vessels, scene (MODEL folder)");
-  c->add_option("--labels", args.labels, "label volume: 0 background, 1 brain, 2 tumour, 3 ventricles")->required();
+  CLI::App* c = app.add_subcommand(
+      "prepare", "Pre-operative model: mesh, surface, vessels, scene (MODEL folder)");
+  c->add_option("--labels", args.labels,
+                "label volume: 0 background, 1 brain, 2 tumour, 3 ventricles")
+      ->required();
   c->add_option("--mra", args.mra, "MR angiogram in the same frame")->required();
   c->add_option("--mri", args.mri, "pre-operative MRI (recorded to check later inputs)");
-  c->add_option("--scene-options", args.scene_options, "JSON merged over the default scene (see scene_io.hpp)");
-  c->add_option("--refine", args.mesh_refinement, "mesh refinement (1 ≈ 1.6k nodes on the phantom; node count grows ≈ r^2.7)")
+  c->add_option("--scene-options", args.scene_options,
+                "JSON merged over the default scene (see scene_io.hpp)");
+  c->add_option("--refine", args.mesh_refinement,
+                "mesh refinement (1 ≈ 1.6k nodes on the phantom; node count grows ≈ r^2.7)")
       ->check(CLI::Range(0.25, 6.0));
-  c->add_option("--surface-vertices", args.surface_vertices, "collision surface size")->check(CLI::Range(20, 100000));
+  c->add_option("--surface-vertices", args.surface_vertices, "collision surface size")
+      ->check(CLI::Range(20, 100000));
   c->add_option("--out", args.out, "MODEL folder to write")->required();
   return c;
 }
@@ -212,13 +231,14 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   std::string note;
   const imaging::VolumeF mra = imaging::read_volume(args.mra, &note);
   if (!note.empty()) header_notes.push_back(args.mra.string() + ": " + note);
-  BS_VERIFY(mra.components == 1, args.mra.string() << ": expected a scalar image, got " << mra.components
-                                                   << " components");
+  BS_VERIFY(mra.components == 1, args.mra.string() << ": expected a scalar image, got "
+                                                   << mra.components << " components");
   {
     Vector3d lo, hi;
     grid_bounds(labels.geometry, lo, hi);
-    BS_VERIFY(grid_overlaps(mra.geometry, lo, hi, 0.0),
-              args.mra.string() << ": does not overlap the label volume (different patient or frame?)");
+    BS_VERIFY(
+        grid_overlaps(mra.geometry, lo, hi, 0.0),
+        args.mra.string() << ": does not overlap the label volume (different patient or frame?)");
   }
   if (args.mri) {
     note.clear();
@@ -232,9 +252,9 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   };
 
   progress.stage("meshing the labels (CGAL)");
-  const imaging::MeshingOptions meshing = args.mesh_refinement == 1.0
-                                              ? imaging::MeshingOptions::coarse()
-                                              : imaging::MeshingOptions::refined(args.mesh_refinement);
+  const imaging::MeshingOptions meshing =
+      args.mesh_refinement == 1.0 ? imaging::MeshingOptions::coarse()
+                                  : imaging::MeshingOptions::refined(args.mesh_refinement);
   imaging::MeshingResult meshed;
   try {
     meshed = imaging::mesh_labels(labels, meshing);
@@ -244,24 +264,30 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   const core::TetMesh& mesh = meshed.mesh;
   const double t_mesh = progress.seconds();
   const auto t_surface_start = std::chrono::steady_clock::now();
-  progress.stage("collision surface, fixed region and craniotomy (" + std::to_string(mesh.num_nodes()) + " nodes, " +
-                 std::to_string(mesh.num_tets()) + " tetrahedra)");
+  progress.stage("collision surface, fixed region and craniotomy (" +
+                 std::to_string(mesh.num_nodes()) + " nodes, " + std::to_string(mesh.num_tets()) +
+                 " tetrahedra)");
   const imaging::MeshSurface outer = imaging::outer_boundary_surface(mesh);
   imaging::CollisionSurfaceOptions surface_options;
   surface_options.target_vertices = args.surface_vertices;
-  const imaging::CollisionSurface collision = imaging::make_collision_surface(mesh, outer, surface_options);
+  const imaging::CollisionSurface collision =
+      imaging::make_collision_surface(mesh, outer, surface_options);
   const constraints::SurfaceMesh& surface = collision.surface;
-  const double t_surface = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_surface_start).count();
+  const double t_surface =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_surface_start).count();
   if (collision.wrapped)
-    progress.stage("the mesh boundary is non-manifold at " + std::to_string(collision.non_manifold_edges) + " edges and " +
-                   std::to_string(collision.non_manifold_vertices) + " vertices (thin parts touching): wrapped (alpha " +
-                   mm(surface_options.wrap_alpha_mm) + " mm) and decimated to " +
-                   std::to_string(surface.vertices.rows()) + " vertices");
+    progress.stage(
+        "the mesh boundary is non-manifold at " + std::to_string(collision.non_manifold_edges) +
+        " edges and " + std::to_string(collision.non_manifold_vertices) +
+        " vertices (thin parts touching): wrapped (alpha " + mm(surface_options.wrap_alpha_mm) +
+        " mm) and decimated to " + std::to_string(surface.vertices.rows()) + " vertices");
   if (collision.moved_vertices > 0)
-    progress.stage(std::to_string(collision.moved_vertices) + " collision-surface vertices were up to " +
-                   mm(collision.max_outside_mm) + " mm outside the mesh: moved onto it");
+    progress.stage(std::to_string(collision.moved_vertices) +
+                   " collision-surface vertices were up to " + mm(collision.max_outside_mm) +
+                   " mm outside the mesh: moved onto it");
   const imaging::FixedRegion fixed = imaging::default_fixed_region(outer);
-  const imaging::Craniotomy craniotomy = imaging::default_craniotomy(surface, mesh, meshed.tet_label);
+  const imaging::Craniotomy craniotomy =
+      imaging::default_craniotomy(surface, mesh, meshed.tet_label);
   progress.stage("fixed region: " + std::to_string(fixed.nodes.size()) + " " + fixed.rule);
   progress.stage("craniotomy (default): " + craniotomy.rule);
 
@@ -278,7 +304,8 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
       {"fixed", default_fixed},
       {"collision_surface", "surface.vtp"},
       {"craniotomy", default_craniotomy},
-      {"constraints", {{"vessels", true}, {"footprint", true}, {"dura", "none"}, {"landmarks", false}}},
+      {"constraints",
+       {{"vessels", true}, {"footprint", true}, {"dura", "none"}, {"landmarks", false}}},
       {"rigid", {{"enabled", true}}}};
   if (!skeleton.branches.empty()) scene["vessels"] = "vessels.vtp";
   if (args.scene_options) {
@@ -290,34 +317,37 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
       BS_VERIFY(false, args.scene_options->string() << ": not valid JSON (" << e.what() << ")");
     }
   }
-  nlohmann::json manifest = {{"format", model_format},
-                             {"version", model_version},
-                             {"preop_grid", grid_to_json(labels.geometry)},
-                             {"inputs", {{"labels", input_entry(args.labels)}, {"mra", input_entry(args.mra)}}},
-                             {"labels_ml",
-                              {{"brain", double(label_voxels[1]) * labels.geometry.spacing.prod() / 1000.0},
-                               {"tumour", double(label_voxels[2]) * labels.geometry.spacing.prod() / 1000.0},
-                               {"ventricles", double(label_voxels[3]) * labels.geometry.spacing.prod() / 1000.0}}},
-                             {"mesh",
-                              {{"nodes", mesh.num_nodes()},
-                               {"tets", mesh.num_tets()},
-                               {"volume_ml", mesh_ml(mesh)},
-                               {"min_dihedral_deg", meshed.quality.min_dihedral_deg},
-                               {"seconds", meshed.seconds}}},
-                             {"materials", materials_json(meshing, meshed.tet_label)},
-                             {"surface", surface_json(collision, surface_options)},
-                             {"fixed", fixed_json(fixed)},
-                             {"craniotomy", craniotomy_json(craniotomy)},
-                             {"vessels", vessels_json(fit)},
-                             {"warnings", warnings},
-                             {"header_notes", header_notes}};
+  nlohmann::json manifest = {
+      {"format", model_format},
+      {"version", model_version},
+      {"preop_grid", grid_to_json(labels.geometry)},
+      {"inputs", {{"labels", input_entry(args.labels)}, {"mra", input_entry(args.mra)}}},
+      {"labels_ml",
+       {{"brain", double(label_voxels[1]) * labels.geometry.spacing.prod() / 1000.0},
+        {"tumour", double(label_voxels[2]) * labels.geometry.spacing.prod() / 1000.0},
+        {"ventricles", double(label_voxels[3]) * labels.geometry.spacing.prod() / 1000.0}}},
+      {"mesh",
+       {{"nodes", mesh.num_nodes()},
+        {"tets", mesh.num_tets()},
+        {"volume_ml", mesh_ml(mesh)},
+        {"min_dihedral_deg", meshed.quality.min_dihedral_deg},
+        {"seconds", meshed.seconds}}},
+      {"materials", materials_json(meshing, meshed.tet_label)},
+      {"surface", surface_json(collision, surface_options)},
+      {"fixed", fixed_json(fixed)},
+      {"craniotomy", craniotomy_json(craniotomy)},
+      {"vessels", vessels_json(fit)},
+      {"warnings", warnings},
+      {"header_notes", header_notes}};
   if (args.mri) manifest["inputs"]["mri"] = input_entry(*args.mri);
   // What --scene-options replaced is what the model uses: say so.
   const nlohmann::json none;
   if (scene.value("craniotomy", none) != default_craniotomy)
-    manifest["craniotomy"] = {{"scene", scene.value("craniotomy", none)}, {"rule", "given by --scene-options"}};
+    manifest["craniotomy"] = {{"scene", scene.value("craniotomy", none)},
+                              {"rule", "given by --scene-options"}};
   if (scene.value("fixed", none) != default_fixed)
-    manifest["fixed"] = {{"scene", scene.value("fixed", none)}, {"rule", "given by --scene-options"}};
+    manifest["fixed"] = {{"scene", scene.value("fixed", none)},
+                         {"rule", "given by --scene-options"}};
 
   progress.stage("writing the model");
   write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
@@ -338,7 +368,8 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
     // once, and keep the block (register adopts it after checking it belongs to this model).
     progress.stage("factorising the stiffness and precomputing the compliance block");
     const auto& sc = loaded.scene;
-    constraints::RegistrationModel model(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface, sc.compliance);
+    constraints::RegistrationModel model(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
+                                         sc.compliance);
     const auto& op = model.mechanics().compliance();
     nlohmann::json cache = {{"strategy", constraints::to_string(op.strategy())},
                             {"block_nodes", op.block_nodes().size()},
@@ -349,13 +380,15 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
       cache["bytes"] = std::filesystem::file_size(dir / compliance_cache_file);
     }
     manifest["compliance"] = cache;
-    manifest["seconds"] = {{"mesh", t_mesh}, {"collision_surface", t_surface}, {"total", progress.seconds()}};
+    manifest["seconds"] = {
+        {"mesh", t_mesh}, {"collision_surface", t_surface}, {"total", progress.seconds()}};
     std::ofstream(dir / "model.json") << manifest.dump(2) << '\n';
   });
-  out << "prepared " << args.out.string() << ": " << mesh.num_nodes() << " nodes, " << mesh.num_tets()
-      << " tetrahedra, " << surface.vertices.rows() << " surface vertices, " << fixed.nodes.size() << " fixed nodes, "
-      << skeleton.branches.size() << " vessel branches (" << static_cast<int>(skeleton.total_length())
-      << " mm; " << fit.snapped << " vessel points moved onto the mesh, " << fit.dropped << " dropped) in "
+  out << "prepared " << args.out.string() << ": " << mesh.num_nodes() << " nodes, "
+      << mesh.num_tets() << " tetrahedra, " << surface.vertices.rows() << " surface vertices, "
+      << fixed.nodes.size() << " fixed nodes, " << skeleton.branches.size() << " vessel branches ("
+      << static_cast<int>(skeleton.total_length()) << " mm; " << fit.snapped
+      << " vessel points moved onto the mesh, " << fit.dropped << " dropped) in "
       << progress.seconds() << " s\n";
   for (const std::string& w : warnings) out << "warning: " << w << '\n';
   return 0;

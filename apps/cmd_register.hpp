@@ -3,19 +3,21 @@
 /// @brief `brainshift register`: one intra-operative registration against a prepared MODEL —
 /// vessel points from the power Doppler, footprint from the B-mode, the constraint-based ICP,
 /// and the outputs (report.json, deformed.vtu, displacement.nii.gz, preop_to_intraop.nrrd,
-/// intraop_to_preop.nrrd, warped_mri.nii.gz, overlay.png; the fields in result_fields.hpp). Wiring only; the pieces are reused by `replay` and `demo`.
+/// intraop_to_preop.nrrd, warped_mri.nii.gz, overlay.png; the fields in result_fields.hpp). Wiring
+/// only; the pieces are reused by `replay` and `demo`.
+
+#include "model_folder.hpp"
+
+#include "constraints/registration/registration.hpp"
+#include "imaging/io/volume.hpp"
+#include "imaging/vessels/vessel_extraction.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <iosfwd>
 #include <optional>
 #include <string>
-
-#include <nlohmann/json.hpp>
-
-#include "constraints/registration/registration.hpp"
-#include "imaging/io/volume.hpp"
-#include "imaging/vessels/vessel_extraction.hpp"
-#include "model_folder.hpp"
 
 namespace CLI {
 class App;
@@ -66,20 +68,22 @@ imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& m
 /// Writes RES (report.json, deformed.vtu, displacement.nii.gz, preop_to_intraop.nrrd,
 /// intraop_to_preop.nrrd, overlay.png, warped_mri.nii.gz with an MRI from read_preop_mri())
 /// atomically. `extra` is merged into the report.
-void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
-                  const IntraopInputs& in, const imaging::VolumeF* mri, const nlohmann::json& extra);
+void write_result(const std::filesystem::path& res, const Session& s,
+                  const constraints::RegistrationResult& r, const IntraopInputs& in,
+                  const imaging::VolumeF* mri, const nlohmann::json& extra);
 
 struct ResultFields;
 /// As above with the fields already computed (compute_result_fields() with the same `mri`);
 /// `seconds_fields` is added to the report's output time.
-void write_result(const std::filesystem::path& res, const Session& s, const constraints::RegistrationResult& r,
-                  const IntraopInputs& in, const imaging::VolumeF* mri, const ResultFields& fields,
+void write_result(const std::filesystem::path& res, const Session& s,
+                  const constraints::RegistrationResult& r, const IntraopInputs& in,
+                  const imaging::VolumeF* mri, const ResultFields& fields,
                   const nlohmann::json& extra, double seconds_fields);
 
 /// report.json without its output timing: registration_report(), the intra-operative inputs,
 /// `extra` (merged), the model set-up and the load / extraction times.
-nlohmann::json result_report(const Session& s, const constraints::RegistrationResult& r, const IntraopInputs& in,
-                             const nlohmann::json& extra);
+nlohmann::json result_report(const Session& s, const constraints::RegistrationResult& r,
+                             const IntraopInputs& in, const nlohmann::json& extra);
 
 /// Everything in report.json about the registration itself.
 nlohmann::json registration_report(const constraints::RegistrationResult& r);

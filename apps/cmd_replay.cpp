@@ -1,5 +1,12 @@
 #include "cmd_replay.hpp"
 
+#include "cmd_register.hpp"
+#include "progress.hpp"
+
+#include "core/error.hpp"
+#include "imaging/evaluation/metrics.hpp"
+#include "imaging/io/atomic_write.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -7,24 +14,22 @@
 #include <iomanip>
 #include <iostream>
 
-#include "cmd_register.hpp"
-#include "core/error.hpp"
-#include "imaging/evaluation/metrics.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "progress.hpp"
-
 namespace brainshift::apps {
 namespace {
 
 /// p-th percentile of the latencies (0 when there are none: every frame failed).
-double latency_percentile(const std::vector<double>& v, double p) { return v.empty() ? 0.0 : imaging::percentile(v, p); }
+double latency_percentile(const std::vector<double>& v, double p) {
+  return v.empty() ? 0.0 : imaging::percentile(v, p);
+}
 
 }  // namespace
 
 CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args) {
-  CLI::App* c = app.add_subcommand("replay", "Register every frame of a recorded sequence, warm-started");
+  CLI::App* c =
+      app.add_subcommand("replay", "Register every frame of a recorded sequence, warm-started");
   c->add_option("--model", args.model, "MODEL folder from brainshift prepare")->required();
-  c->add_option("--sequence", args.sequence, "folder with frame_*/doppler.nii.gz (+ bmode.nii.gz)")->required();
+  c->add_option("--sequence", args.sequence, "folder with frame_*/doppler.nii.gz (+ bmode.nii.gz)")
+      ->required();
   c->add_option("--out", args.out, "result folder RES")->required();
   return c;
 }
@@ -32,17 +37,20 @@ CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args) {
 int run_replay(const ReplayArgs& args, std::ostream& out) {
   const Progress progress("replay");
   std::error_code ec;
-  BS_VERIFY(std::filesystem::is_directory(args.sequence, ec), args.sequence.string() << ": no such folder");
+  BS_VERIFY(std::filesystem::is_directory(args.sequence, ec), args.sequence.string()
+                                                                  << ": no such folder");
   std::vector<std::filesystem::path> frames;
   for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
-    if (e.is_directory() && e.path().filename().string().rfind("frame_", 0) == 0) frames.push_back(e.path());
+    if (e.is_directory() && e.path().filename().string().rfind("frame_", 0) == 0)
+      frames.push_back(e.path());
   std::sort(frames.begin(), frames.end());
   BS_VERIFY(!frames.empty(), args.sequence.string() << ": no frame_* folders");
   verify_output_folder(args.out);
   progress.stage("loading the model " + args.model.string());
   Session s = open_session(args.model);
 
-  nlohmann::json summary = {{"model", args.model.string()}, {"sequence", args.sequence.string()},
+  nlohmann::json summary = {{"model", args.model.string()},
+                            {"sequence", args.sequence.string()},
                             {"frames", nlohmann::json::array()}};
   std::vector<double> latency;
   int failed = 0, unconverged = 0;
@@ -54,12 +62,14 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
       nlohmann::json entry = {{"frame", name}};
       try {
         const std::filesystem::path bmode = f / "bmode.nii.gz";
-        const IntraopInputs in = read_intraop(
-            s, f / "doppler.nii.gz",
-            std::filesystem::exists(bmode) ? std::optional<std::filesystem::path>(bmode) : std::nullopt);
+        const IntraopInputs in = read_intraop(s, f / "doppler.nii.gz",
+                                              std::filesystem::exists(bmode)
+                                                  ? std::optional<std::filesystem::path>(bmode)
+                                                  : std::nullopt);
         const constraints::RegistrationResult r = constraints::register_model(
             *s.model, in.data, s.loaded.scene.options, previous ? &*previous : nullptr);
-        write_result(dir / name, s, r, in, nullptr, {{"frame", name}, {"warm_start", previous.has_value()}});
+        write_result(dir / name, s, r, in, nullptr,
+                     {{"frame", name}, {"warm_start", previous.has_value()}});
         const double seconds = in.seconds + r.seconds.total;
         latency.push_back(seconds);
         entry.update({{"status", r.converged ? "ok" : "not_converged"},
@@ -78,16 +88,21 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
       }
       summary["frames"].push_back(entry);
     }
-    summary["latency_s"] = {{"median", latency_percentile(latency, 50)}, {"p95", latency_percentile(latency, 95)},
-                            {"max", latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end())}};
+    summary["latency_s"] = {
+        {"median", latency_percentile(latency, 50)},
+        {"p95", latency_percentile(latency, 95)},
+        {"max", latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end())}};
     summary["failed"] = failed;
     summary["not_converged"] = unconverged;
     std::ofstream(dir / "replay.json") << summary.dump(2) << '\n';
   });
-  out << std::fixed << std::setprecision(3) << frames.size() << " frames: " << frames.size() - failed
-      << " registered (" << unconverged << " not converged), " << failed << " failed; latency median "
-      << summary["latency_s"]["median"].get<double>() << " s, p95 " << summary["latency_s"]["p95"].get<double>()
-      << " s, max " << summary["latency_s"]["max"].get<double>() << " s; results in " << args.out.string() << "\n";
+  out << std::fixed << std::setprecision(3) << frames.size()
+      << " frames: " << frames.size() - failed << " registered (" << unconverged
+      << " not converged), " << failed << " failed; latency median "
+      << summary["latency_s"]["median"].get<double>() << " s, p95 "
+      << summary["latency_s"]["p95"].get<double>() << " s, max "
+      << summary["latency_s"]["max"].get<double>() << " s; results in " << args.out.string()
+      << "\n";
   if (failed == static_cast<int>(frames.size())) return 1;
   return failed > 0 || unconverged > 0 ? 2 : 0;
 }

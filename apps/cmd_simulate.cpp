@@ -1,16 +1,16 @@
 #include "cmd_simulate.hpp"
 
-#include <CLI/CLI.hpp>
-
-#include <chrono>
-#include <iostream>
-#include <set>
-
 #include "core/error.hpp"
 #include "core/solver/static_solver.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/mesh_io.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <iostream>
+#include <set>
 
 namespace brainshift::apps {
 namespace {
@@ -27,8 +27,8 @@ std::vector<index_t> dirichlet_nodes(const SimulateArgs& args, const std::vector
   std::set<index_t> nodes(fixed.begin(), fixed.end());
   for (const auto& d : displaced) {
     BS_VERIFY(!nodes.contains(d.node), "node " << d.node << " is both fixed (in "
-                                                << args.fixed->string() << ") and displaced (in "
-                                                << args.displace->string() << ")");
+                                               << args.fixed->string() << ") and displaced (in "
+                                               << args.displace->string() << ")");
   }
   for (const auto& d : displaced) nodes.insert(d.node);
   BS_VERIFY(!nodes.empty(),
@@ -43,8 +43,8 @@ core::StaticOptions solver_options(const SimulateArgs& args) {
   options.increment_tolerance = args.tolerance;
   options.corotational = !args.linear;
   if (!args.gravity.empty()) {
-    BS_VERIFY(args.gravity.size() == 3, "--gravity takes 3 values gx,gy,gz (mm/s^2), got "
-                                            << args.gravity.size());
+    BS_VERIFY(args.gravity.size() == 3,
+              "--gravity takes 3 values gx,gy,gz (mm/s^2), got " << args.gravity.size());
     options.gravity = Vector3d(args.gravity[0], args.gravity[1], args.gravity[2]);
   }
   const std::string invalid = options.validate();
@@ -52,8 +52,7 @@ core::StaticOptions solver_options(const SimulateArgs& args) {
   return options;
 }
 
-void print_summary(std::ostream& out, const core::StaticResult& r, double setup_s,
-                   double solve_s) {
+void print_summary(std::ostream& out, const core::StaticResult& r, double setup_s, double solve_s) {
   const double max_u = r.displacement.size() > 0 ? r.displacement.rowwise().norm().maxCoeff() : 0;
   out << "  status:            " << core::to_string(r.status) << " (" << r.message << ")\n"
       << "  iterations:        " << r.iterations << '\n'
@@ -104,9 +103,9 @@ int run_simulate(const SimulateArgs& args, std::ostream& out) {
   const std::vector<index_t> dirichlet = dirichlet_nodes(args, fixed, displaced);
 
   out << "brainshift simulate: " << args.mesh.string() << " (" << mesh.num_nodes() << " nodes, "
-      << mesh.num_tets() << " tetrahedra), " << dirichlet.size() - displaced.size()
-      << " fixed + " << displaced.size() << " displaced nodes, "
-      << (args.linear ? "linear" : "corotational") << " FEM\n";
+      << mesh.num_tets() << " tetrahedra), " << dirichlet.size() - displaced.size() << " fixed + "
+      << displaced.size() << " displaced nodes, " << (args.linear ? "linear" : "corotational")
+      << " FEM\n";
   const core::StaticSolver solver(mesh, dirichlet);
   const double setup_s = seconds_since(start);
   const auto solve_start = Clock::now();

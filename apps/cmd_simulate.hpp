@@ -19,15 +19,15 @@ inline constexpr int exit_not_converged = 2;
 
 /// Arguments of `brainshift simulate`.
 struct SimulateArgs {
-  std::filesystem::path mesh;                    ///< input .vtu
-  std::optional<std::filesystem::path> fixed;    ///< node-list CSV: zero displacement
-  std::optional<std::filesystem::path> displace; ///< node,dx,dy,dz CSV, mm
-  std::vector<double> gravity;                   ///< empty or 3 values, mm/s²
-  bool linear = false;                           ///< plain linear FEM instead of corotational
+  std::filesystem::path mesh;                     ///< input .vtu
+  std::optional<std::filesystem::path> fixed;     ///< node-list CSV: zero displacement
+  std::optional<std::filesystem::path> displace;  ///< node,dx,dy,dz CSV, mm
+  std::vector<double> gravity;                    ///< empty or 3 values, mm/s²
+  bool linear = false;                            ///< plain linear FEM instead of corotational
   int max_iterations = 200;
-  double tolerance = 1e-6;                       ///< relative increment tolerance
-  bool write_unconverged = false;                ///< write OUT even when the solve fails
-  std::filesystem::path out;                     ///< output .vtu
+  double tolerance = 1e-6;         ///< relative increment tolerance
+  bool write_unconverged = false;  ///< write OUT even when the solve fails
+  std::filesystem::path out;       ///< output .vtu
 };
 
 /// Registers the `simulate` subcommand on `app`, filling `args` on parse.

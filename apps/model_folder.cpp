@@ -1,12 +1,12 @@
 #include "model_folder.hpp"
 
-#include <fstream>
-#include <random>
-#include <system_error>
-
 #include "core/error.hpp"
 #include "core/hash.hpp"
 #include "imaging/io/atomic_write.hpp"
+
+#include <fstream>
+#include <random>
+#include <system_error>
 
 namespace brainshift::apps {
 
@@ -28,7 +28,8 @@ nlohmann::json grid_to_json(const imaging::ImageGeometry& g) {
   j["origin_mm"] = {g.origin[0], g.origin[1], g.origin[2]};
   j["spacing_mm"] = {g.spacing[0], g.spacing[1], g.spacing[2]};
   j["direction"] = nlohmann::json::array();
-  for (int r = 0; r < 3; ++r) j["direction"].push_back({g.direction(r, 0), g.direction(r, 1), g.direction(r, 2)});
+  for (int r = 0; r < 3; ++r)
+    j["direction"].push_back({g.direction(r, 0), g.direction(r, 1), g.direction(r, 2)});
   return j;
 }
 
@@ -45,21 +46,24 @@ imaging::ImageGeometry grid_from_json(const nlohmann::json& j) {
 
 bool same_grid(const imaging::ImageGeometry& a, const imaging::ImageGeometry& b) {
   return a.size == b.size && (a.origin - b.origin).cwiseAbs().maxCoeff() < 1e-3 &&
-         (a.spacing - b.spacing).cwiseAbs().maxCoeff() < 1e-6 && (a.direction - b.direction).cwiseAbs().maxCoeff() < 1e-6;
+         (a.spacing - b.spacing).cwiseAbs().maxCoeff() < 1e-6 &&
+         (a.direction - b.direction).cwiseAbs().maxCoeff() < 1e-6;
 }
 
 void grid_bounds(const imaging::ImageGeometry& g, Vector3d& lo, Vector3d& hi) {
   lo = Vector3d::Constant(1e300);
   hi = Vector3d::Constant(-1e300);
   for (int c = 0; c < 8; ++c) {
-    const Vector3d ijk((c & 1) ? g.size[0] - 1 : 0, (c & 2) ? g.size[1] - 1 : 0, (c & 4) ? g.size[2] - 1 : 0);
+    const Vector3d ijk((c & 1) ? g.size[0] - 1 : 0, (c & 2) ? g.size[1] - 1 : 0,
+                       (c & 4) ? g.size[2] - 1 : 0);
     const Vector3d p = g.index_to_world(ijk);
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
   }
 }
 
-bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi, double margin) {
+bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi,
+                   double margin) {
   Vector3d glo, ghi;
   grid_bounds(g, glo, ghi);
   return ((glo.array() <= hi.array() + margin) && (ghi.array() >= lo.array() - margin)).all();
@@ -68,9 +72,11 @@ bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Ve
 LoadedModel load_model(const std::filesystem::path& dir) {
   const std::filesystem::path manifest_path = dir / "model.json";
   std::error_code ec;
-  BS_VERIFY(std::filesystem::is_directory(dir, ec), dir.string() << ": no such model folder (run brainshift prepare)");
-  BS_VERIFY(std::filesystem::exists(manifest_path, ec),
-            dir.string() << ": not a brainshift model folder (no model.json; run brainshift prepare)");
+  BS_VERIFY(std::filesystem::is_directory(dir, ec),
+            dir.string() << ": no such model folder (run brainshift prepare)");
+  BS_VERIFY(
+      std::filesystem::exists(manifest_path, ec),
+      dir.string() << ": not a brainshift model folder (no model.json; run brainshift prepare)");
   LoadedModel m;
   try {
     std::ifstream in(manifest_path);
@@ -79,12 +85,13 @@ LoadedModel load_model(const std::filesystem::path& dir) {
     BS_VERIFY(false, manifest_path.string() << ": unreadable manifest (" << e.what() << ")");
   }
   BS_VERIFY(m.manifest.value("format", "") == model_format,
-            manifest_path.string() << ": not a brainshift model (format '" << m.manifest.value("format", "")
-                                   << "')");
+            manifest_path.string()
+                << ": not a brainshift model (format '" << m.manifest.value("format", "") << "')");
   const int version = m.manifest.value("version", 0);
   BS_VERIFY(version == model_version, manifest_path.string()
-                                          << ": model version " << version << ", this brainshift reads version "
-                                          << model_version << "; run brainshift prepare again");
+                                          << ": model version " << version
+                                          << ", this brainshift reads version " << model_version
+                                          << "; run brainshift prepare again");
   try {
     m.preop_grid = grid_from_json(m.manifest.at("preop_grid"));
   } catch (const nlohmann::json::exception& e) {
@@ -104,7 +111,8 @@ void verify_output_folder(const std::filesystem::path& dir) {
   try {
     imaging::verify_writable(target.parent_path() / probe);
   } catch (const Error&) {
-    BS_VERIFY(false, dir.string() << ": cannot be written (its folder " << target.parent_path().string()
+    BS_VERIFY(false, dir.string() << ": cannot be written (its folder "
+                                  << target.parent_path().string()
                                   << " does not exist or is not writable)");
   }
 }

@@ -18,15 +18,15 @@
 ///                   `warnings`, `compliance`, `seconds`
 /// The folder is written under a temporary name and renamed, so it is complete or absent.
 
+#include "imaging/io/scene_io.hpp"
+#include "imaging/io/volume.hpp"
+
+#include <nlohmann/json.hpp>
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <string>
-
-#include <nlohmann/json.hpp>
-
-#include "imaging/io/scene_io.hpp"
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::apps {
 
@@ -60,8 +60,10 @@ bool same_grid(const imaging::ImageGeometry& a, const imaging::ImageGeometry& b)
 /// World bounding box [lo, hi] (mm) of a grid's voxel centres.
 void grid_bounds(const imaging::ImageGeometry& g, Vector3d& lo, Vector3d& hi);
 
-/// World bounding boxes (mm) of a grid's voxel centres intersect a box [lo, hi] enlarged by `margin`.
-bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi, double margin);
+/// World bounding boxes (mm) of a grid's voxel centres intersect a box [lo, hi] enlarged by
+/// `margin`.
+bool grid_overlaps(const imaging::ImageGeometry& g, const Vector3d& lo, const Vector3d& hi,
+                   double margin);
 
 /// Checks, before long work, that the output folder `dir` can be created or replaced: its parent
 /// exists and accepts new entries. \throws brainshift::Error naming `dir`.

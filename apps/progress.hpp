@@ -27,7 +27,9 @@ class Progress {
     std::cerr << "brainshift " << m_command << ": [" << format(seconds()) << " s] " << what << "\n";
   }
   /// Seconds since construction.
-  [[nodiscard]] double seconds() const { return std::chrono::duration<double>(Clock::now() - m_start).count(); }
+  [[nodiscard]] double seconds() const {
+    return std::chrono::duration<double>(Clock::now() - m_start).count();
+  }
 
  private:
   using Clock = std::chrono::steady_clock;

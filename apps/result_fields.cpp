@@ -1,24 +1,25 @@
 #include "result_fields.hpp"
 
-#include <utility>
-
 #include "core/error.hpp"
 #include "imaging/warping/warp_image.hpp"
+
+#include <utility>
 
 namespace brainshift::apps {
 
 ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
                                    const imaging::VolumeF* mri) {
   const core::TetMesh& mesh = s.model->mesh();
-  BS_VERIFY(r.positions.rows() == mesh.num_nodes(),
-            "the registration result has " << r.positions.rows() << " positions for " << mesh.num_nodes()
-                                           << " nodes");
+  BS_VERIFY(r.positions.rows() == mesh.num_nodes(), "the registration result has "
+                                                        << r.positions.rows() << " positions for "
+                                                        << mesh.num_nodes() << " nodes");
   ResultFields f;
   f.intraop_from_model = r.rigid.transform.inverse();
   f.u_intra.resize(mesh.num_nodes(), 3);
   for (index_t i = 0; i < mesh.num_nodes(); ++i)
     f.u_intra.row(i) =
-        (f.intraop_from_model * Vector3d(r.positions.row(i).transpose())).transpose() - mesh.nodes().row(i);
+        (f.intraop_from_model * Vector3d(r.positions.row(i).transpose())).transpose() -
+        mesh.nodes().row(i);
 
   const imaging::ImageGeometry& preop = s.loaded.preop_grid;
   imaging::DisplacementFieldOptions fo;
@@ -26,7 +27,8 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
   imaging::DisplacementFieldOptions slicer = fo;
   slicer.extension_mm = imaging::trilinear_support_mm(preop);
   // One rasterisation for both: they differ only by the extension shell beyond the mesh.
-  imaging::ForwardDisplacementFields forward = imaging::displacement_fields(mesh, f.u_intra, preop, slicer);
+  imaging::ForwardDisplacementFields forward =
+      imaging::displacement_fields(mesh, f.u_intra, preop, slicer);
   f.displacement = std::move(forward.exact);
   f.intraop_to_preop = std::move(forward.extended);
   // Where pre-operative content is now: the pre-operative grid moved by the rigid part (its

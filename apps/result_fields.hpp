@@ -22,12 +22,13 @@
 /// The Slicer fields extend the brain's map trilinear_support_mm() beyond the mesh, so that
 /// trilinear interpolation anywhere in the brain blends no rigid-part values across its surface.
 
-#include <optional>
-
 #include "cmd_register.hpp"
+#include "result_uncertainty.hpp"
+
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
-#include "result_uncertainty.hpp"
+
+#include <optional>
 
 namespace brainshift::apps {
 
@@ -35,11 +36,11 @@ namespace brainshift::apps {
 struct ResultFields {
   Eigen::Isometry3d intraop_from_model;  ///< T⁻¹: model (pre-operative) → intra-operative frame
   MatrixX3d u_intra;                     ///< #N×3: φ(X_n) − X_n at the mesh nodes, mm
-  imaging::VolumeF displacement;         ///< d = φ(X) − X on the pre-op grid (displacement.nii.gz)
-  imaging::VolumeF intraop_to_preop;     ///< d on the pre-op grid, extended beyond the brain
-  imaging::VolumeF preop_to_intraop;     ///< v = φ⁻¹(y) − y on the moved pre-op grid (above)
+  imaging::VolumeF displacement;      ///< d = φ(X) − X on the pre-op grid (displacement.nii.gz)
+  imaging::VolumeF intraop_to_preop;  ///< d on the pre-op grid, extended beyond the brain
+  imaging::VolumeF preop_to_intraop;  ///< v = φ⁻¹(y) − y on the moved pre-op grid (above)
   std::optional<imaging::VolumeF> warped_mri;  ///< the MRI pulled through φ⁻¹ (with an MRI)
-  ResultUncertainty uncertainty;               ///< predicted error (uncertainty.nii.gz; result_uncertainty.hpp)
+  ResultUncertainty uncertainty;  ///< predicted error (uncertainty.nii.gz; result_uncertainty.hpp)
 };
 
 /// Computes the fields of a result (and warps `mri` when given, on its own grid).

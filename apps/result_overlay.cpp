@@ -1,28 +1,32 @@
 #include "result_overlay.hpp"
 
-#include <cmath>
-
 #include "imaging/overlay/overlay.hpp"
+
+#include <cmath>
 
 namespace brainshift::apps {
 
 void write_result_overlay(const std::filesystem::path& path, const imaging::VolumeF* mri,
                           const imaging::VolumeF* warped, const imaging::VolumeF& displacement,
-                          const constraints::IntraopData& data, const imaging::VolumeF* uncertainty) {
+                          const constraints::IntraopData& data,
+                          const imaging::VolumeF* uncertainty) {
   // The intra-operative points are in the intra-operative frame, as is the warped MRI.
   imaging::VolumeF magnitude;
   imaging::OverlayInput in;
   imaging::OverlayOptions o;
   const MatrixX3d& v = data.vessel_points;
-  in.target = v.rows() > 0 ? Vector3d(v.colwise().mean().transpose())
-                           : displacement.geometry.index_to_world(0.5 * (displacement.geometry.size.cast<double>() -
-                                                                         Vector3d::Ones()));
+  in.target = v.rows() > 0
+                  ? Vector3d(v.colwise().mean().transpose())
+                  : displacement.geometry.index_to_world(
+                        0.5 * (displacement.geometry.size.cast<double>() - Vector3d::Ones()));
   if (v.rows() > 0) in.point_sets.push_back({v, {0, 255, 0}});
-  if (data.footprint_points.rows() > 0) in.point_sets.push_back({data.footprint_points, {255, 255, 0}});
+  if (data.footprint_points.rows() > 0)
+    in.point_sets.push_back({data.footprint_points, {255, 255, 0}});
   auto magnitude_panel = [&](imaging::OverlayInput& panel, imaging::OverlayOptions& opt) {
     magnitude = imaging::VolumeF(displacement.geometry);
     for (std::size_t k = 0; k < magnitude.data.size(); ++k)
-      magnitude.data[k] = std::hypot(displacement.data[3 * k], displacement.data[3 * k + 1], displacement.data[3 * k + 2]);
+      magnitude.data[k] = std::hypot(displacement.data[3 * k], displacement.data[3 * k + 1],
+                                     displacement.data[3 * k + 2]);
     panel.left = &magnitude;
     opt.left_label = "displacement |u|";
     if (uncertainty) {

@@ -7,16 +7,17 @@
 /// intra-operative frame. With an MRI the predicted-error panels go to RES/overlay_uncertainty.png
 /// (displacement magnitude and predicted error), so the MRI comparison keeps its two columns.
 
-#include <filesystem>
-
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <filesystem>
 
 namespace brainshift::apps {
 
 /// @param[in] uncertainty the predicted-error map (mm, one component) or null (no panel).
 void write_result_overlay(const std::filesystem::path& path, const imaging::VolumeF* mri,
                           const imaging::VolumeF* warped, const imaging::VolumeF& displacement,
-                          const constraints::IntraopData& data, const imaging::VolumeF* uncertainty = nullptr);
+                          const constraints::IntraopData& data,
+                          const imaging::VolumeF* uncertainty = nullptr);
 
 }  // namespace brainshift::apps

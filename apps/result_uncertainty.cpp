@@ -1,11 +1,11 @@
 #include "result_uncertainty.hpp"
 
-#include <chrono>
-#include <cmath>
-
 #include "core/error.hpp"
 #include "imaging/evaluation/metrics.hpp"
 #include "imaging/warping/warp_image.hpp"
+
+#include <chrono>
+#include <cmath>
 
 namespace brainshift::apps {
 namespace {
@@ -16,11 +16,13 @@ std::optional<Vector3d> tumour_centroid(const Session& s) {
   const nlohmann::json& m = s.loaded.manifest;
   if (!m.contains("materials") || !m["materials"].contains("tumour")) return std::nullopt;
   const nlohmann::json& t = m["materials"]["tumour"];
-  if (!t.contains("youngs_modulus_kpa") || !t["youngs_modulus_kpa"].is_number()) return std::nullopt;
+  if (!t.contains("youngs_modulus_kpa") || !t["youngs_modulus_kpa"].is_number())
+    return std::nullopt;
   const double e_tumour = t["youngs_modulus_kpa"].get<double>();
   if (m["materials"].contains("brain") && m["materials"]["brain"].contains("youngs_modulus_kpa") &&
       m["materials"]["brain"]["youngs_modulus_kpa"].is_number() &&
-      std::abs(m["materials"]["brain"]["youngs_modulus_kpa"].get<double>() - e_tumour) <= 1e-9 * std::abs(e_tumour))
+      std::abs(m["materials"]["brain"]["youngs_modulus_kpa"].get<double>() - e_tumour) <=
+          1e-9 * std::abs(e_tumour))
     return std::nullopt;  // the same modulus: the tumour cannot be told apart
   const core::TetMesh& mesh = s.model->mesh();
   Vector3d sum = Vector3d::Zero();
@@ -28,7 +30,8 @@ std::optional<Vector3d> tumour_centroid(const Session& s) {
   for (index_t e = 0; e < mesh.num_tets(); ++e) {
     const double ye = mesh.youngs_modulus()[e];
     // Stored in kPa or Pa depending on the scene's unit: accept either.
-    if (std::abs(ye - e_tumour) > 1e-6 * std::abs(e_tumour) && std::abs(ye - 1e3 * e_tumour) > 1e-3 * std::abs(e_tumour))
+    if (std::abs(ye - e_tumour) > 1e-6 * std::abs(e_tumour) &&
+        std::abs(ye - 1e3 * e_tumour) > 1e-3 * std::abs(e_tumour))
       continue;
     const double v = std::abs(mesh.signed_volume(e));
     sum += v * mesh.tet_nodes(e).colwise().mean().transpose();
@@ -40,7 +43,8 @@ std::optional<Vector3d> tumour_centroid(const Session& s) {
 
 }  // namespace
 
-ResultUncertainty compute_result_uncertainty(const Session& s, const constraints::RegistrationResult& r) {
+ResultUncertainty compute_result_uncertainty(const Session& s,
+                                             const constraints::RegistrationResult& r) {
   const core::TetMesh& mesh = s.model->mesh();
   ResultUncertainty u;
   u.nodal = constraints::predict_uncertainty(*s.model, r, s.loaded.scene.options);
@@ -68,14 +72,17 @@ ResultUncertainty compute_result_uncertainty(const Session& s, const constraints
   return u;
 }
 
-nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u, const constraints::IntraopData& data) {
+nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
+                                  const constraints::IntraopData& data) {
   const core::TetMesh& mesh = s.model->mesh();
   nlohmann::json j;
   const std::optional<Vector3d> tumour = tumour_centroid(s);
-  j["at_tumour_mm"] = tumour ? nlohmann::json(constraints::sigma_at(mesh, u.nodal.node_variance, tumour->transpose())[0])
+  j["at_tumour_mm"] = tumour ? nlohmann::json(constraints::sigma_at(mesh, u.nodal.node_variance,
+                                                                    tumour->transpose())[0])
                              : nlohmann::json(nullptr);
   if (data.landmark_model_points.rows() > 0) {
-    const Eigen::VectorXd at = constraints::sigma_at(mesh, u.nodal.node_variance, data.landmark_model_points);
+    const Eigen::VectorXd at =
+        constraints::sigma_at(mesh, u.nodal.node_variance, data.landmark_model_points);
     j["at_landmarks"] = std::vector<double>(at.data(), at.data() + at.size());
   }
   j["median_mm"] = u.median_mm;

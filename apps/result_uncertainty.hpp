@@ -8,29 +8,32 @@
 /// RMS length of the predicted 3-D error of the displacement there; 0 outside the brain (and
 /// ≈ 0 in the fixed region, whose displacement is prescribed).
 
-#include <nlohmann/json.hpp>
-
 #include "cmd_register.hpp"
+
 #include "constraints/registration/uncertainty.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <nlohmann/json.hpp>
 
 namespace brainshift::apps {
 
 struct ResultUncertainty {
   constraints::UncertaintyResult nodal;
-  imaging::VolumeF map;        ///< predicted error (mm), one component, pre-operative grid
-  double median_mm = 0.0;      ///< over the voxels inside the mesh
+  imaging::VolumeF map;    ///< predicted error (mm), one component, pre-operative grid
+  double median_mm = 0.0;  ///< over the voxels inside the mesh
   double p95_mm = 0.0;
-  double seconds_map = 0.0;    ///< rasterising the map
+  double seconds_map = 0.0;  ///< rasterising the map
 };
 
 /// Predicted error of a result: nodal values (with the scene's options) and the voxel map.
 /// \throws brainshift::Error when the result does not fit the model.
-ResultUncertainty compute_result_uncertainty(const Session& s, const constraints::RegistrationResult& r);
+ResultUncertainty compute_result_uncertainty(const Session& s,
+                                             const constraints::RegistrationResult& r);
 
 /// report.json → `uncertainty`: at_tumour_mm (at the centroid of the tumour's tetrahedra, null
 /// without a tumour material), at_landmarks (when `data` has landmarks: model points' predicted
 /// error, mm), median_mm, p95_mm, estimation, seconds and the estimated parameters.
-nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u, const constraints::IntraopData& data);
+nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
+                                  const constraints::IntraopData& data);
 
 }  // namespace brainshift::apps

@@ -3,14 +3,14 @@
 /// @brief Shared scenes for the micro-benchmarks: a brain-hemisphere-sized ellipsoid, its
 /// Dirichlet cap and a smoothly bent configuration with nodal rotations of at most 10°.
 
+#include "core/config.hpp"
+#include "core/mesh/tet_mesh.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
-
-#include "core/config.hpp"
-#include "core/mesh/tet_mesh.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
 
 namespace brainshift::bench {
 

@@ -1,9 +1,9 @@
 /// @file
 /// @brief Micro-benchmarks of the constraint path on hemisphere-sized ellipsoids (~2k and ~20k
 /// nodes) with 100 … 3,000 realistic rows, and of the registration's global start (500 points,
-/// 1.7k nodes; against the rigid ICP + shift search it replaced): the Delassus operator W = H R K0⁻¹ Rᵀ Hᵀ by both
-/// strategies (dense block: precompute and per-call product reported separately; sparse
-/// solves), projected Gauss–Seidel, and one full constrained step. Scenes are built once per
+/// 1.7k nodes; against the rigid ICP + shift search it replaced): the Delassus operator W = H R
+/// K0⁻¹ Rᵀ Hᵀ by both strategies (dense block: precompute and per-call product reported separately;
+/// sparse solves), projected Gauss–Seidel, and one full constrained step. Scenes are built once per
 /// (mesh, rows) in static fixtures (not timed). See docs/BENCHMARKS.md.
 ///
 /// Rows: mapped points (random barycentric weights in tetrahedra whose four nodes lie near the
@@ -12,21 +12,8 @@
 /// signed violation uniform in ±2 mm), built at a configuration bent by up to 10°, so the
 /// compliance is warped by realistic nodal rotations.
 
-#include <benchmark/benchmark.h>
-
-#include <cmath>
-#include <cstdlib>
-#include <map>
-#include <numbers>
-#include <memory>
-#include <random>
-#include <stdexcept>
-#include <string>
-#include <tuple>
-#include <utility>
-#include <vector>
-
 #include "bench_common.hpp"
+
 #include "constraints/registration/global_start.hpp"
 #include "constraints/registration/registration.hpp"
 #include "constraints/registration/rigid_init.hpp"
@@ -36,6 +23,20 @@
 #include "constraints/solver/constrained_step.hpp"
 #include "constraints/solver/pgs.hpp"
 #include "core/solver/nodal_rotations.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
 
 namespace brainshift::bench {
 namespace {
@@ -57,12 +58,12 @@ struct MeshScene {
   core::TetMesh mesh;
   std::vector<index_t> fixed;
   MatrixX3d x;
-  std::unique_ptr<ConstrainedModel> model;  // no block nodes → sparse strategy (stepping swaps
-                                            // in the dense block of the row set, see BM_Step)
+  std::unique_ptr<ConstrainedModel> model;     // no block nodes → sparse strategy (stepping swaps
+                                               // in the dense block of the row set, see BM_Step)
   std::unique_ptr<ComplianceOperator> sparse;  // sparse strategy, for BM_W_Sparse
-  std::vector<Matrix3d> nodal;              // nodal rotations at x
-  Eigen::VectorXd dx_free;                  // free motion C (−f_int(x)) at x
-  std::vector<index_t> candidate_tets;      // tets with all nodes near the surface
+  std::vector<Matrix3d> nodal;                 // nodal rotations at x
+  Eigen::VectorXd dx_free;                     // free motion C (−f_int(x)) at x
+  std::vector<index_t> candidate_tets;         // tets with all nodes near the surface
 };
 
 MeshScene& mesh_scene(int cells) {
@@ -75,7 +76,8 @@ MeshScene& mesh_scene(int cells) {
     s->x = bent_configuration(s->mesh);
     ComplianceOptions sparse;
     sparse.strategy = ComplianceStrategy::SPARSE_SOLVE;
-    s->model = std::make_unique<ConstrainedModel>(s->mesh, s->fixed, std::vector<index_t>{}, sparse);
+    s->model =
+        std::make_unique<ConstrainedModel>(s->mesh, s->fixed, std::vector<index_t>{}, sparse);
     const core::ElementRotations er = s->model->model().element_rotations(s->x);
     s->nodal = core::nodal_rotations(s->mesh, er.rotation);
     s->model->compliance().set_rotations(s->nodal);
@@ -277,7 +279,8 @@ void BM_W_Sparse(benchmark::State& state) {
     benchmark::DoNotOptimize(W.data());
   }
   state.counters["Y_MiB"] = static_cast<double>(op.last_sparse_bytes()) / kMiB;
-  state.counters["W_MiB"] = static_cast<double>(r.rows.size()) * r.rows.size() * sizeof(double) / kMiB;
+  state.counters["W_MiB"] =
+      static_cast<double>(r.rows.size()) * r.rows.size() * sizeof(double) / kMiB;
 }
 
 // --- PGS ---------------------------------------------------------------------------------------
@@ -330,7 +333,8 @@ void run_step(benchmark::State& state, int cells, int count, bool smooth) {
     pgs += res.seconds_pgs;
     corr += res.seconds_correction;
   }
-  state.counters["dense"] = s.model->compliance().strategy() == ComplianceStrategy::DENSE_BLOCK ? 1 : 0;
+  state.counters["dense"] =
+      s.model->compliance().strategy() == ComplianceStrategy::DENSE_BLOCK ? 1 : 0;
   state.counters["fallbacks"] = s.model->compliance().fallback_count();
   if (dense != nullptr) std::swap(s.model->compliance(), *dense);
   const double n = static_cast<double>(state.iterations());
@@ -364,7 +368,8 @@ void BM_W_SparseLowerSolveOnly(benchmark::State& state) {
   const SparseMatrix Ht = r.H.transpose();
   for (int j = 0; j < Ht.outerSize(); ++j)
     for (SparseMatrix::InnerIterator it(Ht, j); it; ++it)
-      if (dofs.free_index(it.row()) >= 0) trip.emplace_back(dofs.free_index(it.row()), j, it.value());
+      if (dofs.free_index(it.row()) >= 0)
+        trip.emplace_back(dofs.free_index(it.row()), j, it.value());
   SparseMatrix G(dofs.num_free(), r.H.rows());
   G.setFromTriplets(trip.begin(), trip.end());
   SparseMatrix Y;
@@ -372,9 +377,10 @@ void BM_W_SparseLowerSolveOnly(benchmark::State& state) {
     Y = s.model->factor().solve_lower_permuted(G);
     benchmark::DoNotOptimize(Y.valuePtr());
   }
-  state.counters["Y_nnz_per_col"] = static_cast<double>(Y.nonZeros()) / static_cast<double>(Y.cols());
-  state.counters["Y_density"] =
-      static_cast<double>(Y.nonZeros()) / (static_cast<double>(Y.cols()) * static_cast<double>(Y.rows()));
+  state.counters["Y_nnz_per_col"] =
+      static_cast<double>(Y.nonZeros()) / static_cast<double>(Y.cols());
+  state.counters["Y_density"] = static_cast<double>(Y.nonZeros()) /
+                                (static_cast<double>(Y.cols()) * static_cast<double>(Y.rows()));
 }
 
 // --- The global start (issue 14 item 2): 500 vessel points, ~1.7k nodes ----------------------
@@ -401,14 +407,20 @@ StartScene& start_scene() {
       const double a = 2 * std::numbers::pi * u(rng), wave = 8 + 8 * u(rng);
       const Vector3d d(std::cos(a), std::sin(a), 0.2 * (u(rng) - 0.5));
       for (int k = 0; k <= 30; ++k) {
-        Vector3d q = p + k * d.normalized() + 1.2 * std::sin(2 * std::numbers::pi * k / wave) * Vector3d(-d.y(), d.x(), 0).normalized();
-        q = q.cwiseMax(Vector3d(-25, -25, 10)).cwiseMin(Vector3d(25, 25, 32));  // stay inside the ellipsoid
+        Vector3d q = p + k * d.normalized() +
+                     1.2 * std::sin(2 * std::numbers::pi * k / wave) *
+                         Vector3d(-d.y(), d.x(), 0).normalized();
+        q = q.cwiseMax(Vector3d(-25, -25, 10))
+                .cwiseMin(Vector3d(25, 25, 32));  // stay inside the ellipsoid
         pts.push_back(q);
-        if (k > 0) skel.segments.push_back({static_cast<index_t>(pts.size()) - 2, static_cast<index_t>(pts.size()) - 1});
+        if (k > 0)
+          skel.segments.push_back(
+              {static_cast<index_t>(pts.size()) - 2, static_cast<index_t>(pts.size()) - 1});
       }
     }
     skel.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
-    for (std::size_t i = 0; i < pts.size(); ++i) skel.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      skel.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
     // 500 points along the vessels (uniform on the segments) with 0.3 mm noise, then the offset.
     std::normal_distribution<double> noise(0.0, 0.3);
     Eigen::Isometry3d O = Eigen::Isometry3d::Identity();
@@ -416,12 +428,15 @@ StartScene& start_scene() {
     O.pretranslate(20.0 * Vector3d(0.5, 0.8, -0.33).normalized());
     scene->points.resize(500, 3);
     for (Eigen::Index i = 0; i < 500; ++i) {
-      const auto& e = skel.segments[static_cast<std::size_t>(u(rng) * static_cast<double>(skel.segments.size())) % skel.segments.size()];
-      const Vector3d x = skel.points.row(e[0]).transpose() + u(rng) * (skel.points.row(e[1]) - skel.points.row(e[0])).transpose();
+      const auto& e = skel.segments[static_cast<std::size_t>(
+                                        u(rng) * static_cast<double>(skel.segments.size())) %
+                                    skel.segments.size()];
+      const Vector3d x = skel.points.row(e[0]).transpose() +
+                         u(rng) * (skel.points.row(e[1]) - skel.points.row(e[0])).transpose();
       scene->points.row(i) = (O * (x + Vector3d(noise(rng), noise(rng), noise(rng)))).transpose();
     }
-    scene->model = std::make_unique<constraints::RegistrationModel>(mesh, bottom_cap(mesh), std::move(skel),
-                                                                    constraints::SurfaceMesh{});
+    scene->model = std::make_unique<constraints::RegistrationModel>(
+        mesh, bottom_cap(mesh), std::move(skel), constraints::SurfaceMesh{});
     (void)scene->model->load_response();
   }
   return *scene;
@@ -435,7 +450,8 @@ void BM_GlobalStart(benchmark::State& state) {
     return constraints::load_basis(m.mesh(), m.load_response(), x);
   };
   constraints::GlobalStartResult r;
-  for (auto _ : state) benchmark::DoNotOptimize(r = constraints::global_start(m.skeleton(), s.points, basis, {}));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(r = constraints::global_start(m.skeleton(), s.points, basis, {}));
   state.counters["accepted"] = r.accepted;
   state.counters["table_ms"] = 1e3 * r.seconds_table;
   state.counters["coarse_ms"] = 1e3 * r.seconds_coarse;
@@ -450,8 +466,10 @@ void BM_OldRigidStartAndShiftSearch(benchmark::State& state) {
   StartScene& s = start_scene();
   constraints::RegistrationModel& m = *s.model;
   for (auto _ : state) {
-    const constraints::RigidInitResult rigid = constraints::rigid_init(m.skeleton(), s.points, nullptr, nullptr, {});
-    const MatrixX3d moved = (s.points * rigid.transform.linear().transpose()).rowwise() + rigid.transform.translation().transpose();
+    const constraints::RigidInitResult rigid =
+        constraints::rigid_init(m.skeleton(), s.points, nullptr, nullptr, {});
+    const MatrixX3d moved = (s.points * rigid.transform.linear().transpose()).rowwise() +
+                            rigid.transform.translation().transpose();
     for (const MatrixX3d* p : {&moved, static_cast<const MatrixX3d*>(&s.points)}) {
       const std::vector<Matrix3d> basis = constraints::load_basis(m.mesh(), m.load_response(), *p);
       benchmark::DoNotOptimize(constraints::search_shift(m.skeleton(), *p, basis, {}));
@@ -483,7 +501,10 @@ BENCHMARK(BM_PGS)->Apply(SmallMesh)->Apply(LargeMesh);
 BENCHMARK(BM_Step)->Apply(SmallMesh)->Apply(LargeMesh);
 BENCHMARK(BM_GlobalStart)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_OldRigidStartAndShiftSearch)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_StepSmooth)->ArgNames({"cells", "rows"})->Args({12, 600})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_StepSmooth)
+    ->ArgNames({"cells", "rows"})
+    ->Args({12, 600})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace
 }  // namespace brainshift::bench

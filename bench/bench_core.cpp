@@ -4,6 +4,15 @@
 /// rotations and one corotational internal-force evaluation. Meshes, matrices and factors are
 /// built once per size in static fixtures (not timed). See docs/BENCHMARKS.md.
 
+#include "bench_common.hpp"
+
+#include "core/assembly/dof_map.hpp"
+#include "core/assembly/stiffness_assembly.hpp"
+#include "core/fem/corotational.hpp"
+#include "core/solver/cholmod_factor.hpp"
+#include "core/solver/nodal_rotations.hpp"
+#include "core/solver/warped_compliance.hpp"
+
 #include <benchmark/benchmark.h>
 
 #include <map>
@@ -11,14 +20,6 @@
 #include <random>
 #include <stdexcept>
 #include <vector>
-
-#include "bench_common.hpp"
-#include "core/assembly/dof_map.hpp"
-#include "core/assembly/stiffness_assembly.hpp"
-#include "core/fem/corotational.hpp"
-#include "core/solver/cholmod_factor.hpp"
-#include "core/solver/nodal_rotations.hpp"
-#include "core/solver/warped_compliance.hpp"
 
 namespace brainshift::bench {
 namespace {
@@ -32,11 +33,11 @@ struct CoreScene {
   core::DofMap dofs;
   SparseMatrix K0;
   SparseMatrix Kff;
-  core::CholmodFactor factor;           // analysed; factorised by the first user that needs it
-  MatrixX3d x;                          // bent configuration (≤ 10°)
-  core::ElementRotations rotations;     // at x
-  std::vector<Matrix3d> nodal;          // at x
-  Eigen::VectorXd load;                 // a random full-size force vector (mN)
+  core::CholmodFactor factor;        // analysed; factorised by the first user that needs it
+  MatrixX3d x;                       // bent configuration (≤ 10°)
+  core::ElementRotations rotations;  // at x
+  std::vector<Matrix3d> nodal;       // at x
+  Eigen::VectorXd load;              // a random full-size force vector (mN)
 };
 
 CoreScene& mutable_scene(int cells) {

@@ -9,15 +9,6 @@
 ///
 /// Targets (issue 6): vessel extraction < 2 s, warping < 2 s, coarse meshing < 30 s.
 
-#include <benchmark/benchmark.h>
-
-#include <algorithm>
-#include <cmath>
-#include <filesystem>
-#include <numbers>
-#include <random>
-#include <vector>
-
 #include "core/mesh/tet_mesh.hpp"
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
@@ -26,6 +17,15 @@
 #include "imaging/meshing/label_mesher.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
 #include "imaging/warping/warp_image.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <random>
+#include <vector>
 
 namespace brainshift::bench {
 namespace {
@@ -55,7 +55,8 @@ void paint_ball(VolumeF& v, const Vector3d& p, double radius, float value) {
   for (int k = lo[2]; k <= hi[2]; ++k)
     for (int j = lo[1]; j <= hi[1]; ++j)
       for (int i = lo[0]; i <= hi[0]; ++i)
-        if ((g.index_to_world(Vector3d(i, j, k)) - p).squaredNorm() <= radius * radius) v.at(i, j, k) = value;
+        if ((g.index_to_world(Vector3d(i, j, k)) - p).squaredNorm() <= radius * radius)
+          v.at(i, j, k) = value;
 }
 
 /// A power-Doppler-like volume, 256³ at 0.5 mm (128 mm across): 12 tortuous tubes of radius
@@ -75,7 +76,8 @@ const VolumeF& doppler_volume() {
       const double radius = 0.8 + 1.2 * u(rng);
       const double phase = 2 * std::numbers::pi * u(rng);
       for (double s = -55.0; s <= 55.0; s += 0.25) {
-        const Vector3d p = centre + s * dir + 6.0 * std::sin(s / 15.0 + phase) * n1 + 4.0 * std::cos(s / 11.0) * n2;
+        const Vector3d p = centre + s * dir + 6.0 * std::sin(s / 15.0 + phase) * n1 +
+                           4.0 * std::cos(s / 11.0) * n2;
         paint_ball(v, p, radius, VESSEL);
       }
     }
@@ -117,7 +119,8 @@ const VolumeF& mri_volume() {
           const Vector3d p = g.index_to_world(Vector3d(i, j, k));
           static constexpr float level[] = {0.0F, 100.0F, 160.0F, 30.0F};
           const float base = level[phantom.label_at(p)];
-          v.at(i, j, k) = base * float(1.0 + 0.1 * std::sin(p.x() / 20.0) + 0.05 * std::sin(p.y() * 1.3 + p.z()));
+          v.at(i, j, k) = base * float(1.0 + 0.1 * std::sin(p.x() / 20.0) +
+                                       0.05 * std::sin(p.y() * 1.3 + p.z()));
         }
     return v;
   }();
@@ -140,7 +143,8 @@ const WarpScene& warp_scene() {
     for (index_t n = 0; n < s.mesh.num_nodes(); ++n) {
       const Vector3d X = s.mesh.nodes().row(n).transpose() - phantom.center;
       const double w = std::pow(std::clamp((X.z() + 60.0) / 120.0, 0.0, 1.0), 2.0);
-      s.displacement.row(n) = Eigen::RowVector3d(2.0 * w * std::sin(X.y() / 25.0), 1.5 * w, -8.0 * w);
+      s.displacement.row(n) =
+          Eigen::RowVector3d(2.0 * w * std::sin(X.y() / 25.0), 1.5 * w, -8.0 * w);
     }
     return s;
   }();
@@ -177,7 +181,8 @@ void BM_ForwardFields256(benchmark::State& state) {
       benchmark::DoNotOptimize(a.data.data());
       benchmark::DoNotOptimize(b.data.data());
     } else {
-      imaging::ForwardDisplacementFields f = imaging::displacement_fields(s.mesh, s.displacement, g, options);
+      imaging::ForwardDisplacementFields f =
+          imaging::displacement_fields(s.mesh, s.displacement, g, options);
       benchmark::DoNotOptimize(f.exact.data.data());
     }
   }
@@ -185,32 +190,37 @@ void BM_ForwardFields256(benchmark::State& state) {
 }
 
 /// gzip of the 256³ MRI-like volume as float (64 MiB): range(0) = zlib level, range(1) = 1 for
-/// the run-length strategy, range(2) = threads (imaging::gzip_buffer, as .nii.gz files are written).
+/// the run-length strategy, range(2) = threads (imaging::gzip_buffer, as .nii.gz files are
+/// written).
 void BM_Gzip256(benchmark::State& state) {
   const VolumeF& image = mri_volume();
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "brainshift_bench_gzip.gz";
+  const std::filesystem::path out =
+      std::filesystem::temp_directory_path() / "brainshift_bench_gzip.gz";
   imaging::GzipOptions o;
   o.level = int(state.range(0));
   o.run_length = state.range(1) != 0;
   o.threads = int(state.range(2));
-  for (auto _ : state) imaging::gzip_buffer(image.data.data(), image.data.size() * sizeof(float), out, o);
-  state.counters["ratio"] = double(std::filesystem::file_size(out)) / double(image.data.size() * sizeof(float));
+  for (auto _ : state)
+    imaging::gzip_buffer(image.data.data(), image.data.size() * sizeof(float), out, o);
+  state.counters["ratio"] =
+      double(std::filesystem::file_size(out)) / double(image.data.size() * sizeof(float));
   std::filesystem::remove(out);
 }
 
 /// The default brain phantom's label volume at 1 mm (brain 140 × 170 × 120 mm before the base
 /// cut, tumour r = 12 mm, two lateral ventricles).
 const imaging::LabelVolume& brain_labels() {
-  static const imaging::LabelVolume labels = data_synth::make_label_volume(data_synth::PhantomGeometry{});
+  static const imaging::LabelVolume labels =
+      data_synth::make_label_volume(data_synth::PhantomGeometry{});
   return labels;
 }
 
 /// range(0) = 0: MeshingOptions::coarse(); otherwise refined(range(0) / 10).
 void BM_MeshLabels(benchmark::State& state) {
   const imaging::LabelVolume& labels = brain_labels();
-  const imaging::MeshingOptions options = state.range(0) == 0
-                                              ? imaging::MeshingOptions::coarse()
-                                              : imaging::MeshingOptions::refined(double(state.range(0)) / 10.0);
+  const imaging::MeshingOptions options =
+      state.range(0) == 0 ? imaging::MeshingOptions::coarse()
+                          : imaging::MeshingOptions::refined(double(state.range(0)) / 10.0);
   imaging::MeshingResult r;
   for (auto _ : state) {
     r = imaging::mesh_labels(labels, options);
@@ -223,7 +233,11 @@ void BM_MeshLabels(benchmark::State& state) {
   state.counters["slivers"] = double(r.quality.sliver_count);  // tets with a dihedral angle < 5°
 }
 
-BENCHMARK(BM_ExtractVessels256)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Repetitions(5);
+BENCHMARK(BM_ExtractVessels256)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1)
+    ->Repetitions(5);
 BENCHMARK(BM_WarpImage256)
     ->ArgName("threads")
     ->Arg(1)
@@ -232,7 +246,14 @@ BENCHMARK(BM_WarpImage256)
     ->UseRealTime()
     ->Iterations(1)
     ->Repetitions(5);
-BENCHMARK(BM_ForwardFields256)->ArgName("one_pass")->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(1)->Repetitions(5);
+BENCHMARK(BM_ForwardFields256)
+    ->ArgName("one_pass")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1)
+    ->Repetitions(5);
 BENCHMARK(BM_Gzip256)
     ->ArgNames({"level", "rle", "threads"})
     ->Args({6, 0, 1})

@@ -3,10 +3,16 @@
 /// a ≈300-vertex collision surface, ≈200 intra-operative vessel points from a deformed vessel
 /// tree with 0.3 mm noise and a 4 mm / 4° tracking offset, 9 footprint points; variants add
 /// dura contact outside a 30 mm craniotomy (the truth field here ignores the dura, so those
-/// variants are a hard case: they must stop finite with a diagnosis). Timed: register_model() with the rigid start, i.e. everything
-/// done intra-operatively once the model is prepared (preparation — factorisation and the
-/// compliance block — is pre-operative and reported as a counter). Counters: iterations, rows,
-/// landmark error before / after (mm) on the skeleton points. See docs/BENCHMARKS.md.
+/// variants are a hard case: they must stop finite with a diagnosis). Timed: register_model() with
+/// the rigid start, i.e. everything done intra-operatively once the model is prepared (preparation
+/// — factorisation and the compliance block — is pre-operative and reported as a counter).
+/// Counters: iterations, rows, landmark error before / after (mm) on the skeleton points. See
+/// docs/BENCHMARKS.md.
+
+#include "bench_common.hpp"
+
+#include "constraints/registration/registration.hpp"
+#include "core/mesh/boundary.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -15,10 +21,6 @@
 #include <numbers>
 #include <random>
 #include <vector>
-
-#include "bench_common.hpp"
-#include "constraints/registration/registration.hpp"
-#include "core/mesh/boundary.hpp"
 
 namespace brainshift::bench {
 namespace {
@@ -49,7 +51,8 @@ Skeleton vessel_tree() {
     }
   }
   s.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
-  for (std::size_t i = 0; i < pts.size(); ++i) s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
   return s;
 }
 
@@ -64,19 +67,22 @@ struct Scene {
   Scene() {
     // Collision surface: the boundary of a coarser ellipsoid mesh (≈300 vertices).
     const core::BoundarySurface b = core::boundary_surface(hemisphere_mesh(7));
-    model = std::make_unique<RegistrationModel>(mesh, bottom_cap(mesh), skeleton, SurfaceMesh{b.vertices, b.faces});
+    model = std::make_unique<RegistrationModel>(mesh, bottom_cap(mesh), skeleton,
+                                                SurfaceMesh{b.vertices, b.faces});
     offset = Eigen::Translation3d(2.0, -3.0, 2.0) *
              Eigen::AngleAxisd(4.0 * std::numbers::pi / 180.0, Vector3d(1, 2, 2).normalized());
     std::mt19937 rng(1);
     std::normal_distribution<double> g(0.0, 0.3);
     std::vector<Vector3d> v;
     for (const auto& seg : skeleton.segments) {
-      const Vector3d a = skeleton.points.row(seg[0]).transpose(), c = skeleton.points.row(seg[1]).transpose();
+      const Vector3d a = skeleton.points.row(seg[0]).transpose(),
+                     c = skeleton.points.row(seg[1]).transpose();
       const Vector3d X = 0.5 * (a + c);
       v.push_back(offset * (X + truth(X)) + Vector3d(g(rng), g(rng), g(rng)));
     }
     data.vessel_points.resize(static_cast<Eigen::Index>(v.size()), 3);
-    for (std::size_t i = 0; i < v.size(); ++i) data.vessel_points.row(static_cast<Eigen::Index>(i)) = v[i].transpose();
+    for (std::size_t i = 0; i < v.size(); ++i)
+      data.vessel_points.row(static_cast<Eigen::Index>(i)) = v[i].transpose();
     // Footprint: a 3×3 grid every 10 mm on the deformed top, probe normal straight down.
     std::vector<Vector3d> f;
     for (double x = -10; x <= 10; x += 10)
@@ -88,7 +94,8 @@ struct Scene {
     data.footprint_normals.resize(static_cast<Eigen::Index>(f.size()), 3);
     for (std::size_t i = 0; i < f.size(); ++i) {
       data.footprint_points.row(static_cast<Eigen::Index>(i)) = f[i].transpose();
-      data.footprint_normals.row(static_cast<Eigen::Index>(i)) = (offset.linear() * -Vector3d::UnitZ()).transpose();
+      data.footprint_normals.row(static_cast<Eigen::Index>(i)) =
+          (offset.linear() * -Vector3d::UnitZ()).transpose();
     }
     options.start = RigidStart::RIGID;
     options.dura.craniotomy_centre = Vector3d(0, 0, 50);
@@ -141,7 +148,13 @@ void BM_Registration(benchmark::State& state) {
   state.counters["err_before_mm"] = s.landmark_error(s.mesh.nodes(), Eigen::Isometry3d::Identity());
   state.counters["err_after_mm"] = s.landmark_error(r.positions, r.rigid.transform);
 }
-BENCHMARK(BM_Registration)->ArgName("dura")->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Repetitions(5);
+BENCHMARK(BM_Registration)
+    ->ArgName("dura")
+    ->Arg(0)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->Repetitions(5);
 
 }  // namespace
 }  // namespace brainshift::bench

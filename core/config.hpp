@@ -8,7 +8,7 @@
 
 namespace brainshift {
 
-using index_t = int;   ///< node, element, row and DOF indices (CHOLMOD int interface)
+using index_t = int;  ///< node, element, row and DOF indices (CHOLMOD int interface)
 using scalar = double;
 
 using Vector3d = Eigen::Vector3d;

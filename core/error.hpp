@@ -33,13 +33,13 @@ namespace detail {
 }  // namespace brainshift
 
 /// Throws brainshift::Error with `msg` (a stream expression) when `cond` is false.
-#define BS_VERIFY(cond, msg)                                                  \
-  do {                                                                        \
-    if (!(cond)) {                                                            \
-      std::ostringstream bs_verify_stream_;                                   \
-      bs_verify_stream_ << msg;                                               \
+#define BS_VERIFY(cond, msg)                                                          \
+  do {                                                                                \
+    if (!(cond)) {                                                                    \
+      std::ostringstream bs_verify_stream_;                                           \
+      bs_verify_stream_ << msg;                                                       \
       ::brainshift::detail::throw_error(__FILE__, __LINE__, bs_verify_stream_.str()); \
-    }                                                                         \
+    }                                                                                 \
   } while (false)
 
 /// Throws brainshift::Error unconditionally.

@@ -9,10 +9,10 @@
 
 namespace brainshift::units {
 
-inline constexpr double mm = 1.0;            ///< length
-inline constexpr double m = 1000.0 * mm;     ///< metre, in mm
-inline constexpr double kg = 1.0;            ///< mass
-inline constexpr double s = 1.0;             ///< time
+inline constexpr double mm = 1.0;                ///< length
+inline constexpr double m = 1000.0 * mm;         ///< metre, in mm
+inline constexpr double kg = 1.0;                ///< mass
+inline constexpr double s = 1.0;                 ///< time
 inline constexpr double mN = kg * mm / (s * s);  ///< force: millinewton
 inline constexpr double N = 1000.0 * mN;         ///< newton, in mN
 inline constexpr double kPa = mN / (mm * mm);    ///< stress: kilopascal (mN/mm²)

@@ -6,6 +6,11 @@
 /// deck (our index + 1). Used by tests/core/test_calculix.cpp and
 /// tests/data_synth/truth/test_tled_calculix.cpp.
 
+#include "tolerance.hpp"
+
+#include "core/config.hpp"
+#include "core/mesh/tet_mesh.hpp"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -19,10 +24,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include "core/config.hpp"
-#include "core/mesh/tet_mesh.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::tests::calculix {
 

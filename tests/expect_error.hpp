@@ -3,12 +3,12 @@
 /// @brief Runs a callable and expects a brainshift::Error whose message is one line containing
 /// every needle (the "bad input gets a one-line error naming the file and the problem" contract).
 
+#include "core/error.hpp"
+
 #include <gtest/gtest.h>
 
 #include <initializer_list>
 #include <string>
-
-#include "core/error.hpp"
 
 namespace brainshift::tests {
 

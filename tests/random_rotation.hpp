@@ -1,8 +1,10 @@
 #pragma once
 /// @file
-/// @brief Uniformly distributed random rotations for property tests (normalised Gaussian quaternion).
+/// @brief Uniformly distributed random rotations for property tests (normalised Gaussian
+/// quaternion).
 
 #include <Eigen/Geometry>
+
 #include <random>
 
 namespace brainshift::tests {

@@ -7,7 +7,6 @@
 
 #include <filesystem>
 #include <string>
-
 #include <unistd.h>
 
 namespace brainshift::tests {

@@ -3,9 +3,9 @@
 /// @brief The one tolerance helper of the tests: |a − b| ≤ abs + rel·max(|a|, |b|), with named
 /// constants. Each use states why its tolerance is what it is.
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
 
-#include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
 #include <limits>

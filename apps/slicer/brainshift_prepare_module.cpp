@@ -10,32 +10,33 @@
 // replaced whole). Progress goes to stdout in Slicer's <filter-progress> tags; errors: one line
 // on stderr naming the file, exit code 1, nothing written.
 
+#include "../cmd_prepare.hpp"
+#include "module_description.hpp"
+#include "slicer_modules.hpp"
+
+#include "core/error.hpp"
+
 #include <filesystem>
 #include <iostream>
 #include <string>
 
-#include "../cmd_prepare.hpp"
-#include "core/error.hpp"
-#include "module_description.hpp"
-#include "slicer_modules.hpp"
-
 int main(int argc, char** argv) {
   namespace slicer = brainshift::apps::slicer;
-  return slicer::run_module(
-      argc, argv, "BrainshiftPrepare", slicer::prepare_module(),
-      [](const slicer::Values& v, const slicer::ProgressReport& progress) {
-        brainshift::apps::PrepareArgs args;
-        args.labels = v.at("labels");
-        args.mra = v.at("mra");
-        if (v.count("mri")) args.mri = v.at("mri");
-        args.out = v.at("model");
-        args.mesh_refinement = std::stod(v.at("refine"));
-        args.surface_vertices = std::stoi(v.at("surfaceVertices"));
-        slicer::verify_replaceable_folder(args.out, "model.json");
-        // prepare reports 5 stages (read, mesh, vessels, write, factorise).
-        int stage = 0;
-        return brainshift::apps::run_prepare(args, std::cout, [&](const std::string& what, double) {
-          progress(what, 0.9 * stage++ / 5.0);
-        });
-      });
+  return slicer::run_module(argc, argv, "BrainshiftPrepare", slicer::prepare_module(),
+                            [](const slicer::Values& v, const slicer::ProgressReport& progress) {
+                              brainshift::apps::PrepareArgs args;
+                              args.labels = v.at("labels");
+                              args.mra = v.at("mra");
+                              if (v.count("mri")) args.mri = v.at("mri");
+                              args.out = v.at("model");
+                              args.mesh_refinement = std::stod(v.at("refine"));
+                              args.surface_vertices = std::stoi(v.at("surfaceVertices"));
+                              slicer::verify_replaceable_folder(args.out, "model.json");
+                              // prepare reports 5 stages (read, mesh, vessels, write, factorise).
+                              int stage = 0;
+                              return brainshift::apps::run_prepare(
+                                  args, std::cout, [&](const std::string& what, double) {
+                                    progress(what, 0.9 * stage++ / 5.0);
+                                  });
+                            });
 }

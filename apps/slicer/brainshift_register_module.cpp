@@ -12,28 +12,31 @@
 // loads outputs only after exit code 0, so that case is a warning line on stderr and in the
 // report); 1 bad input (one line on stderr naming the file; nothing written).
 
+#include "../cmd_register.hpp"
+#include "../model_folder.hpp"
+#include "../result_fields.hpp"
+#include "module_description.hpp"
+#include "slicer_modules.hpp"
+#include "staged_outputs.hpp"
+
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/nrrd_io.hpp"
+
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <optional>
 #include <string>
 
-#include "../cmd_register.hpp"
-#include "../model_folder.hpp"
-#include "../result_fields.hpp"
-#include "core/error.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "imaging/io/image_io.hpp"
-#include "imaging/io/nrrd_io.hpp"
-#include "module_description.hpp"
-#include "slicer_modules.hpp"
-#include "staged_outputs.hpp"
-
 namespace brainshift::apps::slicer {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 std::optional<std::filesystem::path> optional_path(const Values& v, const char* name) {
   const auto it = v.find(name);
@@ -69,12 +72,16 @@ RegisterPaths paths_of(const Values& v) {
 
 /// Everything that can be checked before the long work. \throws brainshift::Error, one line.
 void check_outputs(const RegisterPaths& p) {
-  BS_VERIFY(p.warped || p.to_intra || p.to_pre || p.report || p.result_dir,
-            "no output requested: give at least one of --warpedMRI, --preopToIntraop, --intraopToPreop, "
-            "--reportFile, --resultDirectory");
-  BS_VERIFY(!p.warped || p.mri, p.warped->string() << ": the warped MRI needs the pre-operative MRI (--preopMRI)");
+  BS_VERIFY(
+      p.warped || p.to_intra || p.to_pre || p.report || p.result_dir,
+      "no output requested: give at least one of --warpedMRI, --preopToIntraop, --intraopToPreop, "
+      "--reportFile, --resultDirectory");
+  BS_VERIFY(!p.warped || p.mri, p.warped->string()
+                                    << ": the warped MRI needs the pre-operative MRI (--preopMRI)");
   for (const auto& t : {p.to_intra, p.to_pre})
-    if (t) BS_VERIFY(has_extension(*t, ".nrrd"), t->string() << ": a transform is written as a .nrrd displacement field");
+    if (t)
+      BS_VERIFY(has_extension(*t, ".nrrd"),
+                t->string() << ": a transform is written as a .nrrd displacement field");
   for (const auto& f : {p.warped, p.to_intra, p.to_pre, p.report})
     if (f) imaging::verify_writable(*f);
   if (p.result_dir) {
@@ -84,15 +91,18 @@ void check_outputs(const RegisterPaths& p) {
 }
 
 /// Writes the requested outputs, all or none.
-void write_outputs(const RegisterPaths& p, const Session& s, const constraints::RegistrationResult& r,
-                   const IntraopInputs& in, const imaging::VolumeF* mri, const ResultFields& f,
-                   Clock::time_point t_out, double seconds_fields) {
+void write_outputs(const RegisterPaths& p, const Session& s,
+                   const constraints::RegistrationResult& r, const IntraopInputs& in,
+                   const imaging::VolumeF* mri, const ResultFields& f, Clock::time_point t_out,
+                   double seconds_fields) {
   StagedOutputs outputs;
   if (p.warped) {
     outputs.add(*p.warped, [&](const std::filesystem::path& tmp) {
       // Slicer's own convention for NRRD volumes is LPS; other formats by their extension.
-      if (has_extension(*p.warped, ".nrrd")) imaging::write_nrrd(tmp, *f.warped_mri, imaging::NrrdSpace::LPS);
-      else imaging::write_volume(tmp, *f.warped_mri);
+      if (has_extension(*p.warped, ".nrrd"))
+        imaging::write_nrrd(tmp, *f.warped_mri, imaging::NrrdSpace::LPS);
+      else
+        imaging::write_volume(tmp, *f.warped_mri);
     });
   }
   if (p.to_intra)
@@ -108,7 +118,8 @@ void write_outputs(const RegisterPaths& p, const Session& s, const constraints::
     nlohmann::json report = result_report(s, r, in, extra);
     report["timing"]["outputs"] = since(t_out);
     double total = 0;
-    for (const char* k : {"load_model", "extraction", "registration", "outputs"}) total += report["timing"][k].get<double>();
+    for (const char* k : {"load_model", "extraction", "registration", "outputs"})
+      total += report["timing"][k].get<double>();
     report["timing"]["total"] = total;
     outputs.add(*p.report, [&](const std::filesystem::path& tmp) {
       std::ofstream o(tmp);
@@ -146,9 +157,11 @@ int register_body(const Values& v, const ProgressReport& progress) {
   progress("writing the outputs", 0.85);
   write_outputs(p, s, r, in, mri ? &*mri : nullptr, f, t_out, since(t_out));
 
-  std::cout << "registered in " << r.iterations << " iterations (" << r.stop_reason << "); registration "
-            << r.seconds.total << " s, total " << since(t0) << " s; max displacement "
-            << (r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0) << " mm\n";
+  std::cout << "registered in " << r.iterations << " iterations (" << r.stop_reason
+            << "); registration " << r.seconds.total << " s, total " << since(t0)
+            << " s; max displacement "
+            << (r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0)
+            << " mm\n";
   if (!r.converged)
     std::cerr << "BrainshiftRegister: warning: the registration did not converge: " << r.stop_reason
               << " (results written; see the report)\n";
@@ -160,5 +173,6 @@ int register_body(const Values& v, const ProgressReport& progress) {
 
 int main(int argc, char** argv) {
   namespace slicer = brainshift::apps::slicer;
-  return slicer::run_module(argc, argv, "BrainshiftRegister", slicer::register_module(), slicer::register_body);
+  return slicer::run_module(argc, argv, "BrainshiftRegister", slicer::register_module(),
+                            slicer::register_body);
 }

@@ -1,5 +1,7 @@
 #include "module_description.hpp"
 
+#include "core/error.hpp"
+
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -9,8 +11,6 @@
 #include <iostream>
 #include <sstream>
 
-#include "core/error.hpp"
-
 namespace brainshift::apps::slicer {
 namespace {
 
@@ -19,11 +19,20 @@ std::string escape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -76,13 +85,15 @@ class FilterProgress {
   void report(const std::string& what, double fraction) const {
     char value[32];
     std::snprintf(value, sizeof value, "%.3f", std::clamp(fraction, 0.0, 1.0));
-    std::cout << "<filter-comment>" << progress_text(what) << "</filter-comment>\n<filter-progress>" << value
-              << "</filter-progress>" << std::endl;
+    std::cout << "<filter-comment>" << progress_text(what) << "</filter-comment>\n<filter-progress>"
+              << value << "</filter-progress>" << std::endl;
   }
   void end() const {
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
     std::cout << "<filter-progress>1</filter-progress>\n<filter-end><filter-name>" << m_name
-              << "</filter-name><filter-time>" << seconds << "</filter-time></filter-end>" << std::endl;
+              << "</filter-name><filter-time>" << seconds << "</filter-time></filter-end>"
+              << std::endl;
   }
 
  private:
@@ -114,7 +125,8 @@ std::string to_xml(const ModuleDescription& m) {
   return x.str();
 }
 
-int run_module(int argc, char** argv, const std::string& executable, const ModuleDescription& module,
+int run_module(int argc, char** argv, const std::string& executable,
+               const ModuleDescription& module,
                const std::function<int(const Values&, const ProgressReport&)>& body) {
   for (int a = 1; a < argc; ++a) {
     if (std::string(argv[a]) == "--xml") {
@@ -150,8 +162,10 @@ int run_module(int argc, char** argv, const std::string& executable, const Modul
   Values values;
   for (const ParameterGroup& g : module.groups) {
     for (const Parameter& p : g.parameters) {
-      if (app.count("--" + p.name) > 0) values[p.name] = given[p.name];
-      else if (!p.default_value.empty()) values[p.name] = p.default_value;
+      if (app.count("--" + p.name) > 0)
+        values[p.name] = given[p.name];
+      else if (!p.default_value.empty())
+        values[p.name] = p.default_value;
     }
   }
   try {

@@ -21,17 +21,17 @@ namespace brainshift::apps::slicer {
 
 /// One parameter; its <name> is also its <longflag> (the executable takes `--name value`).
 struct Parameter {
-  std::string tag;          ///< image, transform, file, directory, double, integer, string-enumeration
-  std::string name;         ///< letters, digits, _ (Slicer refuses others)
-  std::string label;        ///< shown in the panel
+  std::string tag;    ///< image, transform, file, directory, double, integer, string-enumeration
+  std::string name;   ///< letters, digits, _ (Slicer refuses others)
+  std::string label;  ///< shown in the panel
   std::string description;  ///< tooltip
   std::string channel;      ///< "input" or "output" for data parameters, empty for values
   bool required = false;    ///< the executable refuses to run without it
   /// Extra XML attributes of the element, e.g. `type="label"`, `fileExtensions=".nrrd"`.
   std::string attributes;
-  std::string default_value;          ///< <default>, empty for none
-  std::vector<std::string> elements;  ///< the values of an enumeration
-  std::string minimum, maximum, step; ///< <constraints> of a number (all three or none)
+  std::string default_value;           ///< <default>, empty for none
+  std::vector<std::string> elements;   ///< the values of an enumeration
+  std::string minimum, maximum, step;  ///< <constraints> of a number (all three or none)
 };
 
 /// A <parameters> group (a collapsible section of the panel).
@@ -69,7 +69,8 @@ using ProgressReport = std::function<void(const std::string& what, double fracti
 /// `body(values, progress)` and prints <filter-end>. `body` returns the exit code.
 /// Errors (a bad flag, a missing required parameter, a brainshift::Error or other exception):
 /// one line on stderr, "<executable>: error: <message>", exit code 1.
-int run_module(int argc, char** argv, const std::string& executable, const ModuleDescription& module,
+int run_module(int argc, char** argv, const std::string& executable,
+               const ModuleDescription& module,
                const std::function<int(const Values&, const ProgressReport&)>& body);
 
 }  // namespace brainshift::apps::slicer

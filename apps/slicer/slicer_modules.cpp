@@ -1,8 +1,8 @@
 #include "slicer_modules.hpp"
 
-#include <system_error>
-
 #include "core/error.hpp"
+
+#include <system_error>
 
 #ifndef BS_README_URL
 #define BS_README_URL "README.md"
@@ -63,28 +63,35 @@ ModuleDescription prepare_module() {
       "Builds the patient's biomechanical brain model before surgery: a tetrahedral mesh of the "
       "labelled brain, its collision surface, the vessel skeleton from the MR angiogram and the "
       "precomputed compliance block, written as a model folder for Brainshift Register.");
-  ParameterGroup in{"Pre-operative images", "Segmented MRI and MR angiogram of the same patient, in the same frame.",
-                    false, {}};
-  in.parameters.push_back(image("labels", "Label map",
-                                "Label volume: 0 background, 1 brain, 2 tumour, 3 ventricles (any other value is "
-                                "an error).",
-                                "input", true, "type=\"label\""));
-  in.parameters.push_back(image("mra", "MR angiogram", "MR angiogram (bright vessels) in the frame of the label map.",
+  ParameterGroup in{"Pre-operative images",
+                    "Segmented MRI and MR angiogram of the same patient, in the same frame.",
+                    false,
+                    {}};
+  in.parameters.push_back(
+      image("labels", "Label map",
+            "Label volume: 0 background, 1 brain, 2 tumour, 3 ventricles (any other value is "
+            "an error).",
+            "input", true, "type=\"label\""));
+  in.parameters.push_back(image("mra", "MR angiogram",
+                                "MR angiogram (bright vessels) in the frame of the label map.",
                                 "input", true, "type=\"scalar\""));
-  in.parameters.push_back(image("mri", "Pre-operative MRI (optional)",
-                                "Recorded in the model so that Brainshift Register can check it warps the same "
-                                "scan.",
-                                "input", false, "type=\"scalar\""));
+  in.parameters.push_back(
+      image("mri", "Pre-operative MRI (optional)",
+            "Recorded in the model so that Brainshift Register can check it warps the same "
+            "scan.",
+            "input", false, "type=\"scalar\""));
   ParameterGroup out{"Model", "Where the model is written.", false, {}};
-  out.parameters.push_back(data("directory", "model", "Model folder",
-                                "Folder for the model: new, empty, or an earlier brainshift model (replaced).",
-                                "output", true));
+  out.parameters.push_back(
+      data("directory", "model", "Model folder",
+           "Folder for the model: new, empty, or an earlier brainshift model (replaced).", "output",
+           true));
   ParameterGroup advanced{"Advanced", "Mesh resolution.", true, {}};
   Parameter refine;
   refine.tag = "double";
   refine.name = "refine";
   refine.label = "Mesh refinement";
-  refine.description = "1 gives about 1.6k nodes on the phantoms; the node count grows about as refinement^2.7.";
+  refine.description =
+      "1 gives about 1.6k nodes on the phantoms; the node count grows about as refinement^2.7.";
   refine.default_value = "1.0";
   refine.minimum = "0.25";
   refine.maximum = "6.0";
@@ -113,48 +120,58 @@ ModuleDescription register_module() {
       "pre-operative volumes, segmentations, models and markups to see them where they are now; "
       "apply 'Intra-op to pre-op' to the ultrasound or intra-operative points to bring them onto "
       "the pre-operative MRI.");
-  ParameterGroup in{"Inputs", "The model from Brainshift Prepare and the intra-operative ultrasound.", false, {}};
-  in.parameters.push_back(data("directory", "model", "Model folder", "Model folder written by Brainshift Prepare.",
-                               "input", true));
-  in.parameters.push_back(image("doppler", "Power Doppler",
-                                "Tracked power-Doppler volume (vessels), in the patient frame of the model.",
-                                "input", true, "type=\"scalar\""));
-  in.parameters.push_back(image("bmode", "B-mode (optional)",
-                                "Tracked B-mode volume for the probe footprint; its k axis runs along the beam, "
-                                "k = 0 at the probe.",
-                                "input", false, "type=\"scalar\""));
-  in.parameters.push_back(image("preopMRI", "Pre-operative MRI (optional)",
-                                "The MRI to warp, on the grid of the model's label map; needed for the warped MRI.",
-                                "input", false, "type=\"scalar\""));
+  ParameterGroup in{
+      "Inputs", "The model from Brainshift Prepare and the intra-operative ultrasound.", false, {}};
+  in.parameters.push_back(data("directory", "model", "Model folder",
+                               "Model folder written by Brainshift Prepare.", "input", true));
+  in.parameters.push_back(
+      image("doppler", "Power Doppler",
+            "Tracked power-Doppler volume (vessels), in the patient frame of the model.", "input",
+            true, "type=\"scalar\""));
+  in.parameters.push_back(
+      image("bmode", "B-mode (optional)",
+            "Tracked B-mode volume for the probe footprint; its k axis runs along the beam, "
+            "k = 0 at the probe.",
+            "input", false, "type=\"scalar\""));
+  in.parameters.push_back(
+      image("preopMRI", "Pre-operative MRI (optional)",
+            "The MRI to warp, on the grid of the model's label map; needed for the warped MRI.",
+            "input", false, "type=\"scalar\""));
   ParameterGroup out{"Outputs", "Transforms, warped MRI and report.", false, {}};
-  out.parameters.push_back(image("warpedMRI", "Warped MRI",
-                                 "The pre-operative MRI deformed to the brain's current shape (needs the "
-                                 "pre-operative MRI).",
-                                 "output", false, "type=\"scalar\" fileExtensions=\".nrrd\""));
-  out.parameters.push_back(data("transform", "preopToIntraop", "Pre-op to intra-op transform",
-                                "Displacement field that, applied to pre-operative content (MRI, segmentations, "
-                                "models, markups), shows it where it is now.",
-                                "output", false, "type=\"nonlinear\" fileExtensions=\".nrrd\""));
-  out.parameters.push_back(data("transform", "intraopToPreop", "Intra-op to pre-op transform",
-                                "Displacement field that, applied to intra-operative content (ultrasound, tracked "
-                                "points), brings it onto the pre-operative MRI.",
-                                "output", false, "type=\"nonlinear\" fileExtensions=\".nrrd\""));
-  out.parameters.push_back(data("file", "reportFile", "Report (JSON)",
-                                "Registration report: iterations, convergence, constraints, rigid start, timing.",
-                                "output", false, "fileExtensions=\".json\""));
+  out.parameters.push_back(
+      image("warpedMRI", "Warped MRI",
+            "The pre-operative MRI deformed to the brain's current shape (needs the "
+            "pre-operative MRI).",
+            "output", false, "type=\"scalar\" fileExtensions=\".nrrd\""));
+  out.parameters.push_back(
+      data("transform", "preopToIntraop", "Pre-op to intra-op transform",
+           "Displacement field that, applied to pre-operative content (MRI, segmentations, "
+           "models, markups), shows it where it is now.",
+           "output", false, "type=\"nonlinear\" fileExtensions=\".nrrd\""));
+  out.parameters.push_back(
+      data("transform", "intraopToPreop", "Intra-op to pre-op transform",
+           "Displacement field that, applied to intra-operative content (ultrasound, tracked "
+           "points), brings it onto the pre-operative MRI.",
+           "output", false, "type=\"nonlinear\" fileExtensions=\".nrrd\""));
+  out.parameters.push_back(
+      data("file", "reportFile", "Report (JSON)",
+           "Registration report: iterations, convergence, constraints, rigid start, timing.",
+           "output", false, "fileExtensions=\".json\""));
   ParameterGroup advanced{"Advanced", "Rigid start and the full result folder.", true, {}};
   Parameter init;
   init.tag = "string-enumeration";
   init.name = "init";
   init.label = "Rigid start";
-  init.description = "scene: the model's setting (a robust rigid fit); rigid: force it; identity: none.";
+  init.description =
+      "scene: the model's setting (a robust rigid fit); rigid: force it; identity: none.";
   init.elements = {"scene", "rigid", "identity"};
   init.default_value = "scene";
   advanced.parameters.push_back(init);
-  advanced.parameters.push_back(data("directory", "resultDirectory", "Result folder (optional)",
-                                     "Also write everything brainshift register writes (deformed mesh, fields, "
-                                     "overlay, report) here: a new, empty or earlier result folder (replaced).",
-                                     "output", false));
+  advanced.parameters.push_back(
+      data("directory", "resultDirectory", "Result folder (optional)",
+           "Also write everything brainshift register writes (deformed mesh, fields, "
+           "overlay, report) here: a new, empty or earlier result folder (replaced).",
+           "output", false));
   m.groups = {in, out, advanced};
   return m;
 }

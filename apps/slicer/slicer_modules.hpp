@@ -5,9 +5,9 @@
 /// BrainshiftPrepare and BrainshiftRegister are thin argument parsing over the functions the
 /// `brainshift prepare` and `brainshift register` subcommands call.
 
-#include <filesystem>
-
 #include "module_description.hpp"
+
+#include <filesystem>
 
 namespace brainshift::apps::slicer {
 

@@ -1,11 +1,11 @@
 #include "staged_outputs.hpp"
 
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+
 #include <random>
 #include <string>
 #include <system_error>
-
-#include "core/error.hpp"
-#include "imaging/io/atomic_write.hpp"
 
 namespace brainshift::apps::slicer {
 

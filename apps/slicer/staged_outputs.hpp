@@ -23,14 +23,16 @@ class StagedOutputs {
   /// Calls `write(temporary)` now; the file is renamed to `target` by commit().
   /// \throws brainshift::Error naming `target` when its folder cannot take the file, or whatever
   /// `write` throws (the temporary is removed).
-  void add(const std::filesystem::path& target, const std::function<void(const std::filesystem::path&)>& write);
+  void add(const std::filesystem::path& target,
+           const std::function<void(const std::filesystem::path&)>& write);
 
   /// Renames every temporary to its target (replacing an existing file).
   /// \throws brainshift::Error naming the target whose rename failed.
   void commit();
 
  private:
-  std::vector<std::pair<std::filesystem::path, std::filesystem::path>> m_files;  ///< (temporary, target)
+  std::vector<std::pair<std::filesystem::path, std::filesystem::path>>
+      m_files;  ///< (temporary, target)
   bool m_committed = false;
 };
 

@@ -21,31 +21,40 @@ std::string DuraOptions::validate() const {
 
 std::string to_string(DuraOptions::Mode mode) {
   switch (mode) {
-    case DuraOptions::Mode::NONE: return "none";
-    case DuraOptions::Mode::SLIDING: return "sliding";
-    case DuraOptions::Mode::UNILATERAL: return "unilateral";
+    case DuraOptions::Mode::NONE:
+      return "none";
+    case DuraOptions::Mode::SLIDING:
+      return "sliding";
+    case DuraOptions::Mode::UNILATERAL:
+      return "unilateral";
   }
   BS_UNREACHABLE();
 }
 
 void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const Skeleton& skeleton,
-                     const MappedVertices& mapped, ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points) {
+                     const MappedVertices& mapped, ConstRef<MatrixX3d> x,
+                     ConstRef<MatrixX3d> points) {
   for (const Pair& p : pairs) {
     const auto& seg = skeleton.segments[static_cast<std::size_t>(p.feature)];
-    const Stencil s = Stencil::interpolate(mapped.stencil(seg[0]), mapped.stencil(seg[1]), p.weights[1]);
-    rows.add_sliding_line(s, x, points.row(p.point).transpose(), p.direction, ConstraintSet::VESSELS, p.feature);
+    const Stencil s =
+        Stencil::interpolate(mapped.stencil(seg[0]), mapped.stencil(seg[1]), p.weights[1]);
+    rows.add_sliding_line(s, x, points.row(p.point).transpose(), p.direction,
+                          ConstraintSet::VESSELS, p.feature);
   }
 }
 
-void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const SurfaceMesh& surface,
-                        const MappedVertices& mapped, ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points,
+void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
+                        const SurfaceMesh& surface, const MappedVertices& mapped,
+                        ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points,
                         ConstRef<MatrixX3d> normals) {
   for (const Pair& p : pairs) {
     const auto tri = surface.triangles.row(p.feature);
-    const Stencil s = Stencil::combine(mapped.stencil(tri[0]), mapped.stencil(tri[1]), mapped.stencil(tri[2]),
-                                       p.weights);
-    const Vector3d n = normals.rows() > 0 ? Vector3d(normals.row(p.point).transpose()) : Vector3d(-p.direction);
-    rows.add_unilateral_plane(s, x, points.row(p.point).transpose(), n, ConstraintSet::FOOTPRINT, p.feature);
+    const Stencil s = Stencil::combine(mapped.stencil(tri[0]), mapped.stencil(tri[1]),
+                                       mapped.stencil(tri[2]), p.weights);
+    const Vector3d n =
+        normals.rows() > 0 ? Vector3d(normals.row(p.point).transpose()) : Vector3d(-p.direction);
+    rows.add_unilateral_plane(s, x, points.row(p.point).transpose(), n, ConstraintSet::FOOTPRINT,
+                              p.feature);
   }
 }
 
@@ -53,7 +62,8 @@ MatrixX3d vertex_normals(const SurfaceMesh& surface) {
   MatrixX3d n = MatrixX3d::Zero(surface.vertices.rows(), 3);
   for (Eigen::Index f = 0; f < surface.triangles.rows(); ++f) {
     const auto t = surface.triangles.row(f);
-    const Vector3d a = surface.vertices.row(t[0]).transpose(), b = surface.vertices.row(t[1]).transpose(),
+    const Vector3d a = surface.vertices.row(t[0]).transpose(),
+                   b = surface.vertices.row(t[1]).transpose(),
                    c = surface.vertices.row(t[2]).transpose();
     const Vector3d area_normal = 0.5 * (b - a).cross(c - a);
     for (int k = 0; k < 3; ++k) n.row(t[k]) += area_normal.transpose();
@@ -65,7 +75,8 @@ MatrixX3d vertex_normals(const SurfaceMesh& surface) {
 
 index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const SurfaceMesh& surface,
                       const FeatureIndex& rest_index, ConstRef<MatrixX3d> rest_normals,
-                      const MappedVertices& mapped, ConstRef<MatrixX3d> x, const std::vector<bool>& skip) {
+                      const MappedVertices& mapped, ConstRef<MatrixX3d> x,
+                      const std::vector<bool>& skip) {
   if (options.mode == DuraOptions::Mode::NONE) return 0;
   const index_t before = rows.size();
   for (index_t v = 0; v < surface.vertices.rows(); ++v) {
@@ -90,9 +101,11 @@ index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const Su
 void add_landmark_rows(ConstraintRows& rows, const MappedVertices& mapped, ConstRef<MatrixX3d> x,
                        ConstRef<MatrixX3d> targets) {
   BS_VERIFY(targets.rows() == static_cast<Eigen::Index>(mapped.map->tet().size()),
-            "landmarks: " << targets.rows() << " targets for " << mapped.map->tet().size() << " model points");
+            "landmarks: " << targets.rows() << " targets for " << mapped.map->tet().size()
+                          << " model points");
   for (index_t i = 0; i < targets.rows(); ++i)
-    rows.add_bilateral_point(mapped.stencil(i), x, targets.row(i).transpose(), ConstraintSet::LANDMARK, i);
+    rows.add_bilateral_point(mapped.stencil(i), x, targets.row(i).transpose(),
+                             ConstraintSet::LANDMARK, i);
 }
 
 }  // namespace brainshift::constraints

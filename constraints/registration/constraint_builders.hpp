@@ -18,13 +18,13 @@
 /// Surfaces are expected oriented outward (counter-clockwise seen from outside), as the
 /// boundary faces of a positively oriented tetrahedral mesh are.
 
-#include <vector>
-
 #include "constraints/registration/pairing.hpp"
 #include "constraints/registration/skeleton.hpp"
 #include "constraints/rows/constraint_rows.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::constraints {
 
@@ -45,7 +45,7 @@ struct DuraOptions {
   Mode mode = Mode::NONE;
   Vector3d craniotomy_centre = Vector3d::Zero();  ///< mm, world; on or near the surface
   double craniotomy_radius_mm = 0.0;  ///< vertices nearer than this (rest) to the centre are free
-  double max_distance_mm = 10.0;      ///< no row for a vertex farther than this from the rest surface
+  double max_distance_mm = 10.0;  ///< no row for a vertex farther than this from the rest surface
   /// Empty when valid, else what is wrong.
   [[nodiscard]] std::string validate() const;
 };
@@ -53,12 +53,15 @@ std::string to_string(DuraOptions::Mode mode);
 
 /// Sliding-line rows for vessel pairs (`pairs` from segments of `skeleton`, points from `points`).
 void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const Skeleton& skeleton,
-                     const MappedVertices& mapped, ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points);
+                     const MappedVertices& mapped, ConstRef<MatrixX3d> x,
+                     ConstRef<MatrixX3d> points);
 
 /// Unilateral rows for footprint pairs (`pairs` from triangles of `surface`). `normals`: #P×3 unit
-/// normals into the tissue per footprint point, or empty to use the paired triangle's inward normal.
-void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const SurfaceMesh& surface,
-                        const MappedVertices& mapped, ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points,
+/// normals into the tissue per footprint point, or empty to use the paired triangle's inward
+/// normal.
+void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
+                        const SurfaceMesh& surface, const MappedVertices& mapped,
+                        ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points,
                         ConstRef<MatrixX3d> normals);
 
 /// Area-weighted unit vertex normals of a surface (#V×3; zero for unused vertices).
@@ -70,7 +73,8 @@ MatrixX3d vertex_normals(const SurfaceMesh& surface);
 /// none. Returns the number of rows added.
 index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const SurfaceMesh& surface,
                       const FeatureIndex& rest_index, ConstRef<MatrixX3d> rest_normals,
-                      const MappedVertices& mapped, ConstRef<MatrixX3d> x, const std::vector<bool>& skip = {});
+                      const MappedVertices& mapped, ConstRef<MatrixX3d> x,
+                      const std::vector<bool>& skip = {});
 
 /// Bilateral point rows: the model points (rest positions, mapped by `mapped`) go to `targets`.
 void add_landmark_rows(ConstraintRows& rows, const MappedVertices& mapped, ConstRef<MatrixX3d> x,

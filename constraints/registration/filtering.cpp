@@ -1,12 +1,13 @@
 #include "constraints/registration/filtering.hpp"
 
+#include "core/error.hpp"
+
 #include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <unordered_map>
-
-#include "core/error.hpp"
 
 namespace brainshift::constraints {
 
@@ -42,12 +43,13 @@ std::vector<Vector3d> local_directions(ConstRef<MatrixX3d> points, double radius
 }
 
 std::vector<Pair> filter_pairs(std::vector<Pair> pairs, const std::vector<Vector3d>& directions,
-                               const std::vector<index_t>& tet_of_pair, const FilterOptions& options,
-                               FilterReport* report) {
+                               const std::vector<index_t>& tet_of_pair,
+                               const FilterOptions& options, FilterReport* report) {
   const std::string invalid = options.validate();
   BS_VERIFY(invalid.empty(), invalid);
-  BS_VERIFY(tet_of_pair.empty() || tet_of_pair.size() == pairs.size(),
-            "tet_of_pair has " << tet_of_pair.size() << " entries for " << pairs.size() << " pairs");
+  BS_VERIFY(
+      tet_of_pair.empty() || tet_of_pair.size() == pairs.size(),
+      "tet_of_pair has " << tet_of_pair.size() << " entries for " << pairs.size() << " pairs");
   FilterReport rep;
   rep.input = static_cast<index_t>(pairs.size());
   std::vector<index_t> tets = tet_of_pair;
@@ -101,8 +103,9 @@ std::vector<Pair> filter_pairs(std::vector<Pair> pairs, const std::vector<Vector
   if (!tets.empty() && options.max_per_tet > 0) {
     std::vector<std::size_t> order(pairs.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t a, std::size_t b) { return pairs[a].distance < pairs[b].distance; });
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return pairs[a].distance < pairs[b].distance;
+    });
     std::unordered_map<index_t, int> used;
     std::vector<char> keep(pairs.size(), 0);
     for (std::size_t i : order)
@@ -110,7 +113,8 @@ std::vector<Pair> filter_pairs(std::vector<Pair> pairs, const std::vector<Vector
     std::size_t k = 0;
     keep_if([&](const Pair&) { return keep[k++] != 0; }, rep.subsampled);
   }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.point < b.point; });
+  std::sort(pairs.begin(), pairs.end(),
+            [](const Pair& a, const Pair& b) { return a.point < b.point; });
   rep.kept = static_cast<index_t>(pairs.size());
   if (report) *report = rep;
   return pairs;

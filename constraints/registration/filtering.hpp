@@ -8,11 +8,11 @@
 ///  4. subsampling so that no tetrahedron carries more than a set number of constraints of one kind
 ///     (antagonistic rows on one element stall the solver).
 
-#include <string>
-#include <vector>
-
 #include "constraints/registration/pairing.hpp"
 #include "core/config.hpp"
+
+#include <string>
+#include <vector>
 
 namespace brainshift::constraints {
 
@@ -46,7 +46,7 @@ std::vector<Vector3d> local_directions(ConstRef<MatrixX3d> points, double radius
 /// (empty: skip step 3); `tet_of_pair` gives the tetrahedron each pair's model point lies in
 /// (empty: skip step 4). Order of the kept pairs: by point index.
 std::vector<Pair> filter_pairs(std::vector<Pair> pairs, const std::vector<Vector3d>& directions,
-                               const std::vector<index_t>& tet_of_pair, const FilterOptions& options,
-                               FilterReport* report = nullptr);
+                               const std::vector<index_t>& tet_of_pair,
+                               const FilterOptions& options, FilterReport* report = nullptr);
 
 }  // namespace brainshift::constraints

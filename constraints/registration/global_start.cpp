@@ -1,5 +1,10 @@
 #include "constraints/registration/global_start.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "core/mapping/closest_point.hpp"
+#include "core/mesh/tet_mesh.hpp"
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -12,29 +17,31 @@
 #include <sstream>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/logger.hpp"
-#include "core/mapping/closest_point.hpp"
-#include "core/mesh/tet_mesh.hpp"
-
 namespace brainshift::constraints {
 
 std::string GlobalStartOptions::validate() const {
   std::ostringstream os;
-  if (!(max_translation_mm >= 0 && max_translation_mm <= 200)) os << "max_translation_mm must be in [0, 200]; ";
-  if (!(max_rotation_deg >= 0 && max_rotation_deg <= 30)) os << "max_rotation_deg must be in [0, 30]; ";
+  if (!(max_translation_mm >= 0 && max_translation_mm <= 200))
+    os << "max_translation_mm must be in [0, 200]; ";
+  if (!(max_rotation_deg >= 0 && max_rotation_deg <= 30))
+    os << "max_rotation_deg must be in [0, 30]; ";
   if (!(coarse_kernel_mm > 0 && coarse_step_mm > 0 && coarse_step_mm <= coarse_kernel_mm))
     os << "need 0 < coarse_step_mm ≤ coarse_kernel_mm; ";
-  if (!(fine_kernel_mm > 0 && fine_kernel_mm <= coarse_kernel_mm)) os << "need 0 < fine_kernel_mm ≤ coarse_kernel_mm; ";
+  if (!(fine_kernel_mm > 0 && fine_kernel_mm <= coarse_kernel_mm))
+    os << "need 0 < fine_kernel_mm ≤ coarse_kernel_mm; ";
   if (!(refine_distance_mm > 0 && refine_distance_mm <= coarse_kernel_mm))
     os << "need 0 < refine_distance_mm ≤ coarse_kernel_mm; ";
   if (!(voxel_mm > 0)) os << "voxel_mm must be > 0; ";
-  if (coarse_points < 1 || max_points < 1 || candidates < 1) os << "coarse_points, max_points, candidates must be ≥ 1; ";
+  if (coarse_points < 1 || max_points < 1 || candidates < 1)
+    os << "coarse_points, max_points, candidates must be ≥ 1; ";
   if (min_points < 3) os << "min_points must be ≥ 3; ";
   if (!(min_gain >= 1)) os << "min_gain must be ≥ 1; ";
-  if (!(loss_scale_mm > 0) || !(convergence_mm > 0)) os << "loss_scale_mm and convergence_mm must be > 0; ";
-  if (refine_iterations < 0 || solver_iterations < 1) os << "refine_iterations ≥ 0 and solver_iterations ≥ 1 needed; ";
-  if (!(bulk_prior_mm > 0) || !(bulk_min_mm >= 0)) os << "bulk_prior_mm must be > 0 and bulk_min_mm ≥ 0; ";
+  if (!(loss_scale_mm > 0) || !(convergence_mm > 0))
+    os << "loss_scale_mm and convergence_mm must be > 0; ";
+  if (refine_iterations < 0 || solver_iterations < 1)
+    os << "refine_iterations ≥ 0 and solver_iterations ≥ 1 needed; ";
+  if (!(bulk_prior_mm > 0) || !(bulk_min_mm >= 0))
+    os << "bulk_prior_mm must be > 0 and bulk_min_mm ≥ 0; ";
   const std::string s = os.str();
   return s.empty() ? s : "global start: " + s.substr(0, s.size() - 2);
 }
@@ -42,7 +49,9 @@ std::string GlobalStartOptions::validate() const {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kMaxVoxels = 4.0e6;
 
@@ -63,8 +72,10 @@ class DistanceGrid {
     m_d2.assign(n, static_cast<float>(m_tau2));
     m_seg.assign(n, -1);
     for (std::size_t si = 0; si < s.segments.size(); ++si) {
-      const Vector3d a = s.points.row(s.segments[si][0]).transpose(), b = s.points.row(s.segments[si][1]).transpose();
-      const Eigen::Vector3i c0 = floor_cell(a.cwiseMin(b).array() - tau), c1 = floor_cell(a.cwiseMax(b).array() + tau) + Eigen::Vector3i::Ones();
+      const Vector3d a = s.points.row(s.segments[si][0]).transpose(),
+                     b = s.points.row(s.segments[si][1]).transpose();
+      const Eigen::Vector3i c0 = floor_cell(a.cwiseMin(b).array() - tau),
+                            c1 = floor_cell(a.cwiseMax(b).array() + tau) + Eigen::Vector3i::Ones();
       const Eigen::Vector3i l = c0.cwiseMax(0), u = c1.cwiseMin(m_dims - Eigen::Vector3i::Ones());
       for (int z = l.z(); z <= u.z(); ++z)
         for (int y = l.y(); y <= u.y(); ++y)
@@ -81,14 +92,17 @@ class DistanceGrid {
     }
     m_kernel.resize(n);
     for (std::size_t k = 0; k < n; ++k)
-      m_kernel[k] = static_cast<std::uint8_t>(std::lround(255.0 * std::max(0.0, 1.0 - m_d2[k] / m_tau2)));
+      m_kernel[k] =
+          static_cast<std::uint8_t>(std::lround(255.0 * std::max(0.0, 1.0 - m_d2[k] / m_tau2)));
   }
   [[nodiscard]] const Eigen::Vector3i& dims() const { return m_dims; }
   [[nodiscard]] double spacing() const { return m_h; }
   [[nodiscard]] const std::uint8_t* kernel() const { return m_kernel.data(); }
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
     return static_cast<std::size_t>(x) +
-           static_cast<std::size_t>(m_dims.x()) * (static_cast<std::size_t>(y) + static_cast<std::size_t>(m_dims.y()) * static_cast<std::size_t>(z));
+           static_cast<std::size_t>(m_dims.x()) *
+               (static_cast<std::size_t>(y) +
+                static_cast<std::size_t>(m_dims.y()) * static_cast<std::size_t>(z));
   }
   [[nodiscard]] Eigen::Vector3i nearest_cell(const Vector3d& q) const {
     return ((q - m_lo) / m_h).array().round().cast<int>();
@@ -111,14 +125,17 @@ class DistanceGrid {
     double v = 0;
     for (int k = 0; k < 8; ++k) {
       const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
-      const double w = (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
+      const double w =
+          (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
       v += w * m_d2[index(c.x() + dx, c.y() + dy, c.z() + dz)];
     }
     return v;
   }
 
  private:
-  [[nodiscard]] Eigen::Vector3i floor_cell(const Vector3d& p) const { return ((p - m_lo) / m_h).array().floor().cast<int>(); }
+  [[nodiscard]] Eigen::Vector3i floor_cell(const Vector3d& p) const {
+    return ((p - m_lo) / m_h).array().floor().cast<int>();
+  }
   Vector3d m_lo;
   double m_h;
   double m_tau2;
@@ -147,7 +164,7 @@ struct Search {
   const Skeleton& skeleton;
   const GlobalStartOptions& o;
   Vector3d c;
-  MatrixX3d coarse, fine;  // points − c
+  MatrixX3d coarse, fine;       // points − c
   std::vector<Matrix3d> basis;  // per fine point, or empty
   const DistanceGrid* grid = nullptr;
 
@@ -161,7 +178,8 @@ struct Search {
     const Matrix3d R = rotation(p.w);
     const double tf2 = o.fine_kernel_mm * o.fine_kernel_mm;
     double s = 0;
-    for (Eigen::Index i = 0; i < fine.rows(); ++i) s += std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
+    for (Eigen::Index i = 0; i < fine.rows(); ++i)
+      s += std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
     return s;
   }
   /// RMS distance of the fine points within the coarse kernel, 0 when none.
@@ -181,7 +199,8 @@ struct Search {
 
 /// Coarse search: the best interior local maxima over the translation grid, each with its best
 /// rotation of the grid. Ties go to the smaller motion (the identity rotation is tried first).
-std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& rotations, double step, int sv, int K) {
+std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& rotations,
+                                double step, int sv, int K) {
   const DistanceGrid& g = *S.grid;
   const int side = 2 * K + 1;
   const std::size_t nt = static_cast<std::size_t>(side) * side * side;
@@ -189,8 +208,9 @@ std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& ro
   for (int z = -K, k = 0; z <= K; ++z)
     for (int y = -K; y <= K; ++y)
       for (int x = -K; x <= K; ++x, ++k)
-        off[static_cast<std::size_t>(k)] = sv * (x + static_cast<std::ptrdiff_t>(g.dims().x()) *
-                                                           (y + static_cast<std::ptrdiff_t>(g.dims().y()) * z));
+        off[static_cast<std::size_t>(k)] =
+            sv * (x + static_cast<std::ptrdiff_t>(g.dims().x()) *
+                          (y + static_cast<std::ptrdiff_t>(g.dims().y()) * z));
   std::vector<std::uint32_t> best(nt, 0);
   std::vector<std::uint8_t> best_rot(nt, 0);
   std::vector<std::ptrdiff_t> base;
@@ -201,7 +221,8 @@ std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& ro
     base.clear();
     for (Eigen::Index i = 0; i < S.coarse.rows(); ++i) {
       const Eigen::Vector3i c = g.nearest_cell(R * S.coarse.row(i).transpose() + S.c);
-      if (g.inside(c, K * sv)) base.push_back(static_cast<std::ptrdiff_t>(g.index(c.x(), c.y(), c.z())));
+      if (g.inside(c, K * sv))
+        base.push_back(static_cast<std::ptrdiff_t>(g.index(c.x(), c.y(), c.z())));
     }
     for (std::size_t k = 0; k < nt; ++k) {
       const std::uint8_t* p = kern + off[k];
@@ -215,7 +236,9 @@ std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& ro
   }
   // Interior local maxima (plateaus broken by the scan order).
   std::vector<Pose> maxima;
-  auto at = [&](int x, int y, int z) { return static_cast<std::size_t>((x + K) + side * ((y + K) + side * (z + K))); };
+  auto at = [&](int x, int y, int z) {
+    return static_cast<std::size_t>((x + K) + side * ((y + K) + side * (z + K)));
+  };
   for (int z = -K + 1; z < K; ++z)
     for (int y = -K + 1; y < K; ++y)
       for (int x = -K + 1; x < K; ++x) {
@@ -236,9 +259,11 @@ std::vector<Pose> coarse_search(const Search& S, const std::vector<Vector3d>& ro
         maxima.push_back(p);
       }
   std::sort(maxima.begin(), maxima.end(), [](const Pose& a, const Pose& b) {
-    return a.score != b.score ? a.score > b.score : a.t.norm() + a.w.norm() < b.t.norm() + b.w.norm();
+    return a.score != b.score ? a.score > b.score
+                              : a.t.norm() + a.w.norm() < b.t.norm() + b.w.norm();
   });
-  if (maxima.size() > static_cast<std::size_t>(S.o.candidates)) maxima.resize(static_cast<std::size_t>(S.o.candidates));
+  if (maxima.size() > static_cast<std::size_t>(S.o.candidates))
+    maxima.resize(static_cast<std::size_t>(S.o.candidates));
   return maxima;
 }
 
@@ -314,7 +339,8 @@ Pose refine(const Search& S, Pose p, bool bulk, int& rounds, index_t& pairs) {
       const std::int32_t seg = S.grid->segment(x);
       if (seg < 0) continue;
       const auto& e = S.skeleton.segments[static_cast<std::size_t>(seg)];
-      const Vector3d a = S.skeleton.points.row(e[0]).transpose(), b = S.skeleton.points.row(e[1]).transpose();
+      const Vector3d a = S.skeleton.points.row(e[0]).transpose(),
+                     b = S.skeleton.points.row(e[1]).transpose();
       const Vector3d q = a + core::closest_point_on_segment(x, a, b) * (b - a);
       if ((x - q).norm() > o.refine_distance_mm) continue;
       const double len = (b - a).norm();
@@ -328,9 +354,10 @@ Pose refine(const Search& S, Pose p, bool bulk, int& rounds, index_t& pairs) {
     if (n < 3) break;  // too few pairs to refine: keep the searched pose
     pairs = n;
     if (bulk && !S.basis.empty())
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<BulkPrior, 3, 3>(
-                                   new BulkPrior{std::sqrt(static_cast<double>(n)) * o.loss_scale_mm / o.bulk_prior_mm}),
-                               nullptr, p.s.data());
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<BulkPrior, 3, 3>(
+              new BulkPrior{std::sqrt(static_cast<double>(n)) * o.loss_scale_mm / o.bulk_prior_mm}),
+          nullptr, p.s.data());
     else
       problem.SetParameterBlockConstant(p.s.data());
     const Pose old = p;
@@ -342,7 +369,8 @@ Pose refine(const Search& S, Pose p, bool bulk, int& rounds, index_t& pairs) {
     ceres::Solver::Summary summary;
     ceres::Solve(so, &problem, &summary);
     rounds = it;
-    if (!summary.IsSolutionUsable() || !p.w.allFinite() || !p.t.allFinite() || !p.s.allFinite()) return old;
+    if (!summary.IsSolutionUsable() || !p.w.allFinite() || !p.t.allFinite() || !p.s.allFinite())
+      return old;
     const double change = (p.t - old.t).norm() + (p.s - old.s).norm() +
                           Eigen::AngleAxisd(rotation(p.w) * R.transpose()).angle() * radius;
     if (change < o.convergence_mm) break;
@@ -360,17 +388,19 @@ std::string fmt(const Vector3d& v, int precision = 2) {
 
 }  // namespace
 
-GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points, const BasisAt& basis_at,
-                               const GlobalStartOptions& o) {
+GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
+                               const BasisAt& basis_at, const GlobalStartOptions& o) {
   const auto t0 = Clock::now();
   const std::string invalid = o.validate();
   BS_VERIFY(invalid.empty(), invalid);
-  BS_VERIFY(points.allFinite() && skeleton.points.allFinite(), "global start: inputs contain NaN or infinity");
+  BS_VERIFY(points.allFinite() && skeleton.points.allFinite(),
+            "global start: inputs contain NaN or infinity");
   GlobalStartResult res;
   if (points.rows() < o.min_points || skeleton.segments.empty()) {
-    res.message = skeleton.segments.empty() ? "no skeleton segments: identity"
-                                            : std::to_string(points.rows()) + " vessel points, fewer than the " +
-                                                  std::to_string(o.min_points) + " needed: identity";
+    res.message = skeleton.segments.empty()
+                      ? "no skeleton segments: identity"
+                      : std::to_string(points.rows()) + " vessel points, fewer than the " +
+                            std::to_string(o.min_points) + " needed: identity";
     res.seconds = since(t0);
     return res;
   }
@@ -419,10 +449,12 @@ GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
   const Pose identity;
   res.score_identity = S.score(identity);
   for (Pose& c : cands) c = rescore(S, c, rot_step, step);
-  std::sort(cands.begin(), cands.end(), [](const Pose& a, const Pose& b) { return a.score > b.score; });
+  std::sort(cands.begin(), cands.end(),
+            [](const Pose& a, const Pose& b) { return a.score > b.score; });
   res.seconds_fine = since(t1);
 
-  // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the points.
+  // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the
+  // points.
   t1 = Clock::now();
   Pose best = identity;
   best.score = res.score_identity;
@@ -430,7 +462,8 @@ GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
     const bool bulk = o.bulk_response && basis_at;
     if (bulk) {
       const Matrix3d R = rotation(cands.front().w);
-      const MatrixX3d placed = (S.fine * R.transpose()).rowwise() + (S.c + cands.front().t).transpose();
+      const MatrixX3d placed =
+          (S.fine * R.transpose()).rowwise() + (S.c + cands.front().t).transpose();
       S.basis = basis_at(placed);
       if (static_cast<Eigen::Index>(S.basis.size()) != S.fine.rows()) S.basis.clear();
     }
@@ -451,7 +484,8 @@ GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
         }
       }
       p.score = S.score(p);
-      if (p.score < cands[k].score) p = cands[k];  // the refinement lost score: keep the searched pose
+      if (p.score < cands[k].score)
+        p = cands[k];  // the refinement lost score: keep the searched pose
       if (p.score > best.score) {
         best = p;
         res.refine_iterations = rounds;
@@ -474,14 +508,21 @@ GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
     res.translation_mm = best.t.norm();
     res.rotation_deg = best.w.norm() / kDeg;
     res.bulk_accepted = !S.basis.empty() && best.s.norm() >= o.bulk_min_mm;
-    if (res.bulk_accepted) res.bulk_shift = best.s;
-    else best.s.setZero();
+    if (res.bulk_accepted)
+      res.bulk_shift = best.s;
+    else
+      best.s.setZero();
     res.score = S.score(best);
     res.rms_after_mm = S.rms(best);
-    os << "rigid " << res.translation_mm << " mm at the centroid, " << res.rotation_deg << " deg; bulk shift ";
-    if (res.bulk_accepted) os << fmt(res.bulk_shift) << " mm";
-    else os << (S.basis.empty() ? "not searched" : "below " + std::to_string(o.bulk_min_mm).substr(0, 4) + " mm");
-    os << "; score " << res.score << " vs " << res.score_identity << " at the identity over " << res.points << " points";
+    os << "rigid " << res.translation_mm << " mm at the centroid, " << res.rotation_deg
+       << " deg; bulk shift ";
+    if (res.bulk_accepted)
+      os << fmt(res.bulk_shift) << " mm";
+    else
+      os << (S.basis.empty() ? "not searched"
+                             : "below " + std::to_string(o.bulk_min_mm).substr(0, 4) + " mm");
+    os << "; score " << res.score << " vs " << res.score_identity << " at the identity over "
+       << res.points << " points";
   } else {
     res.score = res.score_identity;
     res.rms_after_mm = res.rms_before_mm;
@@ -491,13 +532,15 @@ GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
   os << " (" << res.candidates << " candidates, " << res.refine_iterations << " refinement rounds)";
   res.message = os.str();
   res.seconds = since(t0);
-  logger().debug("global start: {} in {:.1f} ms (table {:.1f}, coarse {:.1f}, fine {:.1f}, refine {:.1f})", res.message,
-                 1e3 * res.seconds, 1e3 * res.seconds_table, 1e3 * res.seconds_coarse, 1e3 * res.seconds_fine,
-                 1e3 * res.seconds_refine);
+  logger().debug(
+      "global start: {} in {:.1f} ms (table {:.1f}, coarse {:.1f}, fine {:.1f}, refine {:.1f})",
+      res.message, 1e3 * res.seconds, 1e3 * res.seconds_table, 1e3 * res.seconds_coarse,
+      1e3 * res.seconds_fine, 1e3 * res.seconds_refine);
   return res;
 }
 
-std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+std::vector<Matrix3d> load_basis(const core::TetMesh& mesh,
+                                 const std::array<MatrixX3d, 3>& response,
                                  ConstRef<MatrixX3d> points) {
   if (points.rows() == 0) return {};
   std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
@@ -506,7 +549,8 @@ std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<Mat
     Eigen::Index node = 0;
     (mesh.nodes().rowwise() - points.row(i)).rowwise().squaredNorm().minCoeff(&node);
     for (Eigen::Index k = 0; k < 3; ++k)
-      basis[static_cast<std::size_t>(i)].col(k) = response[static_cast<std::size_t>(k)].row(node).transpose();
+      basis[static_cast<std::size_t>(i)].col(k) =
+          response[static_cast<std::size_t>(k)].row(node).transpose();
     mean += basis[static_cast<std::size_t>(i)] / static_cast<double>(points.rows());
   }
   if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return {};

@@ -40,12 +40,12 @@
 /// 4. decision by the data score: the pose is kept when its fine score beats the identity's by
 ///    `min_gain`; otherwise the identity is returned and the message says why. No motion cap.
 
+#include "constraints/registration/skeleton.hpp"
+#include "core/config.hpp"
+
 #include <functional>
 #include <string>
 #include <vector>
-
-#include "constraints/registration/skeleton.hpp"
-#include "core/config.hpp"
 
 namespace brainshift::core {
 class TetMesh;
@@ -60,33 +60,36 @@ struct GlobalStartOptions {
   double coarse_step_mm = 3.0;       ///< coarse translation grid (mm); ≤ coarse_kernel_mm
   double coarse_kernel_mm = 4.0;     ///< τ of the coarse search (mm)
   double fine_kernel_mm = 2.5;       ///< τ of the fine rescoring and of the final score (mm)
-  double voxel_mm = 1.0;             ///< distance table spacing (mm); grown when the table would exceed 4 M voxels
-  int coarse_points = 100;           ///< points scored by the coarse search (evenly spread)
-  int max_points = 500;              ///< points scored by the fine stage and the refinement
-  int candidates = 8;                ///< local maxima of the coarse score rescored finely
-  int min_points = 6;                ///< fewer vessel points: identity, not accepted
+  double voxel_mm =
+      1.0;  ///< distance table spacing (mm); grown when the table would exceed 4 M voxels
+  int coarse_points = 100;  ///< points scored by the coarse search (evenly spread)
+  int max_points = 500;     ///< points scored by the fine stage and the refinement
+  int candidates = 8;       ///< local maxima of the coarse score rescored finely
+  int min_points = 6;       ///< fewer vessel points: identity, not accepted
   /// Keep the pose only when its score > min_gain × the identity's: a pose that matches hardly
   /// more points than no motion (noise, a flat score along a single vessel) is not worth moving.
   double min_gain = 1.05;
-  double refine_distance_mm = 3.0;   ///< refinement pairs within this distance (mm); ≤ coarse_kernel_mm
-  double loss_scale_mm = 1.0;        ///< Cauchy loss scale of the refinement (mm)
-  int refine_iterations = 8;         ///< ICP rounds of the refinement (pair, then Ceres)
-  int solver_iterations = 10;        ///< Levenberg–Marquardt iterations per round
-  double convergence_mm = 0.01;      ///< stop the rounds when the pose moves less than this (mm)
-  bool bulk_response = true;         ///< refine the bulk shift s too (needs a basis)
-  double bulk_prior_mm = 40.0;       ///< |s| that costs as much as loss_scale_mm at every pair (mm)
-  double bulk_min_mm = 1.0;          ///< a bulk shift below this is reported as not accepted (mm)
+  double refine_distance_mm =
+      3.0;                     ///< refinement pairs within this distance (mm); ≤ coarse_kernel_mm
+  double loss_scale_mm = 1.0;  ///< Cauchy loss scale of the refinement (mm)
+  int refine_iterations = 8;   ///< ICP rounds of the refinement (pair, then Ceres)
+  int solver_iterations = 10;  ///< Levenberg–Marquardt iterations per round
+  double convergence_mm = 0.01;  ///< stop the rounds when the pose moves less than this (mm)
+  bool bulk_response = true;     ///< refine the bulk shift s too (needs a basis)
+  double bulk_prior_mm = 40.0;   ///< |s| that costs as much as loss_scale_mm at every pair (mm)
+  double bulk_min_mm = 1.0;      ///< a bulk shift below this is reported as not accepted (mm)
   /// Empty when valid, else what is wrong.
   [[nodiscard]] std::string validate() const;
 };
 
 /// Outcome of global_start(). Every number is finite.
 struct GlobalStartResult {
-  /// Rigid part, intra-operative → model: p_model ≈ transform · p_intra (identity when not accepted).
+  /// Rigid part, intra-operative → model: p_model ≈ transform · p_intra (identity when not
+  /// accepted).
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
   Vector3d bulk_shift = Vector3d::Zero();  ///< s (mm): the rest point is at transform·p − B s
-  bool accepted = false;       ///< the pose beat the identity (else transform is the identity)
-  bool bulk_accepted = false;  ///< |s| ≥ bulk_min_mm (else bulk_shift is zero)
+  bool accepted = false;        ///< the pose beat the identity (else transform is the identity)
+  bool bulk_accepted = false;   ///< |s| ≥ bulk_min_mm (else bulk_shift is zero)
   double score = 0.0;           ///< fine score at the result (kernel-weighted points)
   double score_identity = 0.0;  ///< fine score at the identity, s = 0
   double translation_mm = 0.0;  ///< motion of the centroid under transform (mm)
@@ -99,7 +102,7 @@ struct GlobalStartResult {
   double rms_after_mm = 0.0;    ///< same at the result
   double seconds = 0.0;         ///< total, of which:
   double seconds_table = 0.0, seconds_coarse = 0.0, seconds_fine = 0.0, seconds_refine = 0.0;
-  std::string message;          ///< what was found and why it was (not) kept
+  std::string message;  ///< what was found and why it was (not) kept
 };
 
 /// The bulk-response basis at given model-frame points (#N×3 → N matrices 3×3, or empty).
@@ -114,15 +117,16 @@ using BasisAt = std::function<std::vector<Matrix3d>(ConstRef<MatrixX3d>)>;
 /// @return the pose; identity with accepted = false and the reason when there are fewer than
 ///         min_points points, no segments, or no pose beats the identity.
 /// \throws brainshift::Error when options.validate() fails or the inputs are not finite.
-GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points, const BasisAt& basis_at,
-                               const GlobalStartOptions& options);
+GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
+                               const BasisAt& basis_at, const GlobalStartOptions& options);
 
 /// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of the
 /// linear model at the rest node nearest the point, normalised so that the mean over the points
 /// is the identity. Empty when that mean is singular (points on fixed nodes).
 /// @param[in] mesh rest mesh; @param[in] response #N×3 nodal displacements per axis (mm);
 /// @param[in] points model-frame points (#P×3, mm).
-std::vector<Matrix3d> load_basis(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+std::vector<Matrix3d> load_basis(const core::TetMesh& mesh,
+                                 const std::array<MatrixX3d, 3>& response,
                                  ConstRef<MatrixX3d> points);
 
 }  // namespace brainshift::constraints

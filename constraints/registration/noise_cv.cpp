@@ -1,27 +1,33 @@
-// Block cross-validation of the vessel rows' compliance (noise_model.hpp, "Block cross-validation").
+// Block cross-validation of the vessel rows' compliance (noise_model.hpp, "Block
+// cross-validation").
+#include "constraints/registration/noise_model.hpp"
+#include "core/error.hpp"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 #include <map>
 
-#include "constraints/registration/noise_model.hpp"
-#include "core/error.hpp"
-
 namespace brainshift::constraints {
 
 std::string to_string(NoiseCriterion c) {
   switch (c) {
-    case NoiseCriterion::BLOCK_CV: return "block_cv";
-    case NoiseCriterion::GCV: return "gcv";
+    case NoiseCriterion::BLOCK_CV:
+      return "block_cv";
+    case NoiseCriterion::GCV:
+      return "gcv";
   }
   BS_UNREACHABLE();
 }
 
-Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::MatrixXd& Q, const Eigen::VectorXd& y,
-                                    const std::vector<std::vector<Eigen::Index>>& blocks, double eps) {
+Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::MatrixXd& Q,
+                                    const Eigen::VectorXd& y,
+                                    const std::vector<std::vector<Eigen::Index>>& blocks,
+                                    double eps) {
   const Eigen::Index m = y.size();
   const Eigen::ArrayXd f = eps / (lambda.array().max(0.0) + eps);  // eigenvalues of I − A
   const Eigen::VectorXd r = Q * (f * (Q.transpose() * y).array()).matrix();
@@ -45,8 +51,9 @@ Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::
 }
 
 NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
-                                       const std::vector<index_t>& vessel_rows, const std::vector<index_t>& row_blocks,
-                                       double scale, double current_ratio, const NoiseOptions& options) {
+                                       const std::vector<index_t>& vessel_rows,
+                                       const std::vector<index_t>& row_blocks, double scale,
+                                       double current_ratio, const NoiseOptions& options) {
   NoiseEstimate est;
   est.ratio = current_ratio;
   est.criterion = NoiseCriterion::BLOCK_CV;
@@ -56,7 +63,8 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
   }
   // Every k-th row pair when there are too many (as estimate_vessel_noise).
   const std::size_t stride = std::max<std::size_t>(
-      1, (vessel_rows.size() + static_cast<std::size_t>(options.max_rows) - 1) / static_cast<std::size_t>(options.max_rows));
+      1, (vessel_rows.size() + static_cast<std::size_t>(options.max_rows) - 1) /
+             static_cast<std::size_t>(options.max_rows));
   std::vector<index_t> use;
   std::map<index_t, std::vector<Eigen::Index>> by_block;
   for (std::size_t i = 0; i < vessel_rows.size(); ++i)
@@ -67,9 +75,10 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
   const auto m = static_cast<Eigen::Index>(use.size());
   est.rows = static_cast<index_t>(m);
   est.blocks = static_cast<index_t>(by_block.size());
-  if (m < 8 || by_block.size() < 2 || !(scale > 0) || W.rows() != delta_free.size() || W.cols() != W.rows()) {
-    est.message = "noise model: " + std::to_string(m) + " vessel rows in " + std::to_string(by_block.size()) +
-                  " blocks, too few to cross-validate";
+  if (m < 8 || by_block.size() < 2 || !(scale > 0) || W.rows() != delta_free.size() ||
+      W.cols() != W.rows()) {
+    est.message = "noise model: " + std::to_string(m) + " vessel rows in " +
+                  std::to_string(by_block.size()) + " blocks, too few to cross-validate";
     return est;
   }
   for (index_t r : use)
@@ -81,7 +90,8 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
   Eigen::VectorXd y(m);
   for (Eigen::Index a = 0; a < m; ++a) {
     y[a] = delta_free[use[static_cast<std::size_t>(a)]];
-    for (Eigen::Index b = 0; b < m; ++b) Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
+    for (Eigen::Index b = 0; b < m; ++b)
+      Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
   }
   if (!Wv.allFinite() || !y.allFinite()) {
     est.message = "noise model: non-finite system";
@@ -106,8 +116,8 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
   std::vector<std::vector<double>> scores;
   double best_gcv = std::numeric_limits<double>::infinity();
   for (int k = 0; k < options.grid; ++k) {
-    const double ratio =
-        options.min_ratio * std::pow(options.max_ratio / options.min_ratio, static_cast<double>(k) / (options.grid - 1));
+    const double ratio = options.min_ratio * std::pow(options.max_ratio / options.min_ratio,
+                                                      static_cast<double>(k) / (options.grid - 1));
     const double eps = ratio * scale;
     double rss = 0, trace = 0;
     for (Eigen::Index i = 0; i < m; ++i) {
@@ -182,17 +192,21 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
   char buf[300];
   if (est.keep_start)
     std::snprintf(buf, sizeof buf,
-                  "noise model (block CV, %lld vessel rows in %lld branches): no deformation (held-out error %.2f mm "
+                  "noise model (block CV, %lld vessel rows in %lld branches): no deformation "
+                  "(held-out error %.2f mm "
                   "per row, best compliance %.2f, within one standard error); scatter %.2f mm",
-                  static_cast<long long>(m), static_cast<long long>(est.blocks), est.cv_start_rms_mm,
-                  est.cv_best_rms_mm, est.sigma_mm);
+                  static_cast<long long>(m), static_cast<long long>(est.blocks),
+                  est.cv_start_rms_mm, est.cv_best_rms_mm, est.sigma_mm);
   else
     std::snprintf(buf, sizeof buf,
-                  "noise model (block CV, %lld vessel rows in %lld branches): compliance ratio %.3g (held-out error "
-                  "%.2f mm per row, best %.2f, %.2f without deformation), scatter %.2f mm, %.0f effective degrees of "
+                  "noise model (block CV, %lld vessel rows in %lld branches): compliance ratio "
+                  "%.3g (held-out error "
+                  "%.2f mm per row, best %.2f, %.2f without deformation), scatter %.2f mm, %.0f "
+                  "effective degrees of "
                   "freedom",
-                  static_cast<long long>(m), static_cast<long long>(est.blocks), est.ratio, est.cv_rms_mm,
-                  est.cv_best_rms_mm, est.cv_start_rms_mm, est.sigma_mm, est.effective_dof);
+                  static_cast<long long>(m), static_cast<long long>(est.blocks), est.ratio,
+                  est.cv_rms_mm, est.cv_best_rms_mm, est.cv_start_rms_mm, est.sigma_mm,
+                  est.effective_dof);
   est.message = buf;
   return est;
 }

@@ -1,15 +1,17 @@
 #include "constraints/registration/noise_model.hpp"
 
+#include "core/error.hpp"
+
 #include <Eigen/Eigenvalues>
+
 #include <cmath>
 #include <limits>
-
-#include "core/error.hpp"
 
 namespace brainshift::constraints {
 
 std::string NoiseOptions::validate() const {
-  if (!(min_ratio > 0) || !(max_ratio > min_ratio)) return "noise model: need 0 < min_ratio < max_ratio";
+  if (!(min_ratio > 0) || !(max_ratio > min_ratio))
+    return "noise model: need 0 < min_ratio < max_ratio";
   if (grid < 2) return "noise model: grid must be ≥ 2";
   if (!(change_factor >= 1)) return "noise model: change_factor must be ≥ 1";
   if (max_iterations < 1) return "noise model: max_iterations must be ≥ 1";
@@ -18,8 +20,8 @@ std::string NoiseOptions::validate() const {
 }
 
 NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
-                                    const std::vector<index_t>& vessel_rows, double scale, double current_ratio,
-                                    const NoiseOptions& options) {
+                                    const std::vector<index_t>& vessel_rows, double scale,
+                                    double current_ratio, const NoiseOptions& options) {
   NoiseEstimate est;
   est.ratio = current_ratio;
   // Every k-th row pair when there are too many (GCV needs a representative sample, not all).
@@ -31,14 +33,16 @@ NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::Vecto
   const auto m = static_cast<Eigen::Index>(use.size());
   est.rows = static_cast<index_t>(m);
   if (m < 8 || !(scale > 0) || W.rows() != delta_free.size()) {
-    est.message = "noise model: " + std::to_string(m) + " vessel rows, too few to estimate the scatter";
+    est.message =
+        "noise model: " + std::to_string(m) + " vessel rows, too few to estimate the scatter";
     return est;
   }
   Eigen::MatrixXd Wv(m, m);
   Eigen::VectorXd y(m);
   for (Eigen::Index a = 0; a < m; ++a) {
     y[a] = delta_free[use[static_cast<std::size_t>(a)]];
-    for (Eigen::Index b = 0; b < m; ++b) Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
+    for (Eigen::Index b = 0; b < m; ++b)
+      Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
   }
   if (!Wv.allFinite() || !y.allFinite()) {
     est.message = "noise model: non-finite system";
@@ -53,8 +57,8 @@ NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::Vecto
   const Eigen::VectorXd z2 = (es.eigenvectors().transpose() * y).array().square();
   double best = std::numeric_limits<double>::infinity();
   for (int k = 0; k < options.grid; ++k) {
-    const double ratio =
-        options.min_ratio * std::pow(options.max_ratio / options.min_ratio, static_cast<double>(k) / (options.grid - 1));
+    const double ratio = options.min_ratio * std::pow(options.max_ratio / options.min_ratio,
+                                                      static_cast<double>(k) / (options.grid - 1));
     const double eps = ratio * scale;
     double rss = 0, trace = 0;
     for (Eigen::Index i = 0; i < m; ++i) {
@@ -72,9 +76,10 @@ NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::Vecto
   }
   est.valid = std::isfinite(best);
   char buf[200];
-  std::snprintf(buf, sizeof buf, "noise model (GCV on %lld vessel rows): compliance ratio %.3g, scatter %.2f mm, "
-                "%.0f effective degrees of freedom", static_cast<long long>(m), est.ratio, est.sigma_mm,
-                est.effective_dof);
+  std::snprintf(buf, sizeof buf,
+                "noise model (GCV on %lld vessel rows): compliance ratio %.3g, scatter %.2f mm, "
+                "%.0f effective degrees of freedom",
+                static_cast<long long>(m), est.ratio, est.sigma_mm, est.effective_dof);
   est.message = buf;
   return est;
 }

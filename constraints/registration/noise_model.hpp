@@ -32,11 +32,11 @@
 /// differences): a deformation is only kept where it generalises from one vessel to the next
 /// by more than the sampling spread of the vessels shows.
 
+#include "core/config.hpp"
+
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include "core/config.hpp"
 
 namespace brainshift::constraints {
 
@@ -67,7 +67,8 @@ struct NoiseOptions {
   /// minimum the cost on near-rigid cases is ≤ 0.11 mm against rigid alone (docs/BENCHMARKS.md,
   /// "Never worse than rigid").
   bool one_standard_error = false;
-  /// Search range of the ratio ε / median(diag W) (dimensionless, as StepOptions::compliance_ratio).
+  /// Search range of the ratio ε / median(diag W) (dimensionless, as
+  /// StepOptions::compliance_ratio).
   double min_ratio = 0.02;
   double max_ratio = 1000.0;
   int grid = 64;  ///< log-spaced candidates in [min_ratio, max_ratio]
@@ -82,20 +83,20 @@ struct NoiseOptions {
 
 /// What the noise model found.
 struct NoiseEstimate {
-  bool valid = false;        ///< false: too few rows or a degenerate W; `ratio` is then unchanged
-  double ratio = 0.0;        ///< chosen compliance ratio of the vessel rows
-  double sigma_mm = 0.0;     ///< estimated scatter of the paired points about the model, per row (mm)
+  bool valid = false;     ///< false: too few rows or a degenerate W; `ratio` is then unchanged
+  double ratio = 0.0;     ///< chosen compliance ratio of the vessel rows
+  double sigma_mm = 0.0;  ///< estimated scatter of the paired points about the model, per row (mm)
   double effective_dof = 0.0;  ///< tr A: how many of the rows' degrees of freedom the fit follows
-  index_t rows = 0;          ///< vessel rows used
+  index_t rows = 0;            ///< vessel rows used
   NoiseCriterion criterion = NoiseCriterion::GCV;  ///< what chose `ratio`
   /// BLOCK_CV: no finite compliance predicted held-out branches better than no deformation: the
   /// model stays where the start put it (ε → ∞); `ratio` is then the largest of the range.
   bool keep_start = false;
-  index_t blocks = 0;        ///< BLOCK_CV: blocks held out
-  double cv_rms_mm = 0.0;    ///< BLOCK_CV: √CV at the choice, held-out error per row (mm)
-  double cv_best_rms_mm = 0.0;  ///< BLOCK_CV: √CV at its minimum (≤ cv_rms_mm; one-SE rule)
+  index_t blocks = 0;            ///< BLOCK_CV: blocks held out
+  double cv_rms_mm = 0.0;        ///< BLOCK_CV: √CV at the choice, held-out error per row (mm)
+  double cv_best_rms_mm = 0.0;   ///< BLOCK_CV: √CV at its minimum (≤ cv_rms_mm; one-SE rule)
   double cv_start_rms_mm = 0.0;  ///< BLOCK_CV: √CV of ε → ∞, i.e. rms δ_free (mm)
-  std::string message;       ///< one line
+  std::string message;           ///< one line
 };
 
 /// GCV choice of the vessel-row compliance.
@@ -105,22 +106,25 @@ struct NoiseEstimate {
 /// @param[in] scale median(diag W) over all rows: the unit of the ratio (mN⁻¹·mm).
 /// @param[in] current_ratio returned (valid = false) when there is nothing to decide on.
 NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
-                                    const std::vector<index_t>& vessel_rows, double scale, double current_ratio,
-                                    const NoiseOptions& options);
+                                    const std::vector<index_t>& vessel_rows, double scale,
+                                    double current_ratio, const NoiseOptions& options);
 
 /// Block cross-validation choice of the vessel-row compliance (see the file comment). Arguments
 /// as estimate_vessel_noise(), plus the block id of each entry of `vessel_rows` (rows with the
 /// same id are held out together; the two rows of a sliding line must share one). The scatter
 /// (sigma_mm) is GCV's σ̂, as estimate_vessel_noise(); the ratio is the CV choice.
 NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
-                                       const std::vector<index_t>& vessel_rows, const std::vector<index_t>& row_blocks,
-                                       double scale, double current_ratio, const NoiseOptions& options);
+                                       const std::vector<index_t>& vessel_rows,
+                                       const std::vector<index_t>& row_blocks, double scale,
+                                       double current_ratio, const NoiseOptions& options);
 
 /// The held-out residuals of every block at compliance ε > 0 for the smoother A = W (W + ε I)⁻¹:
 /// entry i is y_i minus the prediction of row i from all rows outside its block, computed as
 /// [(I − A)_BB]⁻¹ r_B from the eigendecomposition of W (eigenvalues `lambda`, eigenvectors as
 /// columns of `Q`). `blocks`: row indices of each block (a partition of 0..m-1).
-Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::MatrixXd& Q, const Eigen::VectorXd& y,
-                                    const std::vector<std::vector<Eigen::Index>>& blocks, double eps);
+Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::MatrixXd& Q,
+                                    const Eigen::VectorXd& y,
+                                    const std::vector<std::vector<Eigen::Index>>& blocks,
+                                    double eps);
 
 }  // namespace brainshift::constraints

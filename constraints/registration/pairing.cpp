@@ -1,10 +1,10 @@
 #include "constraints/registration/pairing.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include "core/error.hpp"
 #include "core/mapping/closest_point.hpp"
+
+#include <algorithm>
+#include <cmath>
 
 namespace brainshift::constraints {
 
@@ -17,21 +17,23 @@ FeatureIndex FeatureIndex::segments(ConstRef<MatrixX3d> vertices,
 }
 
 FeatureIndex FeatureIndex::triangles(
-    ConstRef<MatrixX3d> vertices, const Eigen::Matrix<index_t, Eigen::Dynamic, 3, Eigen::RowMajor>& tris) {
+    ConstRef<MatrixX3d> vertices,
+    const Eigen::Matrix<index_t, Eigen::Dynamic, 3, Eigen::RowMajor>& tris) {
   std::vector<std::array<index_t, 3>> f(static_cast<std::size_t>(tris.rows()));
   for (Eigen::Index t = 0; t < tris.rows(); ++t) f[t] = {tris(t, 0), tris(t, 1), tris(t, 2)};
   return FeatureIndex(vertices, std::move(f), 3);
 }
 
-FeatureIndex::FeatureIndex(ConstRef<MatrixX3d> vertices, std::vector<std::array<index_t, 3>> features,
-                           int arity)
+FeatureIndex::FeatureIndex(ConstRef<MatrixX3d> vertices,
+                           std::vector<std::array<index_t, 3>> features, int arity)
     : m_vertices(vertices), m_features(std::move(features)), m_arity(arity) {
   BS_VERIFY(m_vertices.allFinite(), "feature vertices contain NaN or infinity");
   const auto nv = static_cast<index_t>(m_vertices.rows());
   double total = 0;
   for (const auto& f : m_features)
     for (int k = 0; k < m_arity; ++k) {
-      BS_VERIFY(f[k] >= 0 && f[k] < nv, "feature refers to vertex " << f[k] << ", outside [0, " << nv << ")");
+      BS_VERIFY(f[k] >= 0 && f[k] < nv,
+                "feature refers to vertex " << f[k] << ", outside [0, " << nv << ")");
       total += (m_vertices.row(f[(k + 1) % m_arity]) - m_vertices.row(f[k])).norm();
     }
   if (m_features.empty()) return;
@@ -43,7 +45,14 @@ FeatureIndex::FeatureIndex(ConstRef<MatrixX3d> vertices, std::vector<std::array<
   m_origin = lo;
   m_dims = (((hi - lo) / m_cell).array().floor().cast<int>() + 1).matrix();
   const auto cell_of = [&](const Vector3d& p) {
-    return ((p - m_origin) / m_cell).array().floor().cast<int>().max(0).min(m_dims.array() - 1).matrix().eval();
+    return ((p - m_origin) / m_cell)
+        .array()
+        .floor()
+        .cast<int>()
+        .max(0)
+        .min(m_dims.array() - 1)
+        .matrix()
+        .eval();
   };
   const std::size_t ncell = static_cast<std::size_t>(m_dims.x()) * m_dims.y() * m_dims.z();
   std::vector<std::vector<index_t>> buckets(ncell);
@@ -57,11 +66,13 @@ FeatureIndex::FeatureIndex(ConstRef<MatrixX3d> vertices, std::vector<std::array<
     for (int z = c0.z(); z <= c1.z(); ++z)
       for (int y = c0.y(); y <= c1.y(); ++y)
         for (int x = c0.x(); x <= c1.x(); ++x)
-          buckets[x + static_cast<std::size_t>(m_dims.x()) * (y + static_cast<std::size_t>(m_dims.y()) * z)]
+          buckets[x + static_cast<std::size_t>(m_dims.x()) *
+                          (y + static_cast<std::size_t>(m_dims.y()) * z)]
               .push_back(static_cast<index_t>(f));
   }
   m_cell_start.assign(ncell + 1, 0);
-  for (std::size_t c = 0; c < ncell; ++c) m_cell_start[c + 1] = m_cell_start[c] + static_cast<index_t>(buckets[c].size());
+  for (std::size_t c = 0; c < ncell; ++c)
+    m_cell_start[c + 1] = m_cell_start[c] + static_cast<index_t>(buckets[c].size());
   m_cell_features.reserve(static_cast<std::size_t>(m_cell_start.back()));
   for (const auto& b : buckets) m_cell_features.insert(m_cell_features.end(), b.begin(), b.end());
 }
@@ -103,8 +114,10 @@ std::optional<Pair> FeatureIndex::nearest(const Vector3d& q, double max_distance
         if (y < 0 || y >= m_dims.y()) continue;
         for (int x = c.x() - r; x <= c.x() + r; ++x) {
           if (x < 0 || x >= m_dims.x()) continue;
-          if (std::max({std::abs(x - c.x()), std::abs(y - c.y()), std::abs(z - c.z())}) != r) continue;
-          const std::size_t cell = x + static_cast<std::size_t>(m_dims.x()) * (y + static_cast<std::size_t>(m_dims.y()) * z);
+          if (std::max({std::abs(x - c.x()), std::abs(y - c.y()), std::abs(z - c.z())}) != r)
+            continue;
+          const std::size_t cell = x + static_cast<std::size_t>(m_dims.x()) *
+                                           (y + static_cast<std::size_t>(m_dims.y()) * z);
           for (index_t k = m_cell_start[cell]; k < m_cell_start[cell + 1]; ++k) {
             const Pair p = closest_on(m_cell_features[k], q);
             if (p.distance <= best_d && (!best || p.distance < best->distance)) {

@@ -5,22 +5,23 @@
 /// (point-to-plane). A uniform grid over the features' bounding boxes answers nearest-feature
 /// queries by expanding rings of cells. Positions in mm, world frame.
 
-#include <optional>
-#include <vector>
-
 #include "constraints/registration/skeleton.hpp"
 #include "core/config.hpp"
+
+#include <optional>
+#include <vector>
 
 namespace brainshift::constraints {
 
 /// One intra-operative point paired with a model feature.
 struct Pair {
-  index_t point = -1;        ///< index of the intra-operative point
-  index_t feature = -1;      ///< segment or triangle index
-  Vector3d weights = Vector3d::Zero();  ///< closest point as weights of the feature's 2 or 3 vertices
-  Vector3d closest = Vector3d::Zero();  ///< closest point on the feature, mm
+  index_t point = -1;    ///< index of the intra-operative point
+  index_t feature = -1;  ///< segment or triangle index
+  Vector3d weights =
+      Vector3d::Zero();  ///< closest point as weights of the feature's 2 or 3 vertices
+  Vector3d closest = Vector3d::Zero();    ///< closest point on the feature, mm
   Vector3d direction = Vector3d::Zero();  ///< unit tangent (segment) or unit normal (triangle)
-  double distance = 0.0;     ///< |point − closest|, mm
+  double distance = 0.0;                  ///< |point − closest|, mm
 };
 
 /// Nearest-feature index over segments (2 vertices each) or triangles (3 vertices each).
@@ -31,8 +32,9 @@ class FeatureIndex {
   static FeatureIndex segments(ConstRef<MatrixX3d> vertices,
                                const std::vector<std::array<index_t, 2>>& segments);
   /// Triangles at the given vertex positions (#V×3).
-  static FeatureIndex triangles(ConstRef<MatrixX3d> vertices,
-                                const Eigen::Matrix<index_t, Eigen::Dynamic, 3, Eigen::RowMajor>& tris);
+  static FeatureIndex triangles(
+      ConstRef<MatrixX3d> vertices,
+      const Eigen::Matrix<index_t, Eigen::Dynamic, 3, Eigen::RowMajor>& tris);
 
   [[nodiscard]] index_t size() const { return static_cast<index_t>(m_features.size()); }
   /// Closest feature to q within max_distance (mm), or nullopt.
@@ -43,7 +45,8 @@ class FeatureIndex {
   [[nodiscard]] Pair closest_on(index_t f, const Vector3d& q) const;
 
  private:
-  FeatureIndex(ConstRef<MatrixX3d> vertices, std::vector<std::array<index_t, 3>> features, int arity);
+  FeatureIndex(ConstRef<MatrixX3d> vertices, std::vector<std::array<index_t, 3>> features,
+               int arity);
   MatrixX3d m_vertices;
   std::vector<std::array<index_t, 3>> m_features;
   int m_arity = 2;

@@ -1,26 +1,29 @@
 #include "constraints/registration/registration.hpp"
 
+#include "constraints/registration/pairing.hpp"
+#include "constraints/registration/registration_stage.hpp"
+#include "constraints/registration/uncertainty.hpp"
+#include "constraints/registration/vessel_blocks.hpp"
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 
-#include "constraints/registration/pairing.hpp"
-#include "constraints/registration/registration_stage.hpp"
-#include "constraints/registration/vessel_blocks.hpp"
-#include "constraints/registration/uncertainty.hpp"
-#include "core/error.hpp"
-#include "core/logger.hpp"
-
 namespace brainshift::constraints {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p) {
   MatrixX3d out(p.rows(), 3);
-  for (Eigen::Index i = 0; i < p.rows(); ++i) out.row(i) = (T * Vector3d(p.row(i).transpose())).transpose();
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    out.row(i) = (T * Vector3d(p.row(i).transpose())).transpose();
   return out;
 }
 
@@ -30,7 +33,8 @@ MatrixX3d rotated(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> n) {
 
 /// The tetrahedron a feature belongs to for subsampling: that of its first vertex.
 template <typename Features>
-std::vector<index_t> feature_tets(const Features& features, index_t count, const MappedVertices& mapped) {
+std::vector<index_t> feature_tets(const Features& features, index_t count,
+                                  const MappedVertices& mapped) {
   std::vector<index_t> t(static_cast<std::size_t>(count));
   for (index_t f = 0; f < count; ++f) t[static_cast<std::size_t>(f)] = mapped.tet(features(f));
   return t;
@@ -55,15 +59,22 @@ Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double mar
   return out.segments.empty() ? s : out;
 }
 
-std::string no_data_reason(const IntraopData& d, const RegistrationModel& m, const RegistrationOptions& o) {
+std::string no_data_reason(const IntraopData& d, const RegistrationModel& m,
+                           const RegistrationOptions& o) {
   std::string why;
   auto add = [&why](const std::string& s) { why += (why.empty() ? "" : ", ") + s; };
-  if (d.vessel_points.rows() == 0) add("no intra-operative vessel points");
-  else if (!o.use_vessels) add("vessels disabled");
-  else if (m.skeleton().segments.empty()) add("no pre-operative skeleton");
-  if (d.footprint_points.rows() == 0) add("no footprint points");
-  else if (!o.use_footprint) add("footprint disabled");
-  else if (m.surface().triangles.rows() == 0) add("no collision surface");
+  if (d.vessel_points.rows() == 0)
+    add("no intra-operative vessel points");
+  else if (!o.use_vessels)
+    add("vessels disabled");
+  else if (m.skeleton().segments.empty())
+    add("no pre-operative skeleton");
+  if (d.footprint_points.rows() == 0)
+    add("no footprint points");
+  else if (!o.use_footprint)
+    add("footprint disabled");
+  else if (m.surface().triangles.rows() == 0)
+    add("no collision surface");
   return "nothing to register: " + why + "; the model was not moved";
 }
 
@@ -116,54 +127,74 @@ FilterOptions RegistrationOptions::default_vessel_filter() {
 
 std::string to_string(RegistrationStop stop) {
   switch (stop) {
-    case RegistrationStop::CONVERGED: return "converged";
-    case RegistrationStop::MAX_ITERATIONS: return "max_iterations";
-    case RegistrationStop::NO_DATA: return "no_data";
-    case RegistrationStop::NOT_SETTLING: return "not_settling";
-    case RegistrationStop::DIVERGED: return "diverged";
-    case RegistrationStop::INSUFFICIENT_DATA: return "insufficient_data";
+    case RegistrationStop::CONVERGED:
+      return "converged";
+    case RegistrationStop::MAX_ITERATIONS:
+      return "max_iterations";
+    case RegistrationStop::NO_DATA:
+      return "no_data";
+    case RegistrationStop::NOT_SETTLING:
+      return "not_settling";
+    case RegistrationStop::DIVERGED:
+      return "diverged";
+    case RegistrationStop::INSUFFICIENT_DATA:
+      return "insufficient_data";
   }
   BS_UNREACHABLE();
 }
 
 std::string to_string(StageKind kind) {
   switch (kind) {
-    case StageKind::HELD: return "held";
-    case StageKind::FREE: return "free";
-    case StageKind::SMOOTH: return "smooth";
+    case StageKind::HELD:
+      return "held";
+    case StageKind::FREE:
+      return "free";
+    case StageKind::SMOOTH:
+      return "smooth";
   }
   BS_UNREACHABLE();
 }
 
 std::string to_string(PairingMode mode) {
   switch (mode) {
-    case PairingMode::FRESH: return "fresh";
-    case PairingMode::HELD: return "held";
-    case PairingMode::FROZEN: return "frozen";
+    case PairingMode::FRESH:
+      return "fresh";
+    case PairingMode::HELD:
+      return "held";
+    case PairingMode::FROZEN:
+      return "frozen";
   }
   BS_UNREACHABLE();
 }
 
 std::string to_string(TrustDecision d) {
   switch (d) {
-    case TrustDecision::NONE: return "none";
-    case TrustDecision::GROW: return "grow";
-    case TrustDecision::SHRINK: return "shrink";
+    case TrustDecision::NONE:
+      return "none";
+    case TrustDecision::GROW:
+      return "grow";
+    case TrustDecision::SHRINK:
+      return "shrink";
   }
   BS_UNREACHABLE();
 }
 
 std::string to_string(StageStop stop) {
   switch (stop) {
-    case StageStop::SETTLED: return "settled";
-    case StageStop::ITERATION_CAP: return "iteration_cap";
-    case StageStop::NOT_SETTLING: return "not_settling";
-    case StageStop::DIVERGED: return "diverged";
+    case StageStop::SETTLED:
+      return "settled";
+    case StageStop::ITERATION_CAP:
+      return "iteration_cap";
+    case StageStop::NOT_SETTLING:
+      return "not_settling";
+    case StageStop::DIVERGED:
+      return "diverged";
   }
   BS_UNREACHABLE();
 }
 
-// ===== Start (issue 14 item 2; global_start.hpp) =====================================================
+// ===== Start (issue 14 item 2; global_start.hpp)
+// =====================================================
 
 namespace {
 
@@ -193,7 +224,8 @@ ShiftSearchResult as_shift(const GlobalStartResult& g) {
 
 }  // namespace
 
-RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options) {
+RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
+                            const RegistrationOptions& options) {
   GlobalStartOptions o = options.global_start;
   o.bulk_response = false;
   return as_rigid(global_start(model.skeleton(), data.vessel_points, {}, o));
@@ -204,9 +236,9 @@ namespace {
 /// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
 /// options, the warm start (`initial`, may be null) and whether vessels are used; outputs:
 /// res.rigid, res.shift, res.seconds.rigid and the per-point basis of the bulk shift.
-void run_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options,
-               const RegistrationResult* initial, bool vessels, RegistrationResult& res,
-               std::vector<Matrix3d>& shift_basis) {
+void run_start(const RegistrationModel& model, const IntraopData& data,
+               const RegistrationOptions& options, const RegistrationResult* initial, bool vessels,
+               RegistrationResult& res, std::vector<Matrix3d>& shift_basis) {
   const core::TetMesh& mesh = model.mesh();
   // Warm start: the previous frame's pose. RIGID: the global start (global_start.hpp) — rigid pose
   // plus the model's bulk response, found by an exhaustive search of the distance map and refined
@@ -223,17 +255,21 @@ void run_start(const RegistrationModel& model, const IntraopData& data, const Re
     res.rigid = as_rigid(res.start);
     res.shift = as_shift(res.start);
     if (res.shift.accepted && options.shift_load_basis)
-      shift_basis = load_basis(mesh, model.load_response(), transformed(res.rigid.transform, data.vessel_points));
+      shift_basis = load_basis(mesh, model.load_response(),
+                               transformed(res.rigid.transform, data.vessel_points));
     logger().debug("global start: {}", res.start.message);
   } else {
     res.rigid.converged = true;
-    res.rigid.stop_reason = options.start == RigidStart::RIGID ? "identity (no vessel points for the global start)"
-                                                              : "identity (no rigid initialisation requested)";
+    res.rigid.stop_reason = options.start == RigidStart::RIGID
+                                ? "identity (no vessel points for the global start)"
+                                : "identity (no rigid initialisation requested)";
     if (vessels && options.shift_search.enabled) {
       const ShiftSearchOptions& so = options.shift_search;
       const MatrixX3d& pts = data.vessel_points;
-      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts) : std::vector<Matrix3d>{};
-      res.shift = search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
+      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
+                                             : std::vector<Matrix3d>{};
+      res.shift =
+          search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
       logger().debug("shift search: {}", res.shift.message);
     }
   }
@@ -241,14 +277,17 @@ void run_start(const RegistrationModel& model, const IntraopData& data, const Re
 }
 
 /// The data in the model frame and the tables every stage reads.
-LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options,
-                       const RegistrationResult& res, const std::vector<Matrix3d>& shift_basis) {
+LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data,
+                       const RegistrationOptions& options, const RegistrationResult& res,
+                       const std::vector<Matrix3d>& shift_basis) {
   const core::TetMesh& mesh = model.mesh();
   LoopInputs in;
   in.model = &model;
   in.options = &options;
-  in.vessels = options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
-  in.footprint = options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
+  in.vessels =
+      options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
+  in.footprint = options.use_footprint && data.footprint_points.rows() > 0 &&
+                 model.surface().triangles.rows() > 0;
   in.landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
   in.dura = options.dura.mode != DuraOptions::Mode::NONE && model.rest_surface_index() != nullptr;
   const Eigen::Isometry3d& T = res.rigid.transform;
@@ -257,9 +296,11 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data, 
     // Where each point was before the bulk shift: the HELD stage pairs there.
     in.held_pair_points = in.vessel_points;
     for (Eigen::Index i = 0; i < in.held_pair_points.rows(); ++i)
-      in.held_pair_points.row(i) -= (shift_basis.empty() ? Vector3d(res.shift.shift)
-                                                         : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.shift.shift))
-                                        .transpose();
+      in.held_pair_points.row(i) -=
+          (shift_basis.empty()
+               ? Vector3d(res.shift.shift)
+               : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.shift.shift))
+              .transpose();
   }
   in.footprint_points = transformed(T, data.footprint_points);
   in.footprint_normals = rotated(T, data.footprint_normals);
@@ -272,23 +313,30 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data, 
   const auto& tris = model.surface().triangles;
   in.segment_tets = feature_tets([&](index_t f) { return segs[static_cast<std::size_t>(f)][0]; },
                                  static_cast<index_t>(segs.size()), skel);
-  in.triangle_tets = feature_tets([&](index_t f) { return tris(f, 0); }, static_cast<index_t>(tris.rows()), surf);
-  if (in.vessels) in.segment_blocks = segment_blocks(model.skeleton(), options.noise.block_length_mm);
+  in.triangle_tets =
+      feature_tets([&](index_t f) { return tris(f, 0); }, static_cast<index_t>(tris.rows()), surf);
+  if (in.vessels)
+    in.segment_blocks = segment_blocks(model.skeleton(), options.noise.block_length_mm);
   return in;
 }
 
 RegistrationStop stop_of(StageStop s) {
   switch (s) {
-    case StageStop::SETTLED: return RegistrationStop::CONVERGED;
-    case StageStop::ITERATION_CAP: return RegistrationStop::MAX_ITERATIONS;
-    case StageStop::NOT_SETTLING: return RegistrationStop::NOT_SETTLING;
-    case StageStop::DIVERGED: return RegistrationStop::DIVERGED;
+    case StageStop::SETTLED:
+      return RegistrationStop::CONVERGED;
+    case StageStop::ITERATION_CAP:
+      return RegistrationStop::MAX_ITERATIONS;
+    case StageStop::NOT_SETTLING:
+      return RegistrationStop::NOT_SETTLING;
+    case StageStop::DIVERGED:
+      return RegistrationStop::DIVERGED;
   }
   BS_UNREACHABLE();
 }
 
 /// One line on why the registration stopped.
-std::string stop_reason(const RegistrationResult& res, const RegistrationOptions& options, const std::string& notes) {
+std::string stop_reason(const RegistrationResult& res, const RegistrationOptions& options,
+                        const std::string& notes) {
   char buf[320];
   const IterationRecord last = res.history.empty() ? IterationRecord{} : res.history.back();
   int held = 0;
@@ -296,28 +344,31 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
     if (s.kind == StageKind::HELD) held += s.iterations;
   switch (res.stop) {
     case RegistrationStop::NOT_SETTLING:
-      std::snprintf(buf, sizeof buf,
-                    "not settling: the trust region shrank below %.3g mm after %d iterations (%s stage); the "
-                    "constraints cannot be met (inconsistent data or too large a shift); last PGS: %s",
-                    options.increment_tolerance_mm, res.iterations, to_string(last.stage).c_str(),
-                    to_string(last.pgs_stop).c_str());
+      std::snprintf(
+          buf, sizeof buf,
+          "not settling: the trust region shrank below %.3g mm after %d iterations (%s stage); the "
+          "constraints cannot be met (inconsistent data or too large a shift); last PGS: %s",
+          options.increment_tolerance_mm, res.iterations, to_string(last.stage).c_str(),
+          to_string(last.pgs_stop).c_str());
       break;
     case RegistrationStop::DIVERGED:
       std::snprintf(buf, sizeof buf,
-                    "diverged: the step of iteration %d (%s stage) was not finite (%s); the positions are those "
+                    "diverged: the step of iteration %d (%s stage) was not finite (%s); the "
+                    "positions are those "
                     "of the last finite iterate",
                     res.iterations, to_string(last.stage).c_str(), last.diagnosis.c_str());
       break;
     case RegistrationStop::MAX_ITERATIONS:
-      std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)", options.max_iterations,
-                    last.max_increment_mm);
+      std::snprintf(buf, sizeof buf, "iteration cap %d reached (last increment %.3g mm)",
+                    options.max_iterations, last.max_increment_mm);
       break;
     default:
       std::snprintf(buf, sizeof buf,
-                    "increment below %.3g mm with a %s pairing set after %d iterations (%d on the pairs of the "
+                    "increment below %.3g mm with a %s pairing set after %d iterations (%d on the "
+                    "pairs of the "
                     "bulk shift)",
-                    options.increment_tolerance_mm, last.pairing_frozen ? "frozen (it cycled)" : "stable",
-                    res.iterations, held);
+                    options.increment_tolerance_mm,
+                    last.pairing_frozen ? "frozen (it cycled)" : "stable", res.iterations, held);
   }
   std::string reason = buf;
   if (!notes.empty()) reason += "; " + notes;
@@ -328,7 +379,8 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
 }  // namespace
 
 RegistrationResult register_model(const RegistrationModel& model, const IntraopData& data,
-                                  const RegistrationOptions& options, const RegistrationResult* initial) {
+                                  const RegistrationOptions& options,
+                                  const RegistrationResult* initial) {
   const std::string invalid = options.validate();
   BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
   const auto t_start = Clock::now();
@@ -341,16 +393,18 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
                 data.footprint_normals.allFinite() && data.landmark_targets.allFinite() &&
                 data.landmark_model_points.allFinite(),
             "intra-operative points contain NaN or infinity");
-  BS_VERIFY(data.footprint_normals.rows() == 0 || data.footprint_normals.rows() == data.footprint_points.rows(),
-            "footprint normals: " << data.footprint_normals.rows() << " for " << data.footprint_points.rows()
-                                  << " points");
+  BS_VERIFY(data.footprint_normals.rows() == 0 ||
+                data.footprint_normals.rows() == data.footprint_points.rows(),
+            "footprint normals: " << data.footprint_normals.rows() << " for "
+                                  << data.footprint_points.rows() << " points");
   BS_VERIFY(data.landmark_targets.rows() == data.landmark_model_points.rows(),
             "landmarks: " << data.landmark_model_points.rows() << " model points but "
                           << data.landmark_targets.rows() << " targets");
 
-  const bool vessels = options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
-  const bool footprint =
-      options.use_footprint && data.footprint_points.rows() > 0 && model.surface().triangles.rows() > 0;
+  const bool vessels =
+      options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
+  const bool footprint = options.use_footprint && data.footprint_points.rows() > 0 &&
+                         model.surface().triangles.rows() > 0;
   const bool landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
   if (!vessels && !footprint && !landmarks) {
     res.displacement = res.positions - mesh.nodes();
@@ -372,8 +426,10 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     for (const auto& [k, l] : initial->lambda) state.warm[k] = l;
 
   // The schedule.
-  const double ratio0 = options.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)];
-  const bool noise_model = in.vessels;  // the estimate; the SMOOTH stage only when options.noise.enabled
+  const double ratio0 =
+      options.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)];
+  const bool noise_model =
+      in.vessels;  // the estimate; the SMOOTH stage only when options.noise.enabled
   int budget = options.max_iterations;
   StageRecord last;
   auto run = [&](const StageOptions& so) {
@@ -393,7 +449,8 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     StageOptions free;
     free.kind = StageKind::FREE;
     free.max_iterations = budget;
-    free.pair_distance_mm = res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+    free.pair_distance_mm =
+        res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
     free.keep_held_pairs = res.shift.accepted;
     free.vessel_compliance_ratio = ratio0;
     free.keep_system = noise_model;
@@ -409,11 +466,13 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
         blocks.push_back(f >= 0 && static_cast<std::size_t>(f) < in.segment_blocks.size()
                              ? in.segment_blocks[static_cast<std::size_t>(f)]
                              : -1);
-      res.noise = choose_vessel_compliance(state.last_delassus, state.last_delta_free, state.last_vessel_rows, blocks,
-                                           state.last_scale, ratio0, options.noise);
+      res.noise = choose_vessel_compliance(state.last_delassus, state.last_delta_free,
+                                           state.last_vessel_rows, blocks, state.last_scale, ratio0,
+                                           options.noise);
     } else {
-      res.noise = estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
-                                        state.last_scale, ratio0, options.noise);
+      res.noise =
+          estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
+                                state.last_scale, ratio0, options.noise);
     }
     state.seconds.noise += seconds_since(t0);
     notes = res.noise.message;
@@ -433,12 +492,14 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
       last = keep;
       notes += "; the start is kept (no deformation)";
     } else if (options.noise.enabled && res.noise.valid &&
-               (change > options.noise.change_factor || change < 1.0 / options.noise.change_factor)) {
+               (change > options.noise.change_factor ||
+                change < 1.0 / options.noise.change_factor)) {
       LoopState settled = state;  // the FREE stage's answer, kept if smoothing does not settle
       StageOptions smooth;
       smooth.kind = StageKind::SMOOTH;
       smooth.max_iterations = options.noise.max_iterations;
-      smooth.pair_distance_mm = res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+      smooth.pair_distance_mm =
+          res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
       smooth.keep_held_pairs = res.shift.accepted;
       smooth.vessel_compliance_ratio = res.noise.ratio;
       const StageRecord sm = run_stage(in, smooth, state);
@@ -448,7 +509,8 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
         settled.seconds = state.seconds;
         state = std::move(settled);
         state.stages.push_back(sm);
-        notes += "; the smoothing stage ended " + to_string(sm.stop) + ": the free stage's answer is kept";
+        notes += "; the smoothing stage ended " + to_string(sm.stop) +
+                 ": the free stage's answer is kept";
         if (sm.stop == StageStop::DIVERGED) last = sm;  // a non-finite step never ends converged
       } else {
         state.stages.push_back(sm);
@@ -478,11 +540,12 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     const index_t pairs = res.history.empty() ? 0 : res.history.back().vessel_pairs;
     std::string why;
     if (pairs < options.min_vessel_pairs)
-      why = "only " + std::to_string(pairs) + " vessel points paired (of " + std::to_string(data.vessel_points.rows()) +
-            "); at least " + std::to_string(options.min_vessel_pairs) + " are needed for a trustworthy registration";
+      why = "only " + std::to_string(pairs) + " vessel points paired (of " +
+            std::to_string(data.vessel_points.rows()) + "); at least " +
+            std::to_string(options.min_vessel_pairs) + " are needed for a trustworthy registration";
     else if (res.noise.valid && res.noise.sigma_mm > options.max_scatter_mm)
-      why = "the vessel points scatter by " + std::to_string(res.noise.sigma_mm) + " mm about the model, beyond " +
-            std::to_string(options.max_scatter_mm) + " mm";
+      why = "the vessel points scatter by " + std::to_string(res.noise.sigma_mm) +
+            " mm about the model, beyond " + std::to_string(options.max_scatter_mm) + " mm";
     if (!why.empty()) {
       res.converged = false;
       res.stop = RegistrationStop::INSUFFICIENT_DATA;
@@ -491,11 +554,13 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   }
   res.seconds.total = seconds_since(t_start);
 
-  if (initial && options.cold_retry && !res.converged && res.stop != RegistrationStop::INSUFFICIENT_DATA) {
+  if (initial && options.cold_retry && !res.converged &&
+      res.stop != RegistrationStop::INSUFFICIENT_DATA) {
     RegistrationResult cold = register_model(model, data, options, nullptr);
     if (cold.converged) {
       cold.cold_retry = true;
-      cold.stop_reason = "warm start ended " + to_string(res.stop) + ", cold start: " + cold.stop_reason;
+      cold.stop_reason =
+          "warm start ended " + to_string(res.stop) + ", cold start: " + cold.stop_reason;
       cold.seconds.total += res.seconds.total;
       return cold;
     }

@@ -40,20 +40,11 @@
 /// p_model ≈ rigid · p_intra, and the deformation is then computed in the model frame:
 /// a pre-operative point X is at rigid⁻¹ (X + u(X)) in the intra-operative frame.
 
-#include <array>
-#include <memory>
-#include <optional>
-#include <string>
-#include <vector>
-
-#include <cstdint>
-#include <functional>
-
 #include "constraints/registration/constraint_builders.hpp"
 #include "constraints/registration/filtering.hpp"
+#include "constraints/registration/global_start.hpp"
 #include "constraints/registration/noise_model.hpp"
 #include "constraints/registration/registration_model.hpp"
-#include "constraints/registration/global_start.hpp"
 #include "constraints/registration/rigid_init.hpp"
 #include "constraints/registration/shift_search.hpp"
 #include "constraints/registration/skeleton.hpp"
@@ -61,14 +52,23 @@
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
 namespace brainshift::constraints {
 
 /// Intra-operative data, in the tracked intra-operative frame (mm; RAS world when tracking is
 /// registered to the pre-operative images).
 struct IntraopData {
-  MatrixX3d vessel_points;      ///< from power Doppler, #V×3
-  MatrixX3d footprint_points;   ///< probe footprint from B-mode, #P×3
-  MatrixX3d footprint_normals;  ///< #P×3 unit normals pointing into the tissue (empty: from the surface)
+  MatrixX3d vessel_points;     ///< from power Doppler, #V×3
+  MatrixX3d footprint_points;  ///< probe footprint from B-mode, #P×3
+  MatrixX3d
+      footprint_normals;  ///< #P×3 unit normals pointing into the tissue (empty: from the surface)
   /// Optional landmarks: pre-operative model points (#L×3, rest frame) and where they are now
   /// (#L×3, intra-operative frame), e.g. a tracked pointer on a vessel bifurcation.
   MatrixX3d landmark_model_points;
@@ -95,10 +95,11 @@ struct RegistrationOptions {
   RigidInitOptions rigid;
   /// Global search for the bulk shift of the vessel points (shift_search.hpp) when start is
   /// IDENTITY (with RIGID the global start gives the bulk shift). When accepted, the first pairs
-  /// are made at the shifted points (pᵢ − shift) and held (each point keeps its feature) until the model has settled on them, at most
-  /// `shift_stage_iterations` iterations; free nearest-feature pairing takes over from there.
-  /// Nearest-feature pairing from the rest shape picks the neighbouring vessel once the shift
-  /// exceeds the vessel spacing; pairs made after the bulk shift is taken out do not.
+  /// are made at the shifted points (pᵢ − shift) and held (each point keeps its feature) until the
+  /// model has settled on them, at most `shift_stage_iterations` iterations; free nearest-feature
+  /// pairing takes over from there. Nearest-feature pairing from the rest shape picks the
+  /// neighbouring vessel once the shift exceeds the vessel spacing; pairs made after the bulk shift
+  /// is taken out do not.
   ShiftSearchOptions shift_search;
   int shift_stage_iterations = 40;
   /// Shape of the searched shift: the model's own response to a uniform load (one per axis,
@@ -113,16 +114,16 @@ struct RegistrationOptions {
   bool use_vessels = true;
   bool use_footprint = true;
   bool use_landmarks = true;
-  DuraOptions dura;                     ///< contact with the dura outside the craniotomy
-  double pair_max_distance_mm = 15.0;   ///< no pair beyond this
+  DuraOptions dura;                    ///< contact with the dura outside the craniotomy
+  double pair_max_distance_mm = 15.0;  ///< no pair beyond this
   FilterOptions vessel_filter = default_vessel_filter();
   FilterOptions footprint_filter;
-  double direction_radius_mm = 5.0;     ///< neighbourhood for the local direction of vessel points
+  double direction_radius_mm = 5.0;  ///< neighbourhood for the local direction of vessel points
   StepOptions step = default_step();
-  int max_iterations = 80;               ///< HELD + FREE stages together (SMOOTH: noise.max_iterations)
-  double increment_tolerance_mm = 0.01; ///< stop when max nodal |Δx| is below this and the
-                                        ///< pairing set is stable (unchanged or frozen)
-  NoiseOptions noise;                   ///< the vessel rows' compliance from the data (SMOOTH stage)
+  int max_iterations = 80;  ///< HELD + FREE stages together (SMOOTH: noise.max_iterations)
+  double increment_tolerance_mm = 0.01;  ///< stop when max nodal |Δx| is below this and the
+                                         ///< pairing set is stable (unchanged or frozen)
+  NoiseOptions noise;  ///< the vessel rows' compliance from the data (SMOOTH stage)
   /// A registration on vessels alone is not trusted (stop INSUFFICIENT_DATA, exit 2) with fewer
   /// paired vessel points than this at the end, or with a scatter (noise model) above
   /// max_scatter_mm: the answer is written but says why it should not be relied on.
@@ -149,13 +150,13 @@ struct RegistrationOptions {
 
 /// Seconds per stage, summed over iterations.
 struct StageTimes {
-  double rigid = 0.0;        ///< the start (global start, or the bulk-shift search from the identity)
-  double pairing = 0.0;      ///< pairing, filtering, building the rows
+  double rigid = 0.0;    ///< the start (global start, or the bulk-shift search from the identity)
+  double pairing = 0.0;  ///< pairing, filtering, building the rows
   double free_motion = 0.0;  ///< element rotations, forces, one solve
   double delassus = 0.0;     ///< W = H C Hᵀ
   double pgs = 0.0;
   double correction = 0.0;
-  double noise = 0.0;        ///< the noise model (one eigendecomposition of the vessel rows' W)
+  double noise = 0.0;  ///< the noise model (one eigendecomposition of the vessel rows' W)
   double total = 0.0;
 };
 
@@ -166,7 +167,8 @@ std::string to_string(StageKind kind);
 /// How an iteration made its vessel pairs.
 enum class PairingMode : std::uint8_t {
   FRESH,   ///< nearest feature, filtered
-  HELD,    ///< HELD stage: the features chosen at its first iteration (made at the points less the bulk shift)
+  HELD,    ///< HELD stage: the features chosen at its first iteration (made at the points less the
+           ///< bulk shift)
   FROZEN,  ///< the pairing cycled: each point keeps its feature, the closest point is recomputed
 };
 std::string to_string(PairingMode mode);
@@ -183,7 +185,7 @@ std::string to_string(TrustDecision d);
 struct IterationRecord {
   StageKind stage = StageKind::FREE;
   PairingMode pairing = PairingMode::FRESH;
-  index_t vessel_pairs = 0;     ///< kept after filtering
+  index_t vessel_pairs = 0;  ///< kept after filtering
   index_t footprint_pairs = 0;
   index_t dura_rows = 0;
   index_t landmark_rows = 0;
@@ -194,7 +196,7 @@ struct IterationRecord {
   PgsStop pgs_stop = PgsStop::NO_ROWS;
   bool pairing_changed = true;
   bool pairing_frozen = false;
-  bool finite = true;            ///< the step's increment was finite (else the loop stopped DIVERGED)
+  bool finite = true;  ///< the step's increment was finite (else the loop stopped DIVERGED)
   double seconds = 0.0;
   double trust_radius_mm = 0.0;  ///< the trust region this iteration's step was limited to
   bool limited = false;          ///< the step was scaled down to the trust region
@@ -202,17 +204,17 @@ struct IterationRecord {
   double vessel_compliance_ratio = 0.0;  ///< of this iteration's vessel rows
   FilterReport vessel_filter;
   FilterReport footprint_filter;
-  std::string diagnosis;        ///< the step's diagnosis, if any
+  std::string diagnosis;  ///< the step's diagnosis, if any
 };
 
 enum class RegistrationStop {
-  CONVERGED,       ///< increment below tolerance with a stable (or frozen) pairing set
-  MAX_ITERATIONS,  ///< iteration cap
-  NO_DATA,         ///< nothing to register; the model was not moved
-  NOT_SETTLING,    ///< the trust region shrank below the increment tolerance: the model cannot
-                   ///< meet the constraints (inconsistent data, or beyond the corotational
-                   ///< iteration's reach); positions are the last finite iterate
-  DIVERGED,        ///< a step's increment was not finite; positions are the last finite iterate
+  CONVERGED,          ///< increment below tolerance with a stable (or frozen) pairing set
+  MAX_ITERATIONS,     ///< iteration cap
+  NO_DATA,            ///< nothing to register; the model was not moved
+  NOT_SETTLING,       ///< the trust region shrank below the increment tolerance: the model cannot
+                      ///< meet the constraints (inconsistent data, or beyond the corotational
+                      ///< iteration's reach); positions are the last finite iterate
+  DIVERGED,           ///< a step's increment was not finite; positions are the last finite iterate
   INSUFFICIENT_DATA,  ///< settled, but on too few or too scattered vessel points to be trusted
 };
 std::string to_string(RegistrationStop stop);
@@ -236,12 +238,13 @@ struct StageRecord {
 };
 
 struct RegistrationResult {
-  MatrixX3d positions;        ///< final nodal positions #N×3, model frame, mm
-  MatrixX3d displacement;     ///< positions − rest, mm
-  RigidInitResult rigid;      ///< the rigid start's transform (identity when options.start is IDENTITY
-                              ///< or the global start was not accepted); a warm start's own
-  ShiftSearchResult shift;    ///< the first stage's bulk shift (not accepted when none or warm-started)
-  GlobalStartResult start;    ///< the global start in full (default when not run)
+  MatrixX3d positions;     ///< final nodal positions #N×3, model frame, mm
+  MatrixX3d displacement;  ///< positions − rest, mm
+  RigidInitResult rigid;   ///< the rigid start's transform (identity when options.start is IDENTITY
+                           ///< or the global start was not accepted); a warm start's own
+  ShiftSearchResult
+      shift;  ///< the first stage's bulk shift (not accepted when none or warm-started)
+  GlobalStartResult start;  ///< the global start in full (default when not run)
   int iterations = 0;
   bool converged = false;
   RegistrationStop stop = RegistrationStop::NO_DATA;
@@ -255,7 +258,8 @@ struct RegistrationResult {
   /// The data rows (vessels, footprint, landmarks; no dura) of the last pairs, rebuilt at the
   /// final positions: what the predicted error (uncertainty.hpp) conditions on. Empty with NO_DATA.
   ConstraintRows data_rows;
-  /// The vessel rows' compliance ratio of the answer kept (the FREE stage's, or SMOOTH's when it settled).
+  /// The vessel rows' compliance ratio of the answer kept (the FREE stage's, or SMOOTH's when it
+  /// settled).
   double vessel_compliance_ratio = 0.0;
   /// Warm-start state: λ per (set, feature, row) of the last iteration, for the next frame.
   std::vector<std::pair<std::array<std::int64_t, 3>, double>> lambda;
@@ -264,7 +268,8 @@ struct RegistrationResult {
 /// The start's rigid part alone (options.start is ignored): the global start without the bulk
 /// response, as a RigidInitResult (identity with the reason in stop_reason when not accepted).
 /// The "rigid only" baseline of the benchmark.
-RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data, const RegistrationOptions& options);
+RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
+                            const RegistrationOptions& options);
 
 /// Runs the registration.
 /// @param[in] model the prepared model; only read (one model serves any number of registrations).

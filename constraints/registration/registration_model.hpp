@@ -6,15 +6,15 @@
 /// never changes it (rotations are passed per step), so replay, bench and several registrations
 /// share one model. Positions in mm, world (RAS) frame of the pre-operative images.
 
-#include <array>
-#include <memory>
-#include <vector>
-
 #include "constraints/registration/constraint_builders.hpp"
 #include "constraints/registration/skeleton.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <array>
+#include <memory>
+#include <vector>
 
 namespace brainshift::constraints {
 
@@ -29,8 +29,9 @@ class RegistrationModel {
   /// @param[in] surface collision surface (footprint and dura contact; may have no triangles).
   /// \throws brainshift::Error when K0 cannot be factorised or a feature point lies farther than
   /// 2 mm outside the mesh (naming it).
-  RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes, Skeleton skeleton,
-                    SurfaceMesh surface, const ComplianceOptions& compliance = {});
+  RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
+                    Skeleton skeleton, SurfaceMesh surface,
+                    const ComplianceOptions& compliance = {});
   ~RegistrationModel();
   RegistrationModel(const RegistrationModel&) = delete;
   RegistrationModel& operator=(const RegistrationModel&) = delete;

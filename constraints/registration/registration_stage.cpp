@@ -1,19 +1,21 @@
 #include "constraints/registration/registration_stage.hpp"
 
+#include "constraints/registration/pairing.hpp"
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
 
-#include "constraints/registration/pairing.hpp"
-#include "core/error.hpp"
-#include "core/logger.hpp"
-
 namespace brainshift::constraints {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 using PairKey = std::array<std::int64_t, 3>;  // (set, point, feature)
 
@@ -29,7 +31,8 @@ std::vector<LambdaKey> lambda_keys(const ConstraintRows& rows) {
 }
 
 /// Each held pair re-closed on its own feature at the current positions.
-std::vector<Pair> reclose(const FeatureIndex& index, ConstRef<MatrixX3d> points, const std::vector<Pair>& held) {
+std::vector<Pair> reclose(const FeatureIndex& index, ConstRef<MatrixX3d> points,
+                          const std::vector<Pair>& held) {
   std::vector<Pair> pairs;
   pairs.reserve(held.size());
   for (const Pair& f : held) {
@@ -42,8 +45,9 @@ std::vector<Pair> reclose(const FeatureIndex& index, ConstRef<MatrixX3d> points,
 
 /// Nearest-feature pairs within max_distance, filtered.
 std::vector<Pair> fresh_pairs(const FeatureIndex& index, ConstRef<MatrixX3d> points,
-                              const std::vector<Vector3d>& directions, const std::vector<index_t>& tet_of_feature,
-                              double max_distance, const FilterOptions& filter, FilterReport* report) {
+                              const std::vector<Vector3d>& directions,
+                              const std::vector<index_t>& tet_of_feature, double max_distance,
+                              const FilterOptions& filter, FilterReport* report) {
   std::vector<Pair> pairs = index.pair(points, max_distance);
   std::vector<index_t> tets;
   tets.reserve(pairs.size());
@@ -55,8 +59,8 @@ std::vector<Pair> fresh_pairs(const FeatureIndex& index, ConstRef<MatrixX3d> poi
 /// feature it was given in the HELD stage (unless another point took that feature). Without it,
 /// points drop out one after the other — the model relaxes towards the rest shape where it loses
 /// rows, which moves more points out of reach — until nothing holds the shift.
-void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held, const FeatureIndex& index,
-                     ConstRef<MatrixX3d> points) {
+void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held,
+                     const FeatureIndex& index, ConstRef<MatrixX3d> points) {
   std::set<index_t> paired, taken;
   for (const Pair& p : pairs) {
     paired.insert(p.point);
@@ -68,7 +72,8 @@ void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held, co
       p.point = h.point;
       pairs.push_back(p);
     }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) { return a.point < b.point; });
+  std::sort(pairs.begin(), pairs.end(),
+            [](const Pair& a, const Pair& b) { return a.point < b.point; });
 }
 
 }  // namespace
@@ -98,10 +103,12 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
   record.first_iteration = static_cast<int>(state.history.size()) + 1;
   record.vessel_compliance_ratio = stage.vessel_compliance_ratio;
   StepOptions step_options = options.step;
-  step_options.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] = stage.vessel_compliance_ratio;
+  step_options.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] =
+      stage.vessel_compliance_ratio;
   step_options.keep_system = stage.keep_system;
-  const double max_radius =
-      options.step.max_increment > 0 ? options.step.max_increment : std::numeric_limits<double>::infinity();
+  const double max_radius = options.step.max_increment > 0
+                                ? options.step.max_increment
+                                : std::numeric_limits<double>::infinity();
   double radius = max_radius;
   MatrixX3d previous_dx;                     // the last step's increment, for the oscillation test
   std::vector<std::set<PairKey>> pair_sets;  // per iteration of this stage
@@ -117,36 +124,41 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     std::set<PairKey> keys;
     // 1. Pair and filter (Algorithm 1, steps 1-2), by the stage's rule.
     if (in.vessels) {
-      const FeatureIndex index = FeatureIndex::segments(model.skeleton_mapping().apply(state.positions), segs);
+      const FeatureIndex index =
+          FeatureIndex::segments(model.skeleton_mapping().apply(state.positions), segs);
       if (stage.kind == StageKind::HELD) {
         rec.pairing = PairingMode::HELD;
-        state.vessel_pairs = it == 1 ? fresh_pairs(index, in.held_pair_points, in.directions, in.segment_tets,
-                                                   options.pair_max_distance_mm, options.vessel_filter,
-                                                   &rec.vessel_filter)
+        state.vessel_pairs = it == 1 ? fresh_pairs(index, in.held_pair_points, in.directions,
+                                                   in.segment_tets, options.pair_max_distance_mm,
+                                                   options.vessel_filter, &rec.vessel_filter)
                                      : reclose(index, in.vessel_points, state.vessel_pairs);
       } else if (frozen) {
         rec.pairing = PairingMode::FROZEN;
         state.vessel_pairs = reclose(index, in.vessel_points, state.vessel_pairs);
       } else {
         rec.pairing = PairingMode::FRESH;
-        state.vessel_pairs = fresh_pairs(index, in.vessel_points, in.directions, in.segment_tets,
-                                         stage.pair_distance_mm, options.vessel_filter, &rec.vessel_filter);
-        if (stage.keep_held_pairs) keep_held_pairs(state.vessel_pairs, state.held_pairs, index, in.vessel_points);
+        state.vessel_pairs =
+            fresh_pairs(index, in.vessel_points, in.directions, in.segment_tets,
+                        stage.pair_distance_mm, options.vessel_filter, &rec.vessel_filter);
+        if (stage.keep_held_pairs)
+          keep_held_pairs(state.vessel_pairs, state.held_pairs, index, in.vessel_points);
       }
       // 3. Build the rows.
-      add_vessel_rows(rows, state.vessel_pairs, model.skeleton(), skel, state.positions, in.vessel_points);
+      add_vessel_rows(rows, state.vessel_pairs, model.skeleton(), skel, state.positions,
+                      in.vessel_points);
       for (const Pair& p : state.vessel_pairs) keys.insert({0, p.point, p.feature});
       rec.vessel_pairs = static_cast<index_t>(state.vessel_pairs.size());
     }
     std::vector<bool> touched;
     if (in.footprint) {
-      const FeatureIndex index = FeatureIndex::triangles(model.surface_mapping().apply(state.positions), tris);
-      state.footprint_pairs =
-          frozen ? reclose(index, in.footprint_points, state.footprint_pairs)
-                 : fresh_pairs(index, in.footprint_points, {}, in.triangle_tets, options.pair_max_distance_mm,
-                               options.footprint_filter, &rec.footprint_filter);
-      add_footprint_rows(rows, state.footprint_pairs, model.surface(), surf, state.positions, in.footprint_points,
-                         in.footprint_normals);
+      const FeatureIndex index =
+          FeatureIndex::triangles(model.surface_mapping().apply(state.positions), tris);
+      state.footprint_pairs = frozen ? reclose(index, in.footprint_points, state.footprint_pairs)
+                                     : fresh_pairs(index, in.footprint_points, {}, in.triangle_tets,
+                                                   options.pair_max_distance_mm,
+                                                   options.footprint_filter, &rec.footprint_filter);
+      add_footprint_rows(rows, state.footprint_pairs, model.surface(), surf, state.positions,
+                         in.footprint_points, in.footprint_normals);
       touched.assign(static_cast<std::size_t>(model.surface().vertices.rows()), false);
       for (const Pair& p : state.footprint_pairs) {
         keys.insert({1, p.point, p.feature});
@@ -155,8 +167,9 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       rec.footprint_pairs = static_cast<index_t>(state.footprint_pairs.size());
     }
     if (in.dura)
-      rec.dura_rows = add_dura_rows(rows, options.dura, model.surface(), *model.rest_surface_index(),
-                                    model.rest_surface_normals(), surf, state.positions, touched);
+      rec.dura_rows =
+          add_dura_rows(rows, options.dura, model.surface(), *model.rest_surface_index(),
+                        model.rest_surface_normals(), surf, state.positions, touched);
     if (in.landmarks) {
       add_landmark_rows(rows, lmk, state.positions, in.landmark_targets);
       rec.landmark_rows = 3 * static_cast<index_t>(in.landmark_targets.rows());
@@ -168,7 +181,8 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     const std::vector<LambdaKey> keys_of_rows = lambda_keys(rows);
     Eigen::VectorXd lambda0 = Eigen::VectorXd::Zero(rows.size());
     for (index_t i = 0; i < rows.size(); ++i)
-      if (auto f = state.warm.find(keys_of_rows[static_cast<std::size_t>(i)]); f != state.warm.end())
+      if (auto f = state.warm.find(keys_of_rows[static_cast<std::size_t>(i)]);
+          f != state.warm.end())
         lambda0[i] = f->second;
     step_options.max_increment = std::isfinite(radius) ? radius : 0.0;
     StepResult step = model.mechanics().step(state.positions, rows, step_options, lambda0);
@@ -194,12 +208,14 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       state.history.push_back(rec);
       record.iterations = it;
       record.stop = StageStop::DIVERGED;
-      logger().warn("registration iteration {}: the step was not finite; stopping (diverged)", state.history.size());
+      logger().warn("registration iteration {}: the step was not finite; stopping (diverged)",
+                    state.history.size());
       return record;
     }
     state.warm.clear();
     for (index_t i = 0; i < rows.size(); ++i)
-      state.warm[keys_of_rows[static_cast<std::size_t>(i)]] = step.lambda.size() ? step.lambda[i] : 0.0;
+      state.warm[keys_of_rows[static_cast<std::size_t>(i)]] =
+          step.lambda.size() ? step.lambda[i] : 0.0;
     if (stage.keep_system) {
       state.last_delassus = std::move(step.delassus);
       state.last_delta_free = std::move(step.delta_free);
@@ -218,13 +234,15 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     if (!frozen && stage.kind != StageKind::HELD && rec.pairing_changed &&
         std::find(pair_sets.begin(), pair_sets.end(), keys) != pair_sets.end()) {
       frozen = true;
-      logger().debug("registration iteration {}: pairing cycles between two sets; frozen", state.history.size() + 1);
+      logger().debug("registration iteration {}: pairing cycles between two sets; frozen",
+                     state.history.size() + 1);
     }
     pair_sets.push_back(std::move(keys));
 
     // 5. Stop test: settled, or trust region update and collapse.
     const bool small = !step.limited && rec.max_increment_mm < options.increment_tolerance_mm;
-    const bool settled = small && (stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen);
+    const bool settled =
+        small && (stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen);
     std::optional<double> cosine;
     if (!settled && previous_dx.size() > 0) {
       const double denom = dx.norm() * previous_dx.norm();
@@ -235,11 +253,13 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     rec.seconds = seconds_since(t_it);
     state.history.push_back(rec);
     record.iterations = it;
-    logger().debug("registration iteration {} ({}): {} vessel + {} footprint pairs ({}), {} dura rows, {} rows, "
-                   "|dx| {:.4f} mm, PGS {} ({} sweeps), trust {:.3g} mm {}",
-                   state.history.size(), to_string(stage.kind), rec.vessel_pairs, rec.footprint_pairs,
-                   to_string(rec.pairing), rec.dura_rows, rec.rows, rec.max_increment_mm, to_string(rec.pgs_stop),
-                   rec.pgs_iterations, rec.trust_radius_mm, to_string(rec.trust));
+    logger().debug(
+        "registration iteration {} ({}): {} vessel + {} footprint pairs ({}), {} dura rows, {} "
+        "rows, "
+        "|dx| {:.4f} mm, PGS {} ({} sweeps), trust {:.3g} mm {}",
+        state.history.size(), to_string(stage.kind), rec.vessel_pairs, rec.footprint_pairs,
+        to_string(rec.pairing), rec.dura_rows, rec.rows, rec.max_increment_mm,
+        to_string(rec.pgs_stop), rec.pgs_iterations, rec.trust_radius_mm, to_string(rec.trust));
     if (settled) {
       record.stop = StageStop::SETTLED;
       break;

@@ -5,13 +5,13 @@
 /// trust region and stop test. register_model() (registration.hpp) runs the stages in order on
 /// one LoopState. Positions in mm, model frame (the rigid start already applied to the data).
 
+#include "constraints/registration/registration.hpp"
+
 #include <array>
 #include <cstdint>
 #include <map>
 #include <set>
 #include <vector>
-
-#include "constraints/registration/registration.hpp"
 
 namespace brainshift::constraints {
 
@@ -21,28 +21,31 @@ struct LoopInputs {
   const RegistrationModel* model = nullptr;
   const RegistrationOptions* options = nullptr;
   bool vessels = false, footprint = false, landmarks = false, dura = false;
-  MatrixX3d vessel_points;      ///< model frame
-  MatrixX3d held_pair_points;   ///< where the HELD stage makes its pairs (the points less the bulk shift)
+  MatrixX3d vessel_points;  ///< model frame
+  MatrixX3d
+      held_pair_points;  ///< where the HELD stage makes its pairs (the points less the bulk shift)
   MatrixX3d footprint_points, footprint_normals, landmark_targets;
   core::BarycentricMapping landmark_map;
   std::vector<Vector3d> directions;  ///< local direction of each vessel point
   std::vector<index_t> segment_tets, triangle_tets;
-  std::vector<index_t> segment_blocks;  ///< cross-validation block of each skeleton segment (vessel_blocks.hpp)
+  std::vector<index_t>
+      segment_blocks;  ///< cross-validation block of each skeleton segment (vessel_blocks.hpp)
 };
 
 using LambdaKey = std::array<std::int64_t, 3>;  ///< (set, feature, row within the group)
 
 /// What carries from one iteration, and one stage, to the next.
 struct LoopState {
-  MatrixX3d positions;                  ///< #N×3, model frame
-  std::map<LambdaKey, double> warm;     ///< λ of the last step, by row key
+  MatrixX3d positions;               ///< #N×3, model frame
+  std::map<LambdaKey, double> warm;  ///< λ of the last step, by row key
   std::vector<Pair> vessel_pairs, footprint_pairs;
-  std::vector<Pair> held_pairs;         ///< the HELD stage's final pairs (fallback of the stages after it)
+  std::vector<Pair> held_pairs;  ///< the HELD stage's final pairs (fallback of the stages after it)
   std::vector<IterationRecord> history;
   std::vector<StageRecord> stages;
   StageTimes seconds;
   std::array<index_t, num_constraint_sets> rows_by_set{};
-  /// The last step's system (rows without compliance) for the noise model, and which rows are vessels.
+  /// The last step's system (rows without compliance) for the noise model, and which rows are
+  /// vessels.
   Eigen::MatrixXd last_delassus;
   Eigen::VectorXd last_delta_free;
   double last_scale = 0.0;
@@ -57,7 +60,7 @@ struct StageOptions {
   double pair_distance_mm = 15.0;  ///< fresh pairs only within this (mm)
   bool keep_held_pairs = false;    ///< a point without a fresh pair keeps its HELD-stage feature
   double vessel_compliance_ratio = 0.2;
-  bool keep_system = false;        ///< keep the last step's W and δ_free in the state (noise model)
+  bool keep_system = false;  ///< keep the last step's W and δ_free in the state (noise model)
 };
 
 /// Runs one stage from `state` (updated in place: positions, pairs, λ, history, times).

@@ -1,14 +1,15 @@
 #include "constraints/registration/shift_search.hpp"
 
+#include "core/error.hpp"
+#include "core/mapping/closest_point.hpp"
+
 #include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <sstream>
 #include <vector>
-
-#include "core/error.hpp"
-#include "core/mapping/closest_point.hpp"
 
 namespace brainshift::constraints {
 
@@ -36,7 +37,8 @@ class DistanceTable {
     for (std::size_t si = 0; si < s.segments.size(); ++si) {
       const auto& seg = s.segments[si];
       const Vector3d a = s.points.row(seg[0]).transpose(), b = s.points.row(seg[1]).transpose();
-      const Eigen::Vector3i c0 = cell(a.cwiseMin(b).array() - tau), c1 = cell(a.cwiseMax(b).array() + tau);
+      const Eigen::Vector3i c0 = cell(a.cwiseMin(b).array() - tau),
+                            c1 = cell(a.cwiseMax(b).array() + tau);
       if ((c1.array() < 0).any() || (c0.array() >= m_dims.array()).any()) continue;
       const Eigen::Vector3i l = c0.cwiseMax(0), u = c1.cwiseMin(m_dims - Eigen::Vector3i::Ones());
       for (int z = l.z(); z <= u.z(); ++z)
@@ -74,16 +76,20 @@ class DistanceTable {
     double v = 0;
     for (int k = 0; k < 8; ++k) {
       const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
-      const double w = (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
+      const double w =
+          (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
       v += w * m_d2[index(c.x() + dx, c.y() + dy, c.z() + dz)];
     }
     return v;
   }
 
  private:
-  [[nodiscard]] Eigen::Vector3i cell(const Vector3d& p) const { return ((p - m_lo) / m_h).array().floor().cast<int>(); }
+  [[nodiscard]] Eigen::Vector3i cell(const Vector3d& p) const {
+    return ((p - m_lo) / m_h).array().floor().cast<int>();
+  }
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
-    return x + static_cast<std::size_t>(m_dims.x()) * (y + static_cast<std::size_t>(m_dims.y()) * z);
+    return x +
+           static_cast<std::size_t>(m_dims.x()) * (y + static_cast<std::size_t>(m_dims.y()) * z);
   }
   Vector3d m_lo;
   double m_h;
@@ -96,12 +102,15 @@ class DistanceTable {
 }  // namespace
 
 ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
-                               const std::vector<Matrix3d>& basis, const ShiftSearchOptions& options) {
+                               const std::vector<Matrix3d>& basis,
+                               const ShiftSearchOptions& options) {
   const std::string invalid = options.validate();
   BS_VERIFY(invalid.empty(), invalid);
-  BS_VERIFY(points.allFinite() && skeleton.points.allFinite(), "shift search: inputs contain NaN or infinity");
-  BS_VERIFY(basis.empty() || static_cast<Eigen::Index>(basis.size()) == points.rows(),
-            "shift search: " << basis.size() << " basis matrices for " << points.rows() << " points");
+  BS_VERIFY(points.allFinite() && skeleton.points.allFinite(),
+            "shift search: inputs contain NaN or infinity");
+  BS_VERIFY(
+      basis.empty() || static_cast<Eigen::Index>(basis.size()) == points.rows(),
+      "shift search: " << basis.size() << " basis matrices for " << points.rows() << " points");
   ShiftSearchResult res;
   if (points.rows() == 0 || skeleton.segments.empty()) {
     res.message = "no points or no skeleton";
@@ -119,7 +128,8 @@ ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
 
   auto moved = [&](Eigen::Index j, const Vector3d& s) -> Vector3d {
     const Eigen::Index i = j * stride;
-    return points.row(i).transpose() - (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
+    return points.row(i).transpose() -
+           (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
   };
   auto coarse = [&](const Vector3d& s) {
     double score = 0;
@@ -173,11 +183,14 @@ ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> poi
   const bool on_edge = (centre.cwiseAbs().array() >= k * options.coarse_step_mm - 1e-9).any();
   res.accepted = fine_best > options.min_gain * res.score_zero && !on_edge;
   std::ostringstream os;
-  os << "shift (" << best.x() << ", " << best.y() << ", " << best.z() << ") mm, score " << fine_best << " vs "
-     << res.score_zero << " at zero over " << n << " points";
-  if (res.accepted) res.shift = best;
-  else if (on_edge) os << "; not accepted (optimum on the edge of the searched ±" << R << " mm)";
-  else os << "; not accepted (gain below " << options.min_gain << ")";
+  os << "shift (" << best.x() << ", " << best.y() << ", " << best.z() << ") mm, score " << fine_best
+     << " vs " << res.score_zero << " at zero over " << n << " points";
+  if (res.accepted)
+    res.shift = best;
+  else if (on_edge)
+    os << "; not accepted (optimum on the edge of the searched ±" << R << " mm)";
+  else
+    os << "; not accepted (gain below " << options.min_gain << ")";
   res.message = os.str();
   return res;
 }

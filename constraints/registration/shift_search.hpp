@@ -18,24 +18,24 @@
 /// The distances are tabulated once on a voxel grid (truncated at τ, exact point-to-segment
 /// distances near each segment), so one candidate costs one lookup per point.
 
-#include <string>
-#include <vector>
-
 #include "constraints/registration/skeleton.hpp"
 #include "core/config.hpp"
+
+#include <string>
+#include <vector>
 
 namespace brainshift::constraints {
 
 struct ShiftSearchOptions {
   bool enabled = true;
-  double radius_mm = 20.0;       ///< largest shift searched, per axis (mm)
-  double coarse_step_mm = 1.0;   ///< grid of candidate shifts (mm)
+  double radius_mm = 20.0;      ///< largest shift searched, per axis (mm)
+  double coarse_step_mm = 1.0;  ///< grid of candidate shifts (mm)
   /// τ of the coarse search (mm): ≥ the step so no peak falls between nodes. Wide: the
   /// Doppler and MRA centrelines of one vessel are 1–2 mm apart even at the true shift, and a
   /// single shift is off by 1–3 mm at the edges of the field of view.
   double coarse_kernel_mm = 3.0;
-  double fine_kernel_mm = 3.0;   ///< τ of the refinement on a quarter-step grid (mm)
-  double voxel_mm = 0.5;         ///< distance table spacing (mm)
+  double fine_kernel_mm = 3.0;  ///< τ of the refinement on a quarter-step grid (mm)
+  double voxel_mm = 0.5;        ///< distance table spacing (mm)
   /// At most this many points are scored (an even subsample): clutter-heavy Doppler volumes
   /// give tens of thousands of centreline points and the shift needs far fewer.
   int max_points = 2000;
@@ -62,6 +62,7 @@ struct ShiftSearchResult {
 /// \throws brainshift::Error when options.validate() fails, the inputs are not finite or the
 /// basis has the wrong size.
 ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
-                               const std::vector<Matrix3d>& basis, const ShiftSearchOptions& options);
+                               const std::vector<Matrix3d>& basis,
+                               const ShiftSearchOptions& options);
 
 }  // namespace brainshift::constraints

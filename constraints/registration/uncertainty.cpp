@@ -1,14 +1,14 @@
 #include "constraints/registration/uncertainty.hpp"
 
+#include "constraints/registration/registration_stage.hpp"
+#include "core/error.hpp"
+#include "core/solver/nodal_rotations.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <tuple>
-
-#include "constraints/registration/registration_stage.hpp"
-#include "core/error.hpp"
-#include "core/solver/nodal_rotations.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -22,11 +22,14 @@ double median_of(std::vector<double> v) {
 
 /// The coarse set: per grid cell of `spacing` (mm), the free node nearest the cell's centre of
 /// its free nodes; plus every node flagged in `always`.
-std::vector<index_t> coarse_nodes(const core::DofMap& dofs, ConstRef<MatrixX3d> nodes, double spacing,
-                                  const std::vector<bool>& always, const std::vector<bool>& known) {
+std::vector<index_t> coarse_nodes(const core::DofMap& dofs, ConstRef<MatrixX3d> nodes,
+                                  double spacing, const std::vector<bool>& always,
+                                  const std::vector<bool>& known) {
   const index_t n = nodes.rows();
   std::vector<index_t> out;
-  auto wanted = [&](index_t i) { return !dofs.is_fixed_node(i) && !known[static_cast<std::size_t>(i)]; };
+  auto wanted = [&](index_t i) {
+    return !dofs.is_fixed_node(i) && !known[static_cast<std::size_t>(i)];
+  };
   if (!(spacing > 0)) {
     for (index_t i = 0; i < n; ++i)
       if (wanted(i)) out.push_back(i);
@@ -41,7 +44,8 @@ std::vector<index_t> coarse_nodes(const core::DofMap& dofs, ConstRef<MatrixX3d> 
   }
   std::vector<bool> chosen(static_cast<std::size_t>(n), false);
   for (const auto& [key, members] : cells) {
-    if (std::any_of(members.begin(), members.end(), [&](index_t i) { return known[static_cast<std::size_t>(i)]; }))
+    if (std::any_of(members.begin(), members.end(),
+                    [&](index_t i) { return known[static_cast<std::size_t>(i)]; }))
       continue;  // the cell has an exact value already
     Vector3d centre = Vector3d::Zero();
     for (index_t i : members) centre += nodes.row(i).transpose();
@@ -73,22 +77,26 @@ std::string UncertaintyOptions::validate() const {
   return {};
 }
 
-NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs, ConstRef<MatrixX3d> nodes,
-                             const SparseMatrix& G, const Eigen::VectorXd& noise, const UncertaintyOptions& options,
+NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
+                             ConstRef<MatrixX3d> nodes, const SparseMatrix& G,
+                             const Eigen::VectorXd& noise, const UncertaintyOptions& options,
                              const NodalVarianceExtras& extras) {
   const std::string invalid = options.validate();
   BS_VERIFY(invalid.empty(), invalid);
   const index_t n = nodes.rows();
   const index_t f = dofs.num_free();
-  BS_VERIFY(dofs.num_full() == 3 * n, "uncertainty: " << n << " nodes for a DOF map of " << dofs.num_full() << " DOFs");
+  BS_VERIFY(dofs.num_full() == 3 * n,
+            "uncertainty: " << n << " nodes for a DOF map of " << dofs.num_full() << " DOFs");
   BS_VERIFY(G.rows() == f && G.cols() == noise.size(),
-            "uncertainty: data rows " << G.rows() << "×" << G.cols() << " for " << f << " free DOFs and "
-                                      << noise.size() << " noise entries");
+            "uncertainty: data rows " << G.rows() << "×" << G.cols() << " for " << f
+                                      << " free DOFs and " << noise.size() << " noise entries");
   BS_VERIFY(noise.size() == 0 || (noise.array() > 0).all(), "uncertainty: row noise must be > 0");
-  BS_VERIFY(!extras.known_prior || extras.known_prior->size() == n,
-            "uncertainty: " << extras.known_prior->size() << " known prior traces for " << n << " nodes");
-  BS_VERIFY(!extras.delta || extras.delta->size() == noise.size(),
-            "uncertainty: " << extras.delta->size() << " row values for " << noise.size() << " rows");
+  BS_VERIFY(
+      !extras.known_prior || extras.known_prior->size() == n,
+      "uncertainty: " << extras.known_prior->size() << " known prior traces for " << n << " nodes");
+  BS_VERIFY(
+      !extras.delta || extras.delta->size() == noise.size(),
+      "uncertainty: " << extras.delta->size() << " row values for " << noise.size() << " rows");
   NodalVariance out;
   out.prior = Eigen::VectorXd::Zero(n);
   out.posterior = Eigen::VectorXd::Zero(n);
@@ -105,7 +113,8 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
     out.scale = median_of(diag);
     S.diagonal() += extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
     const Eigen::LLT<Eigen::MatrixXd> llt(S);
-    BS_VERIFY(llt.info() == Eigen::Success, "uncertainty: the data rows' covariance is not positive definite");
+    BS_VERIFY(llt.info() == Eigen::Success,
+              "uncertainty: the data rows' covariance is not positive definite");
     if (extras.delta) {
       // ML: δᵀ (W + A)⁻¹ δ. Discrepancy: the fitted rows' residual r = A (W + A)⁻¹ δ against its
       // expectation E‖r‖² = s² tr(A (W + A)⁻¹ A).
@@ -133,7 +142,8 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
         exact[static_cast<std::size_t>(i)] = true;
         known.push_back(i);
       }
-  std::vector<index_t> coarse = coarse_nodes(dofs, nodes, options.coarse_spacing_mm, touched, exact);
+  std::vector<index_t> coarse =
+      coarse_nodes(dofs, nodes, options.coarse_spacing_mm, touched, exact);
   out.solved_nodes = static_cast<index_t>(coarse.size());
   const std::size_t block = static_cast<std::size_t>(options.solve_block);
   for (std::size_t b0 = 0; b0 < coarse.size(); b0 += block) {
@@ -195,24 +205,30 @@ ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {
   const RegistrationModel& model = *in.model;
   const core::TetMesh& mesh = model.mesh();
   if (in.vessels && !state.vessel_pairs.empty())
-    add_vessel_rows(rows, state.vessel_pairs, model.skeleton(), MappedVertices{&mesh, &model.skeleton_mapping()},
-                    state.positions, in.vessel_points);
+    add_vessel_rows(rows, state.vessel_pairs, model.skeleton(),
+                    MappedVertices{&mesh, &model.skeleton_mapping()}, state.positions,
+                    in.vessel_points);
   if (in.footprint && !state.footprint_pairs.empty())
-    add_footprint_rows(rows, state.footprint_pairs, model.surface(), MappedVertices{&mesh, &model.surface_mapping()},
-                       state.positions, in.footprint_points, in.footprint_normals);
-  if (in.landmarks) add_landmark_rows(rows, MappedVertices{&mesh, &in.landmark_map}, state.positions, in.landmark_targets);
+    add_footprint_rows(rows, state.footprint_pairs, model.surface(),
+                       MappedVertices{&mesh, &model.surface_mapping()}, state.positions,
+                       in.footprint_points, in.footprint_normals);
+  if (in.landmarks)
+    add_landmark_rows(rows, MappedVertices{&mesh, &in.landmark_map}, state.positions,
+                      in.landmark_targets);
   return rows;
 }
 
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
-                                      const RegistrationOptions& options, const UncertaintyOptions& uo) {
+                                      const RegistrationOptions& options,
+                                      const UncertaintyOptions& uo) {
   const auto t0 = std::chrono::steady_clock::now();
   const ConstrainedModel& mech = model.mechanics();
   const core::TetMesh& mesh = model.mesh();
   const core::DofMap& dofs = mech.dofs();
   const index_t n = mesh.num_nodes();
-  BS_VERIFY(r.positions.rows() == n && r.positions.allFinite(),
-            "uncertainty: the result has " << r.positions.rows() << " positions for " << n << " nodes");
+  BS_VERIFY(
+      r.positions.rows() == n && r.positions.allFinite(),
+      "uncertainty: the result has " << r.positions.rows() << " positions for " << n << " nodes");
   UncertaintyResult out;
 
   // The data rows in use at the final state, rotated: G = (H R)ᵀ on the free DOFs.
@@ -243,7 +259,8 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
     // ε → ∞ (the loop kept its rigid start: no compliance predicted the held-out vessels better)
     // is read as the stiffest candidate the noise model weighed, so the rows stay finite data
     // that barely condition the prior.
-    ratio[j] = std::max(std::isfinite(set_ratio) ? set_ratio : options.noise.max_ratio, uo.hard_row_ratio);
+    ratio[j] =
+        std::max(std::isfinite(set_ratio) ? set_ratio : options.noise.max_ratio, uo.hard_row_ratio);
   }
   SparseMatrix G(dofs.num_free(), m);
   G.setFromTriplets(t.begin(), t.end());
@@ -253,7 +270,8 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   Eigen::VectorXd delta_free(m);
   if (m > 0) {
     Eigen::VectorXd f = -mech.model().internal_force(r.positions, er.rotation);
-    if (!options.step.gravity.isZero()) f += mech.model().gravity_force(options.step.gravity, options.step.density);
+    if (!options.step.gravity.isZero())
+      f += mech.model().gravity_force(options.step.gravity, options.step.density);
     const Eigen::VectorXd dx = mech.compliance().apply(f, R);
     for (index_t j = 0; j < m; ++j) {
       const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
@@ -272,31 +290,37 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   extras.known_prior = &known;
   extras.noise_relative = true;
   extras.delta = &delta_free;
-  const NodalVariance nv = usable ? nodal_variance(mech.factor(), dofs, mesh.nodes(), G, ratio, uo, extras)
-                                  : nodal_variance(mech.factor(), dofs, mesh.nodes(), SparseMatrix(dofs.num_free(), 0),
-                                                   Eigen::VectorXd(), uo, {&known, false, nullptr});
+  const NodalVariance nv =
+      usable ? nodal_variance(mech.factor(), dofs, mesh.nodes(), G, ratio, uo, extras)
+             : nodal_variance(mech.factor(), dofs, mesh.nodes(), SparseMatrix(dofs.num_free(), 0),
+                              Eigen::VectorXd(), uo, {&known, false, nullptr});
   const double scale = nv.scale;
   out.exact_nodes = nv.exact_nodes;
   out.solved_nodes = nv.solved_nodes;
-  out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio : options.noise.max_ratio;
+  out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio
+                                                              : options.noise.max_ratio;
   out.vessel_alpha = out.vessel_ratio * scale;
   char buf[600];
   if (usable) {
     // ML scale of δ_free ~ N(0, s² (W + A)).
     const bool discrepancy = uo.scale_estimator == UncertaintyOptions::ScaleEstimator::DISCREPANCY;
-    const double quad = discrepancy ? nv.residual_sq * static_cast<double>(m) / std::max(nv.residual_dof, 1e-300)
-                                    : nv.quadratic;
+    const double quad =
+        discrepancy ? nv.residual_sq * static_cast<double>(m) / std::max(nv.residual_dof, 1e-300)
+                    : nv.quadratic;
     if (quad > 0 && std::isfinite(quad) && scale > 0) {
       out.s2 = uo.calibration * quad / static_cast<double>(m);
       out.estimated = true;
-      std::snprintf(buf, sizeof buf,
-                    "s² %s of the %lld data rows = %.4g mN·mm%s; α = the "
-                    "registration's vessel compliance (ratio %.3g × median diag W %.4g mm/mN), hard rows %.3g × it; "
-                    "implied vessel-row scatter %.3g mm; dura rows not used",
-                    discrepancy ? "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))"
-                                : "by maximum likelihood (δ_free ~ N(0, s²(W + A)))",
-                    static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
-                    out.vessel_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
+      std::snprintf(
+          buf, sizeof buf,
+          "s² %s of the %lld data rows = %.4g mN·mm%s; α = the "
+          "registration's vessel compliance (ratio %.3g × median diag W %.4g mm/mN), hard rows "
+          "%.3g × it; "
+          "implied vessel-row scatter %.3g mm; dura rows not used",
+          discrepancy
+              ? "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))"
+              : "by maximum likelihood (δ_free ~ N(0, s²(W + A)))",
+          static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
+          out.vessel_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
       out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
     }
   }
@@ -307,7 +331,8 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
     const double med = median_of(free_prior);
     out.s2 = med > 0 ? uo.no_data_median_mm * uo.no_data_median_mm / med : 0.0;
     std::snprintf(buf, sizeof buf,
-                  "no usable data rows (%lld): s² not estimated; the prior alone, scaled to a median predicted error "
+                  "no usable data rows (%lld): s² not estimated; the prior alone, scaled to a "
+                  "median predicted error "
                   "of %.3g mm",
                   static_cast<long long>(m), uo.no_data_median_mm);
   }
@@ -318,9 +343,11 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   return out;
 }
 
-Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance, ConstRef<MatrixX3d> points) {
+Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance,
+                         ConstRef<MatrixX3d> points) {
   BS_VERIFY(node_variance.size() == mesh.num_nodes(),
-            "uncertainty: " << node_variance.size() << " nodal variances for " << mesh.num_nodes() << " nodes");
+            "uncertainty: " << node_variance.size() << " nodal variances for " << mesh.num_nodes()
+                            << " nodes");
   core::MappingOptions o;
   o.max_outside_distance = 1e9;  // a landmark just outside the mesh takes its nearest tetrahedron
   const core::BarycentricMapping map(mesh, points, o);

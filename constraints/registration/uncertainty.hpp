@@ -41,12 +41,12 @@
 /// error"). `calibration` (dimensionless, default 1) multiplies s².
 /// Positions in mm, model (pre-operative, world RAS) frame.
 
-#include <string>
-#include <vector>
-
 #include "constraints/registration/registration.hpp"
 #include "core/assembly/dof_map.hpp"
 #include "core/solver/cholmod_factor.hpp"
+
+#include <string>
+#include <vector>
 
 namespace brainshift::constraints {
 
@@ -77,13 +77,13 @@ struct UncertaintyOptions {
 
 /// Traces of the nodal covariance blocks, without the scale s² (mm/mN).
 struct NodalVariance {
-  Eigen::VectorXd prior;      ///< #N: tr (K0⁻¹)_nn (interpolated off the coarse set); 0 on fixed nodes
+  Eigen::VectorXd prior;  ///< #N: tr (K0⁻¹)_nn (interpolated off the coarse set); 0 on fixed nodes
   Eigen::VectorXd posterior;  ///< #N: prior − data term, clamped at 0
   index_t exact_nodes = 0;    ///< nodes whose prior term is exact (known or solved for)
   index_t solved_nodes = 0;   ///< of them, solved for here (3 unit loads each)
   double scale = 0.0;         ///< median diag(Gᵀ K0⁻¹ G) (mm/mN; 0 without rows)
   double quadratic = 0.0;     ///< δᵀ (W + A)⁻¹ δ when NodalVarianceExtras::delta was given
-  double residual_sq = 0.0;   ///< ‖A (W + A)⁻¹ δ‖²: the fitted rows' residual (mm²), with delta
+  double residual_sq = 0.0;  ///< ‖A (W + A)⁻¹ δ‖²: the fitted rows' residual (mm²), with delta
   double residual_dof = 0.0;  ///< tr(A (W + A)⁻¹ A) (mm²/(mN·mm)): E‖r‖² = s² × this
 };
 
@@ -104,23 +104,24 @@ struct NodalVarianceExtras {
 /// @param[in] G #free × m: the data rows, transposed, on the free DOFs (may have 0 columns).
 /// @param[in] noise m compliances (mm/mN, > 0).
 /// \throws brainshift::Error on mismatched sizes or a non-positive noise entry.
-NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs, ConstRef<MatrixX3d> nodes,
-                             const SparseMatrix& G, const Eigen::VectorXd& noise, const UncertaintyOptions& options,
+NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
+                             ConstRef<MatrixX3d> nodes, const SparseMatrix& G,
+                             const Eigen::VectorXd& noise, const UncertaintyOptions& options,
                              const NodalVarianceExtras& extras = {});
 
 /// The predicted error of a registration.
 struct UncertaintyResult {
-  bool estimated = false;       ///< s² came from the data (false: no data rows; see estimation)
+  bool estimated = false;         ///< s² came from the data (false: no data rows; see estimation)
   Eigen::VectorXd node_sigma_mm;  ///< #N: sqrt(tr Σ_n), mm; 0 on fixed nodes
   Eigen::VectorXd node_variance;  ///< #N: tr Σ_n, mm²
-  double s2 = 0.0;              ///< prior scale (mN·mm)
-  double vessel_alpha = 0.0;    ///< the vessel rows' compliance (mm/mN)
-  double vessel_ratio = 0.0;    ///< the same ÷ median diag W
-  double noise_sigma_mm = 0.0;  ///< implied per-row scatter of the vessel rows sqrt(s² α), mm
-  index_t rows = 0;             ///< data rows used
-  index_t exact_nodes = 0;       ///< nodes with an exact prior term (the rest interpolated)
-  index_t solved_nodes = 0;      ///< of them, solved for (the others read from the compliance block)
-  std::string estimation;       ///< one line: how s² and α were estimated
+  double s2 = 0.0;                ///< prior scale (mN·mm)
+  double vessel_alpha = 0.0;      ///< the vessel rows' compliance (mm/mN)
+  double vessel_ratio = 0.0;      ///< the same ÷ median diag W
+  double noise_sigma_mm = 0.0;    ///< implied per-row scatter of the vessel rows sqrt(s² α), mm
+  index_t rows = 0;               ///< data rows used
+  index_t exact_nodes = 0;        ///< nodes with an exact prior term (the rest interpolated)
+  index_t solved_nodes = 0;  ///< of them, solved for (the others read from the compliance block)
+  std::string estimation;    ///< one line: how s² and α were estimated
   double seconds = 0.0;
 };
 
@@ -132,10 +133,12 @@ ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state);
 /// r.vessel_compliance_ratio and options.step's compliance ratios). Never throws on bad data:
 /// non-finite intermediate values give the no-data answer with the reason in `estimation`.
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
-                                      const RegistrationOptions& options, const UncertaintyOptions& uo = {});
+                                      const RegistrationOptions& options,
+                                      const UncertaintyOptions& uo = {});
 
 /// sqrt of the barycentrically interpolated nodal variance at points (#P×3, model frame, mm);
 /// points outside the mesh take the nearest tetrahedron (BarycentricMapping's rule).
-Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance, ConstRef<MatrixX3d> points);
+Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance,
+                         ConstRef<MatrixX3d> points);
 
 }  // namespace brainshift::constraints

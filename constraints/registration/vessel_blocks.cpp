@@ -10,10 +10,12 @@ std::vector<index_t> segment_blocks(const Skeleton& skeleton, double max_length_
   std::vector<std::vector<std::size_t>> incident(np);
   for (std::size_t s = 0; s < segs.size(); ++s)
     for (index_t v : segs[s])
-      if (v >= 0 && static_cast<std::size_t>(v) < np) incident[static_cast<std::size_t>(v)].push_back(s);
+      if (v >= 0 && static_cast<std::size_t>(v) < np)
+        incident[static_cast<std::size_t>(v)].push_back(s);
   auto length = [&](std::size_t s) {
     const index_t a = segs[s][0], b = segs[s][1];
-    if (a < 0 || b < 0 || static_cast<std::size_t>(a) >= np || static_cast<std::size_t>(b) >= np) return 0.0;
+    if (a < 0 || b < 0 || static_cast<std::size_t>(a) >= np || static_cast<std::size_t>(b) >= np)
+      return 0.0;
     const double l = (skeleton.points.row(a) - skeleton.points.row(b)).norm();
     return std::isfinite(l) ? l : 0.0;
   };

@@ -8,9 +8,9 @@
 /// neighbours (which share its error) predict it, and the error is read as signal.
 /// Lengths in mm, positions in the skeleton's frame.
 
-#include <vector>
-
 #include "constraints/registration/skeleton.hpp"
+
+#include <vector>
 
 namespace brainshift::constraints {
 

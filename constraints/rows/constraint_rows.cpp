@@ -1,28 +1,37 @@
 #include "constraints/rows/constraint_rows.hpp"
 
-#include <cmath>
-
 #include "core/error.hpp"
+
+#include <cmath>
 
 namespace brainshift::constraints {
 
 std::string to_string(ConstraintSet set) {
   switch (set) {
-    case ConstraintSet::VESSELS: return "vessels";
-    case ConstraintSet::FOOTPRINT: return "footprint";
-    case ConstraintSet::DURA: return "dura";
-    case ConstraintSet::FIXED: return "fixed";
-    case ConstraintSet::LANDMARK: return "landmark";
+    case ConstraintSet::VESSELS:
+      return "vessels";
+    case ConstraintSet::FOOTPRINT:
+      return "footprint";
+    case ConstraintSet::DURA:
+      return "dura";
+    case ConstraintSet::FIXED:
+      return "fixed";
+    case ConstraintSet::LANDMARK:
+      return "landmark";
   }
   BS_UNREACHABLE();
 }
 
 std::string to_string(ConstraintKind kind) {
   switch (kind) {
-    case ConstraintKind::BILATERAL_POINT: return "bilateral_point";
-    case ConstraintKind::SLIDING_LINE: return "sliding_line";
-    case ConstraintKind::SLIDING_PLANE: return "sliding_plane";
-    case ConstraintKind::UNILATERAL_PLANE: return "unilateral_plane";
+    case ConstraintKind::BILATERAL_POINT:
+      return "bilateral_point";
+    case ConstraintKind::SLIDING_LINE:
+      return "sliding_line";
+    case ConstraintKind::SLIDING_PLANE:
+      return "sliding_plane";
+    case ConstraintKind::UNILATERAL_PLANE:
+      return "unilateral_plane";
   }
   BS_UNREACHABLE();
 }
@@ -71,8 +80,9 @@ index_t ConstraintRows::add_row(const Stencil& s, ConstRef<MatrixX3d> x, const V
             "constraint direction must be a finite unit vector, got " << n.transpose());
   BS_VERIFY(target.allFinite(), "constraint target is not finite: " << target.transpose());
   for (int k = 0; k < s.size; ++k)
-    BS_VERIFY(s.node[k] >= 0 && s.node[k] < x.rows(),
-              "constraint stencil refers to node " << s.node[k] << ", outside [0, " << x.rows() << ")");
+    BS_VERIFY(s.node[k] >= 0 && s.node[k] < x.rows(), "constraint stencil refers to node "
+                                                          << s.node[k] << ", outside [0, "
+                                                          << x.rows() << ")");
   ConstraintRow r;
   r.stencil = s;
   r.direction = n;

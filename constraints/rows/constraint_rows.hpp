@@ -15,12 +15,12 @@
 /// | sliding on a plane  | 1    | bilateral  | plane normal (free in the plane)             |
 /// | unilateral on plane | 1    | unilateral | plane normal, pointing to the allowed side   |
 
+#include "core/config.hpp"
+
 #include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include "core/config.hpp"
 
 namespace brainshift::constraints {
 
@@ -29,7 +29,12 @@ enum class ConstraintSet : std::uint8_t { VESSELS, FOOTPRINT, DURA, FIXED, LANDM
 inline constexpr int num_constraint_sets = 5;
 std::string to_string(ConstraintSet set);
 
-enum class ConstraintKind : std::uint8_t { BILATERAL_POINT, SLIDING_LINE, SLIDING_PLANE, UNILATERAL_PLANE };
+enum class ConstraintKind : std::uint8_t {
+  BILATERAL_POINT,
+  SLIDING_LINE,
+  SLIDING_PLANE,
+  UNILATERAL_PLANE
+};
 std::string to_string(ConstraintKind kind);
 
 enum class ConstraintLaw : std::uint8_t { BILATERAL, UNILATERAL };
@@ -58,11 +63,11 @@ struct ConstraintRow {
   Stencil stencil;
   Vector3d direction = Vector3d::UnitX();  ///< unit, world frame
   double offset = 0.0;                     ///< cᵢ = nᵢ·target, mm
-  double violation = 0.0;                  ///< δᵢ = gᵢ(x) at the positions the rows were built at, mm
+  double violation = 0.0;  ///< δᵢ = gᵢ(x) at the positions the rows were built at, mm
   ConstraintLaw law = ConstraintLaw::BILATERAL;
   ConstraintKind kind = ConstraintKind::BILATERAL_POINT;
   ConstraintSet set = ConstraintSet::VESSELS;
-  index_t group = 0;    ///< rows of one constraint share a group (solved as a block by PGS)
+  index_t group = 0;          ///< rows of one constraint share a group (solved as a block by PGS)
   std::int64_t feature = -1;  ///< model feature id (segment / triangle / vertex) for warm starts
 };
 
@@ -82,7 +87,8 @@ class ConstraintRows {
                             const Vector3d& normal, ConstraintSet set, std::int64_t feature = -1);
   /// 1 unilateral row: n·(p(x) − target) ≥ 0, with `normal` pointing to the allowed side.
   index_t add_unilateral_plane(const Stencil& s, ConstRef<MatrixX3d> x, const Vector3d& target,
-                               const Vector3d& normal, ConstraintSet set, std::int64_t feature = -1);
+                               const Vector3d& normal, ConstraintSet set,
+                               std::int64_t feature = -1);
 
   [[nodiscard]] index_t size() const { return static_cast<index_t>(m_rows.size()); }
   [[nodiscard]] bool empty() const { return m_rows.empty(); }
@@ -101,8 +107,9 @@ class ConstraintRows {
   [[nodiscard]] std::array<index_t, num_constraint_sets> count_by_set() const;
 
  private:
-  index_t add_row(const Stencil& s, ConstRef<MatrixX3d> x, const Vector3d& n, const Vector3d& target,
-                  ConstraintLaw law, ConstraintKind kind, ConstraintSet set, std::int64_t feature);
+  index_t add_row(const Stencil& s, ConstRef<MatrixX3d> x, const Vector3d& n,
+                  const Vector3d& target, ConstraintLaw law, ConstraintKind kind, ConstraintSet set,
+                  std::int64_t feature);
   std::vector<ConstraintRow> m_rows;
   index_t m_num_groups = 0;
 };

@@ -1,11 +1,12 @@
 #include "constraints/solver/active_set.hpp"
 
-#include <Eigen/Cholesky>
-#include <cmath>
-#include <vector>
-
 #include "core/error.hpp"
 #include "core/logger.hpp"
+
+#include <Eigen/Cholesky>
+
+#include <cmath>
+#include <vector>
 
 namespace brainshift::constraints {
 namespace {
@@ -13,7 +14,8 @@ namespace {
 /// λ from the active-set iteration; empty (with the reason in `outcome`) when it failed.
 Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta,
                                   const ConstraintRows& rows, ConstRef<Eigen::VectorXd> warm,
-                                  const PgsOptions& options, ActiveSetOutcome& outcome, int& changes) {
+                                  const PgsOptions& options, ActiveSetOutcome& outcome,
+                                  int& changes) {
   const index_t m = rows.size();
   const double diag_max = W.diagonal().maxCoeff();
   const double null_tol = options.null_row_tolerance * std::max(diag_max, 1e-300);
@@ -54,8 +56,10 @@ Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::V
     bool changed = false;
     for (index_t i = 0; i < m; ++i) {
       if (rows[i].law != ConstraintLaw::UNILATERAL || !(W(i, i) > null_tol)) continue;
-      if (in[i] && lambda[i] < 0) in[i] = 0, changed = true;
-      else if (!in[i] && g[i] < -g_tol) in[i] = 1, changed = true;
+      if (in[i] && lambda[i] < 0)
+        in[i] = 0, changed = true;
+      else if (!in[i] && g[i] < -g_tol)
+        in[i] = 1, changed = true;
     }
     if (!changed) {
       // An inconsistent active set (two rows pulling one point apart) has no exact solution:
@@ -78,40 +82,52 @@ Eigen::VectorXd active_set_lambda(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::V
 
 std::string to_string(ActiveSetOutcome o) {
   switch (o) {
-    case ActiveSetOutcome::NOT_USED: return "not_used";
-    case ActiveSetOutcome::SOLVED: return "solved";
-    case ActiveSetOutcome::LDLT_FAILED: return "ldlt_failed";
-    case ActiveSetOutcome::NON_FINITE: return "non_finite";
-    case ActiveSetOutcome::NO_SETTLING: return "no_settling";
-    case ActiveSetOutcome::INCONSISTENT: return "inconsistent";
+    case ActiveSetOutcome::NOT_USED:
+      return "not_used";
+    case ActiveSetOutcome::SOLVED:
+      return "solved";
+    case ActiveSetOutcome::LDLT_FAILED:
+      return "ldlt_failed";
+    case ActiveSetOutcome::NON_FINITE:
+      return "non_finite";
+    case ActiveSetOutcome::NO_SETTLING:
+      return "no_settling";
+    case ActiveSetOutcome::INCONSISTENT:
+      return "inconsistent";
   }
   BS_UNREACHABLE();
 }
 
 std::string to_string(ConstraintSolver s) {
   switch (s) {
-    case ConstraintSolver::AUTO: return "auto";
-    case ConstraintSolver::ACTIVE_SET: return "active_set";
-    case ConstraintSolver::GAUSS_SEIDEL: return "gauss_seidel";
+    case ConstraintSolver::AUTO:
+      return "auto";
+    case ConstraintSolver::ACTIVE_SET:
+      return "active_set";
+    case ConstraintSolver::GAUSS_SEIDEL:
+      return "gauss_seidel";
   }
   BS_UNREACHABLE();
 }
 
 PgsResult solve_constraints(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta_free,
                             const ConstraintRows& rows, ConstRef<Eigen::VectorXd> warm_start,
-                            const PgsOptions& options, ConstraintSolver solver, index_t direct_max_rows) {
+                            const PgsOptions& options, ConstraintSolver solver,
+                            index_t direct_max_rows) {
   const bool direct = solver == ConstraintSolver::ACTIVE_SET ||
-                      (solver == ConstraintSolver::AUTO && rows.size() <= direct_max_rows && options.lambda_max <= 0);
-  if (!direct || rows.empty() || W.rows() != rows.size() || delta_free.size() != rows.size() || !W.allFinite() ||
-      !delta_free.allFinite())
+                      (solver == ConstraintSolver::AUTO && rows.size() <= direct_max_rows &&
+                       options.lambda_max <= 0);
+  if (!direct || rows.empty() || W.rows() != rows.size() || delta_free.size() != rows.size() ||
+      !W.allFinite() || !delta_free.allFinite())
     return solve_pgs(W, delta_free, rows, warm_start, options);  // (solve_pgs checks the inputs)
   ActiveSetOutcome outcome = ActiveSetOutcome::NOT_USED;
   int changes = 0;
-  const Eigen::VectorXd lambda = active_set_lambda(W, delta_free, rows, warm_start, options, outcome, changes);
+  const Eigen::VectorXd lambda =
+      active_set_lambda(W, delta_free, rows, warm_start, options, outcome, changes);
   PgsResult res;
   if (lambda.size() == 0) {
-    logger().debug("active set: {} after {} changes; projected Gauss-Seidel from the warm start", to_string(outcome),
-                   changes);
+    logger().debug("active set: {} after {} changes; projected Gauss-Seidel from the warm start",
+                   to_string(outcome), changes);
     res = solve_pgs(W, delta_free, rows, warm_start, options);
   } else {
     res = solve_pgs(W, delta_free, rows, lambda, options);

@@ -18,9 +18,9 @@ namespace brainshift::constraints {
 
 /// How a step solves for λ.
 enum class ConstraintSolver {
-  AUTO,        ///< ACTIVE_SET up to `direct_max_rows` rows and without λ_max, else GAUSS_SEIDEL
-  ACTIVE_SET,  ///< direct active-set solve, verified by PGS
-  GAUSS_SEIDEL ///< projected block Gauss–Seidel only
+  AUTO,         ///< ACTIVE_SET up to `direct_max_rows` rows and without λ_max, else GAUSS_SEIDEL
+  ACTIVE_SET,   ///< direct active-set solve, verified by PGS
+  GAUSS_SEIDEL  ///< projected block Gauss–Seidel only
 };
 std::string to_string(ConstraintSolver s);
 
@@ -28,7 +28,8 @@ std::string to_string(ConstraintSolver s);
 /// @param[in] direct_max_rows row count above which AUTO uses Gauss–Seidel.
 PgsResult solve_constraints(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta_free,
                             const ConstraintRows& rows, ConstRef<Eigen::VectorXd> warm_start,
-                            const PgsOptions& options, ConstraintSolver solver = ConstraintSolver::AUTO,
+                            const PgsOptions& options,
+                            ConstraintSolver solver = ConstraintSolver::AUTO,
                             index_t direct_max_rows = 3000);
 
 }  // namespace brainshift::constraints

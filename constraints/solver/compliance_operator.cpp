@@ -1,15 +1,15 @@
 #include "constraints/solver/compliance_operator.hpp"
 
+#include "core/assembly/stiffness_assembly.hpp"
+#include "core/error.hpp"
+#include "core/hash.hpp"
+#include "core/logger.hpp"
+
 #include <algorithm>
 #include <atomic>
 #include <exception>
 #include <thread>
 #include <vector>
-
-#include "core/assembly/stiffness_assembly.hpp"
-#include "core/error.hpp"
-#include "core/hash.hpp"
-#include "core/logger.hpp"
 
 namespace brainshift::constraints {
 
@@ -45,17 +45,23 @@ std::uint64_t stiffness_fingerprint(const core::TetMesh& mesh, std::vector<index
   const std::int64_t sizes[2] = {mesh.num_nodes(), mesh.num_tets()};
   std::uint64_t h = fnv1a(sizes, sizeof sizes);
   h = fnv1a(mesh.nodes().data(), sizeof(double) * static_cast<std::size_t>(mesh.nodes().size()), h);
-  h = fnv1a(mesh.tets().data(), sizeof(mesh.tets()(0, 0)) * static_cast<std::size_t>(mesh.tets().size()), h);
-  h = fnv1a(mesh.youngs_modulus().data(), sizeof(double) * static_cast<std::size_t>(mesh.youngs_modulus().size()), h);
-  h = fnv1a(mesh.poisson_ratio().data(), sizeof(double) * static_cast<std::size_t>(mesh.poisson_ratio().size()), h);
+  h = fnv1a(mesh.tets().data(),
+            sizeof(mesh.tets()(0, 0)) * static_cast<std::size_t>(mesh.tets().size()), h);
+  h = fnv1a(mesh.youngs_modulus().data(),
+            sizeof(double) * static_cast<std::size_t>(mesh.youngs_modulus().size()), h);
+  h = fnv1a(mesh.poisson_ratio().data(),
+            sizeof(double) * static_cast<std::size_t>(mesh.poisson_ratio().size()), h);
   return fnv1a(fixed_nodes.data(), sizeof(index_t) * fixed_nodes.size(), h);
 }
 
 std::string to_string(ComplianceStrategy s) {
   switch (s) {
-    case ComplianceStrategy::AUTO: return "auto";
-    case ComplianceStrategy::DENSE_BLOCK: return "dense_block";
-    case ComplianceStrategy::SPARSE_SOLVE: return "sparse_solve";
+    case ComplianceStrategy::AUTO:
+      return "auto";
+    case ComplianceStrategy::DENSE_BLOCK:
+      return "dense_block";
+    case ComplianceStrategy::SPARSE_SOLVE:
+      return "sparse_solve";
   }
   BS_UNREACHABLE();
 }
@@ -72,20 +78,24 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
   std::sort(m_block_nodes.begin(), m_block_nodes.end());
   m_block_nodes.erase(std::unique(m_block_nodes.begin(), m_block_nodes.end()), m_block_nodes.end());
   for (index_t n : m_block_nodes)
-    BS_VERIFY(n >= 0 && n < dofs.num_nodes(), "compliance block node " << n << " outside [0, "
-                                                                          << dofs.num_nodes() << ")");
+    BS_VERIFY(n >= 0 && n < dofs.num_nodes(),
+              "compliance block node " << n << " outside [0, " << dofs.num_nodes() << ")");
   const std::size_t nb = 3 * m_block_nodes.size();
   const std::size_t bytes = nb * nb * sizeof(double);
   const bool fits = bytes <= options.memory_budget_bytes && !m_block_nodes.empty();
   switch (options.strategy) {
     case ComplianceStrategy::DENSE_BLOCK:
-      BS_VERIFY(!m_block_nodes.empty(), "dense compliance block requested but no block nodes given");
+      BS_VERIFY(!m_block_nodes.empty(),
+                "dense compliance block requested but no block nodes given");
       BS_VERIFY(bytes <= options.memory_budget_bytes,
                 "dense compliance block needs " << bytes / (1 << 20) << " MiB, over the budget of "
-                                                << options.memory_budget_bytes / (1 << 20) << " MiB");
+                                                << options.memory_budget_bytes / (1 << 20)
+                                                << " MiB");
       m_strategy = ComplianceStrategy::DENSE_BLOCK;
       break;
-    case ComplianceStrategy::SPARSE_SOLVE: m_strategy = ComplianceStrategy::SPARSE_SOLVE; break;
+    case ComplianceStrategy::SPARSE_SOLVE:
+      m_strategy = ComplianceStrategy::SPARSE_SOLVE;
+      break;
     case ComplianceStrategy::AUTO:
       m_strategy = fits ? ComplianceStrategy::DENSE_BLOCK : ComplianceStrategy::SPARSE_SOLVE;
       break;
@@ -105,7 +115,8 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
     if (why.empty()) {
       m_block = options.precomputed->matrix;
       m_cache_status = "adopted";
-      logger().info("compliance block: {} nodes adopted from the precomputed cache", m_block_nodes.size());
+      logger().info("compliance block: {} nodes adopted from the precomputed cache",
+                    m_block_nodes.size());
       return;
     }
     m_cache_status = "rejected (" + why + "); computed";
@@ -130,10 +141,12 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
     const Eigen::MatrixXd sol = factor.solve_concurrent(rhs);
     for (Eigen::Index j = 0; j < nc; ++j)
       for (std::size_t a = 0; a < nb; ++a)
-        if (free_of_block[a] >= 0) m_block(static_cast<Eigen::Index>(a), cols[c0 + j]) = sol(free_of_block[a], j);
+        if (free_of_block[a] >= 0)
+          m_block(static_cast<Eigen::Index>(a), cols[c0 + j]) = sol(free_of_block[a], j);
   };
-  const std::size_t threads = std::min<std::size_t>(static_cast<std::size_t>(std::max(1, options.precompute_threads)),
-                                                    std::max<std::size_t>(chunks, 1));
+  const std::size_t threads =
+      std::min<std::size_t>(static_cast<std::size_t>(std::max(1, options.precompute_threads)),
+                            std::max<std::size_t>(chunks, 1));
   std::atomic<std::size_t> next{0};
   std::vector<std::exception_ptr> failure(threads);
   const auto worker = [&](std::size_t w) {
@@ -154,7 +167,8 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
   // cache that stores one triangle gives back the very same matrix (the loop's answer may depend
   // on the last bit of W).
   for (Eigen::Index j = 0; j < m_block.cols(); ++j)
-    for (Eigen::Index i = j + 1; i < m_block.rows(); ++i) m_block(i, j) = m_block(j, i) = 0.5 * (m_block(i, j) + m_block(j, i));
+    for (Eigen::Index i = j + 1; i < m_block.rows(); ++i)
+      m_block(i, j) = m_block(j, i) = 0.5 * (m_block(i, j) + m_block(j, i));
   logger().info("compliance block: {} nodes, {} MiB", m_block_nodes.size(), bytes >> 20);
 }
 
@@ -176,7 +190,8 @@ std::string ComplianceOperator::check_precomputed(const ComplianceBlock& b,
         probe.push_back(k);
         break;
       }
-  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(m_dofs->num_free(), static_cast<Eigen::Index>(probe.size()));
+  Eigen::MatrixXd rhs =
+      Eigen::MatrixXd::Zero(m_dofs->num_free(), static_cast<Eigen::Index>(probe.size()));
   for (std::size_t j = 0; j < probe.size(); ++j)
     rhs(free_of_block[static_cast<std::size_t>(probe[j])], static_cast<Eigen::Index>(j)) = 1.0;
   const Eigen::MatrixXd sol = m_factor->solve(rhs);
@@ -192,7 +207,8 @@ std::string ComplianceOperator::check_precomputed(const ComplianceBlock& b,
 }
 
 double ComplianceOperator::block_trace(index_t node) const {
-  if (m_block.size() == 0 || node < 0 || node >= static_cast<index_t>(m_block_pos.size())) return -1.0;
+  if (m_block.size() == 0 || node < 0 || node >= static_cast<index_t>(m_block_pos.size()))
+    return -1.0;
   const index_t b = m_block_pos[static_cast<std::size_t>(node)];
   if (b < 0) return -1.0;
   return m_block(3 * b, 3 * b) + m_block(3 * b + 1, 3 * b + 1) + m_block(3 * b + 2, 3 * b + 2);
@@ -206,16 +222,22 @@ void ComplianceOperator::set_rotations(std::vector<Matrix3d> nodal_rotations) {
   m_warp.set_rotations(std::move(nodal_rotations));
 }
 
-Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v) const { return m_warp.apply(v); }
+Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v) const {
+  return m_warp.apply(v);
+}
 
-Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v, const std::vector<Matrix3d>& R) const {
-  BS_VERIFY(v.size() == m_dofs->num_full(), "vector has size " << v.size() << ", expected " << m_dofs->num_full());
+Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v,
+                                          const std::vector<Matrix3d>& R) const {
+  BS_VERIFY(v.size() == m_dofs->num_full(),
+            "vector has size " << v.size() << ", expected " << m_dofs->num_full());
   BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
             "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
   if (m_dofs->num_free() == 0) return Eigen::VectorXd::Zero(v.size());
   Eigen::VectorXd w = v;
   if (!R.empty())
-    for (std::size_t n = 0; n < R.size(); ++n) w.segment<3>(3 * static_cast<Eigen::Index>(n)) = R[n].transpose() * v.segment<3>(3 * static_cast<Eigen::Index>(n));
+    for (std::size_t n = 0; n < R.size(); ++n)
+      w.segment<3>(3 * static_cast<Eigen::Index>(n)) =
+          R[n].transpose() * v.segment<3>(3 * static_cast<Eigen::Index>(n));
   Eigen::VectorXd out = m_dofs->expand(m_factor->solve(m_dofs->restrict(w)));
   if (!R.empty())
     for (std::size_t n = 0; n < R.size(); ++n) {
@@ -225,7 +247,9 @@ Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v, const std
   return out;
 }
 
-Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) const { return delassus(H, m_warp.rotations()); }
+Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) const {
+  return delassus(H, m_warp.rotations());
+}
 
 Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H, const std::vector<Matrix3d>& R,
                                              bool* used_fallback) const {
@@ -248,7 +272,8 @@ Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H, const std::v
   return delassus_sparse(H, R);
 }
 
-SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H, const std::vector<Matrix3d>& R) const {
+SparseMatrix ComplianceOperator::rotated_transposed_free(const SparseMatrix& H,
+                                                         const std::vector<Matrix3d>& R) const {
   // Row i of H R at node n is h_{i,n}ᵀ R_n, i.e. the column vector R_nᵀ h_{i,n}.
   std::vector<Triplet> trip;
   trip.reserve(static_cast<std::size_t>(H.nonZeros()) * 3);
@@ -268,9 +293,11 @@ Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H) const
   return delassus_sparse(H, m_warp.rotations());
 }
 
-Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H, const std::vector<Matrix3d>& R) const {
-  BS_VERIFY(H.cols() == m_dofs->num_full(),
-            "constraint Jacobian has " << H.cols() << " columns for " << m_dofs->num_full() << " DOFs");
+Eigen::MatrixXd ComplianceOperator::delassus_sparse(const SparseMatrix& H,
+                                                    const std::vector<Matrix3d>& R) const {
+  BS_VERIFY(H.cols() == m_dofs->num_full(), "constraint Jacobian has "
+                                                << H.cols() << " columns for " << m_dofs->num_full()
+                                                << " DOFs");
   BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
             "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
   const SparseMatrix G = rotated_transposed_free(H, R);
@@ -284,10 +311,13 @@ Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H) 
   return delassus_dense_block(H, m_warp.rotations());
 }
 
-Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H, const std::vector<Matrix3d>& R) const {
-  BS_VERIFY(m_strategy == ComplianceStrategy::DENSE_BLOCK, "no dense compliance block was precomputed");
-  BS_VERIFY(H.cols() == m_dofs->num_full(),
-            "constraint Jacobian has " << H.cols() << " columns for " << m_dofs->num_full() << " DOFs");
+Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H,
+                                                         const std::vector<Matrix3d>& R) const {
+  BS_VERIFY(m_strategy == ComplianceStrategy::DENSE_BLOCK,
+            "no dense compliance block was precomputed");
+  BS_VERIFY(H.cols() == m_dofs->num_full(), "constraint Jacobian has "
+                                                << H.cols() << " columns for " << m_dofs->num_full()
+                                                << " DOFs");
   BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
             "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
   const auto m = H.rows();
@@ -298,7 +328,7 @@ Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H, 
     const index_t b = m_block_pos[node];
     if (b < 0) {
       BS_VERIFY(m_dofs->is_fixed_node(node), "constraint row " << i << " touches node " << node
-                                                                << ", outside the compliance block");
+                                                               << ", outside the compliance block");
       return;  // fixed node: zero compliance
     }
     const Vector3d v = R.empty() ? h : Vector3d(R[node].transpose() * h);

@@ -5,7 +5,8 @@
 ///  (a) DENSE_BLOCK: C = K0_ff⁻¹ restricted to the DOFs of the nodes any collision vertex can map
 ///      to, precomputed once before surgery (3|S| solves); then W = G C Gᵀ with G = H R restricted
 ///      to those nodes, a small dense product per iteration;
-///  (b) SPARSE_SOLVE: per iteration Y = L⁻¹ P (H R)ᵀ with sparse right-hand sides (CHOLMOD), W = Yᵀ Y.
+///  (b) SPARSE_SOLVE: per iteration Y = L⁻¹ P (H R)ᵀ with sparse right-hand sides (CHOLMOD), W = Yᵀ
+///  Y.
 /// AUTO picks (a) when the block fits the memory budget, else (b); a call whose rows touch a node
 /// outside the block falls back to (b) for that call.
 ///
@@ -13,19 +14,20 @@
 /// can be computed once before surgery, saved (imaging/io/compliance_cache.hpp) and handed back
 /// through ComplianceOptions::precomputed. It is adopted only when it provably belongs to this
 /// model: same stiffness fingerprint (mesh, materials, fixed nodes), same block nodes, finite, and
-/// two of its columns agree with fresh solves; otherwise it is recomputed and cache_status() says why.
-
-#include <cstddef>
-#include <cstdint>
-#include <memory>
-#include <string>
-#include <vector>
+/// two of its columns agree with fresh solves; otherwise it is recomputed and cache_status() says
+/// why.
 
 #include "core/assembly/dof_map.hpp"
 #include "core/config.hpp"
 #include "core/fem/corotational.hpp"
 #include "core/solver/cholmod_factor.hpp"
 #include "core/solver/warped_compliance.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
 
 namespace brainshift::constraints {
 
@@ -46,7 +48,8 @@ std::uint64_t stiffness_fingerprint(const core::TetMesh& mesh, std::vector<index
 
 struct ComplianceOptions {
   ComplianceStrategy strategy = ComplianceStrategy::AUTO;
-  std::size_t memory_budget_bytes = std::size_t{512} << 20;  ///< for the dense block (default 512 MiB)
+  std::size_t memory_budget_bytes = std::size_t{512}
+                                    << 20;  ///< for the dense block (default 512 MiB)
   int precompute_chunk = 64;  ///< right-hand sides per CHOLMOD solve when precomputing the block
   /// Threads solving chunks at once when precomputing the block (≥ 1; each chunk is solved as
   /// with one thread, so the block is the same bit for bit).
@@ -96,7 +99,8 @@ class ComplianceOperator {
   /// R K0⁻¹ Rᵀ v (full 3N vectors; mN → mm), one solve with the factor, with the stored rotations.
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v) const;
   /// Same with the nodal rotations `R` (#N, or empty for the identity) given per call.
-  [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v, const std::vector<Matrix3d>& R) const;
+  [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v,
+                                      const std::vector<Matrix3d>& R) const;
 
   /// W = H R K0⁻¹ Rᵀ Hᵀ (#rows², mm/mN) by the chosen strategy, with the stored rotations.
   /// H is #rows × 3N.
@@ -107,16 +111,20 @@ class ComplianceOperator {
                                          bool* used_fallback = nullptr) const;
   /// Strategy (a) explicitly. \pre every node H touches is a block node (else throws).
   [[nodiscard]] Eigen::MatrixXd delassus_dense_block(const SparseMatrix& H) const;
-  [[nodiscard]] Eigen::MatrixXd delassus_dense_block(const SparseMatrix& H, const std::vector<Matrix3d>& R) const;
+  [[nodiscard]] Eigen::MatrixXd delassus_dense_block(const SparseMatrix& H,
+                                                     const std::vector<Matrix3d>& R) const;
   /// Strategy (b) explicitly.
   [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H) const;
-  [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H, const std::vector<Matrix3d>& R) const;
+  [[nodiscard]] Eigen::MatrixXd delassus_sparse(const SparseMatrix& H,
+                                                const std::vector<Matrix3d>& R) const;
 
  private:
   /// G = H R restricted to free DOFs, as a (#free × #rows) sparse matrix (= (H R)ᵀ restricted).
-  [[nodiscard]] SparseMatrix rotated_transposed_free(const SparseMatrix& H, const std::vector<Matrix3d>& R) const;
+  [[nodiscard]] SparseMatrix rotated_transposed_free(const SparseMatrix& H,
+                                                     const std::vector<Matrix3d>& R) const;
   /// Empty when `b` can be adopted as this model's block, else why not.
-  [[nodiscard]] std::string check_precomputed(const ComplianceBlock& b, const std::vector<index_t>& free_of_block) const;
+  [[nodiscard]] std::string check_precomputed(const ComplianceBlock& b,
+                                              const std::vector<index_t>& free_of_block) const;
 
   const core::CholmodFactor* m_factor;  // not owned
   const core::DofMap* m_dofs;           // not owned

@@ -1,12 +1,12 @@
 #include "constraints/solver/constrained_step.hpp"
 
-#include <algorithm>
-#include <chrono>
-
 #include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/solver/nodal_rotations.hpp"
+
+#include <algorithm>
+#include <chrono>
 
 namespace brainshift::constraints {
 namespace {
@@ -32,29 +32,39 @@ double add_row_compliance(Eigen::MatrixXd& W, const ConstraintRows& rows,
 
 std::string to_string(Mechanics m) {
   switch (m) {
-    case Mechanics::WARPED: return "warped";
-    case Mechanics::UNWARPED: return "unwarped";
-    case Mechanics::LINEAR: return "linear";
-    case Mechanics::EXACT: return "exact";
+    case Mechanics::WARPED:
+      return "warped";
+    case Mechanics::UNWARPED:
+      return "unwarped";
+    case Mechanics::LINEAR:
+      return "linear";
+    case Mechanics::EXACT:
+      return "exact";
   }
   BS_UNREACHABLE();
 }
 
-ConstrainedModel::ConstrainedModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
+ConstrainedModel::ConstrainedModel(const core::TetMesh& mesh,
+                                   const std::vector<index_t>& fixed_nodes,
                                    std::vector<index_t> block_nodes,
                                    const ComplianceOptions& compliance)
-    : m_model(mesh), m_dofs(mesh.num_nodes(), fixed_nodes), m_factor(std::make_unique<core::CholmodFactor>()) {
+    : m_model(mesh),
+      m_dofs(mesh.num_nodes(), fixed_nodes),
+      m_factor(std::make_unique<core::CholmodFactor>()) {
   m_K0 = core::assemble_rest_stiffness(m_model);
   const auto status = m_factor->compute(m_dofs.restrict(m_K0));
   BS_VERIFY(status == core::FactorStatus::OK,
-            "rest stiffness cannot be factorised (" << m_factor->message()
+            "rest stiffness cannot be factorised ("
+                << m_factor->message()
                 << "): fix at least 3 non-collinear nodes so the model cannot move rigidly");
-  m_compliance = std::make_unique<ComplianceOperator>(*m_factor, m_dofs, std::move(block_nodes), compliance,
-                                                      stiffness_fingerprint(mesh, fixed_nodes));
+  m_compliance =
+      std::make_unique<ComplianceOperator>(*m_factor, m_dofs, std::move(block_nodes), compliance,
+                                           stiffness_fingerprint(mesh, fixed_nodes));
 }
 
 StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& rows,
-                                  const StepOptions& options, ConstRef<Eigen::VectorXd> warm_start) const {
+                                  const StepOptions& options,
+                                  ConstRef<Eigen::VectorXd> warm_start) const {
   const index_t n = m_model.mesh().num_nodes();
   BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows for " << n << " nodes");
   StepResult res;
@@ -64,7 +74,8 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
   Eigen::VectorXd f_int;
   std::unique_ptr<core::CholmodFactor> exact_factor;  // EXACT only
   std::unique_ptr<ComplianceOperator> exact;
-  std::vector<Matrix3d> rotations;  // nodal; empty = identity (LINEAR, UNWARPED, EXACT's own operator)
+  std::vector<Matrix3d>
+      rotations;  // nodal; empty = identity (LINEAR, UNWARPED, EXACT's own operator)
   if (options.mechanics == Mechanics::LINEAR) {
     const MatrixX3d u = x - m_model.mesh().nodes();
     f_int = m_K0 * Eigen::Map<const Eigen::VectorXd>(u.data(), 3 * n);
@@ -72,7 +83,8 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     const core::ElementRotations er = m_model.element_rotations(x);
     res.inverted_elements = er.inverted_count;
     f_int = m_model.internal_force(x, er.rotation);
-    if (options.mechanics == Mechanics::WARPED) rotations = core::nodal_rotations(m_model.mesh(), er.rotation);
+    if (options.mechanics == Mechanics::WARPED)
+      rotations = core::nodal_rotations(m_model.mesh(), er.rotation);
     if (options.mechanics == Mechanics::EXACT) {
       exact_factor = std::make_unique<core::CholmodFactor>();
       const auto status = exact_factor->compute(
@@ -81,7 +93,8 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
                 "exact tangent cannot be factorised: " << exact_factor->message());
       ComplianceOptions sparse;
       sparse.strategy = ComplianceStrategy::SPARSE_SOLVE;
-      exact = std::make_unique<ComplianceOperator>(*exact_factor, m_dofs, std::vector<index_t>{}, sparse);
+      exact = std::make_unique<ComplianceOperator>(*exact_factor, m_dofs, std::vector<index_t>{},
+                                                   sparse);
     }
   }
   const ComplianceOperator& C = exact ? *exact : *m_compliance;
@@ -134,13 +147,13 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     Eigen::Index worst = 0;
     const double vmax = rows.violations().cwiseAbs().maxCoeff(&worst);
     if (vmax > options.plausible_violation)
-      note("row " + std::to_string(worst) + " (" + to_string(rows[static_cast<index_t>(worst)].set) +
-           ") is violated by " + std::to_string(vmax) + " mm, beyond the plausible " +
+      note("row " + std::to_string(worst) + " (" +
+           to_string(rows[static_cast<index_t>(worst)].set) + ") is violated by " +
+           std::to_string(vmax) + " mm, beyond the plausible " +
            std::to_string(options.plausible_violation) + " mm: mis-pairing or wrong frame?");
     if (res.pgs.stop == PgsStop::STALLED || res.pgs.ignored_rows > 0) note(res.pgs.message);
   }
-  if (res.inverted_elements > 0)
-    note(std::to_string(res.inverted_elements) + " inverted elements");
+  if (res.inverted_elements > 0) note(std::to_string(res.inverted_elements) + " inverted elements");
   res.diagnosis = diag;
   res.max_increment = Eigen::Map<const MatrixX3d>(dx.data(), n, 3).rowwise().norm().maxCoeff();
   logger().debug("step: |dx|max {:.4g} mm, PGS {} ({} sweeps), inverted {}", res.max_increment,

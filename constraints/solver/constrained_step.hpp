@@ -8,10 +8,6 @@
 /// Repeating the step (re-building the rows at the new x) converges to the corotational
 /// equilibrium that satisfies the constraints.
 
-#include <array>
-#include <memory>
-#include <vector>
-
 #include "constraints/rows/constraint_rows.hpp"
 #include "constraints/solver/active_set.hpp"
 #include "constraints/solver/compliance_operator.hpp"
@@ -21,15 +17,19 @@
 #include "core/mesh/tet_mesh.hpp"
 #include "core/solver/cholmod_factor.hpp"
 
+#include <array>
+#include <memory>
+#include <vector>
+
 namespace brainshift::constraints {
 
 /// How the step treats rotations.
 enum class Mechanics {
-  WARPED,         ///< corotational forces, warped compliance R K0⁻¹ Rᵀ (the method)
-  UNWARPED,       ///< corotational forces, unwarped compliance K0⁻¹ (SOFA's regression; ablation)
-  LINEAR,         ///< linear forces K0 (x − X) and K0⁻¹ (small-strain FEM; ablation)
-  EXACT,          ///< corotational forces, exact rotated tangent K(R) = Σ R̂ₑ Kₑ R̂ₑᵀ refactorised
-                  ///< every step (reference for tests and benchmarks; not the fast path)
+  WARPED,    ///< corotational forces, warped compliance R K0⁻¹ Rᵀ (the method)
+  UNWARPED,  ///< corotational forces, unwarped compliance K0⁻¹ (SOFA's regression; ablation)
+  LINEAR,    ///< linear forces K0 (x − X) and K0⁻¹ (small-strain FEM; ablation)
+  EXACT,  ///< corotational forces, exact rotated tangent K(R) = Σ R̂ₑ Kₑ R̂ₑᵀ refactorised
+          ///< every step (reference for tests and benchmarks; not the fast path)
 };
 std::string to_string(Mechanics m);
 
@@ -64,21 +64,21 @@ struct StepOptions {
 };
 
 struct StepResult {
-  MatrixX3d x;                   ///< new nodal positions (#N×3, mm)
-  Eigen::VectorXd lambda;        ///< constraint forces (#rows, mN)
+  MatrixX3d x;             ///< new nodal positions (#N×3, mm)
+  Eigen::VectorXd lambda;  ///< constraint forces (#rows, mN)
   PgsResult pgs;
-  double max_increment = 0.0;    ///< max nodal |Δx| of this step (after limiting), mm
-  bool limited = false;          ///< the increment was scaled down to StepOptions::max_increment
-  index_t inverted_elements = 0; ///< at the start of the step
+  double max_increment = 0.0;     ///< max nodal |Δx| of this step (after limiting), mm
+  bool limited = false;           ///< the increment was scaled down to StepOptions::max_increment
+  index_t inverted_elements = 0;  ///< at the start of the step
   /// False when the increment was not finite (a diverging iteration): the step is then rejected,
   /// x is the input positions unchanged and the caller must stop (never count it as converged).
   bool finite = true;
   bool delassus_fallback = false;  ///< W needed sparse solves (rows outside the compliance block)
-  Eigen::MatrixXd delassus;      ///< W = H C Hᵀ without row compliance (StepOptions::keep_system)
-  Eigen::VectorXd delta_free;    ///< δ + H dx_free (StepOptions::keep_system)
-  double compliance_scale = 0.0; ///< median diag W: the unit of StepOptions::compliance_ratio
-  std::string diagnosis;         ///< empty, or one line on what looks wrong (huge violations,
-                                 ///< inverted elements, rows ignored or inconsistent)
+  Eigen::MatrixXd delassus;    ///< W = H C Hᵀ without row compliance (StepOptions::keep_system)
+  Eigen::VectorXd delta_free;  ///< δ + H dx_free (StepOptions::keep_system)
+  double compliance_scale = 0.0;  ///< median diag W: the unit of StepOptions::compliance_ratio
+  std::string diagnosis;          ///< empty, or one line on what looks wrong (huge violations,
+                                  ///< inverted elements, rows ignored or inconsistent)
   double seconds_free_motion = 0.0, seconds_delassus = 0.0, seconds_pgs = 0.0,
          seconds_correction = 0.0;
 };
@@ -87,7 +87,8 @@ struct StepResult {
 /// compliance block precomputed when the budget allows. Reused across steps and registrations.
 class ConstrainedModel {
  public:
-  /// @param[in] mesh rest mesh (validated). @param[in] fixed_nodes Dirichlet nodes (displacement 0).
+  /// @param[in] mesh rest mesh (validated). @param[in] fixed_nodes Dirichlet nodes (displacement
+  /// 0).
   /// @param[in] block_nodes nodes constraints may touch (dense compliance block); may be empty.
   /// \throws brainshift::Error when K0_ff cannot be factorised (e.g. no fixed nodes: the rigid
   /// modes make it singular), naming the cause.
@@ -112,7 +113,7 @@ class ConstrainedModel {
   core::CorotationalModel m_model;
   core::DofMap m_dofs;
   SparseMatrix m_K0;
-  std::unique_ptr<core::CholmodFactor> m_factor;       // stable address for m_compliance
+  std::unique_ptr<core::CholmodFactor> m_factor;  // stable address for m_compliance
   std::unique_ptr<ComplianceOperator> m_compliance;
 };
 

@@ -1,12 +1,13 @@
 #include "constraints/solver/pgs.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
-
-#include "core/error.hpp"
-#include "core/logger.hpp"
 
 namespace brainshift::constraints {
 
@@ -21,10 +22,14 @@ std::string PgsOptions::validate() const {
 
 std::string to_string(PgsStop stop) {
   switch (stop) {
-    case PgsStop::CONVERGED: return "converged";
-    case PgsStop::NO_ROWS: return "no_rows";
-    case PgsStop::MAX_ITERATIONS: return "max_iterations";
-    case PgsStop::STALLED: return "stalled";
+    case PgsStop::CONVERGED:
+      return "converged";
+    case PgsStop::NO_ROWS:
+      return "no_rows";
+    case PgsStop::MAX_ITERATIONS:
+      return "max_iterations";
+    case PgsStop::STALLED:
+      return "stalled";
   }
   BS_UNREACHABLE();
 }
@@ -76,7 +81,8 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
   const index_t m = rows.size();
   BS_VERIFY(W.rows() == m && W.cols() == m,
             "Delassus operator is " << W.rows() << "x" << W.cols() << " for " << m << " rows");
-  BS_VERIFY(delta_free.size() == m, "delta_free has " << delta_free.size() << " entries for " << m << " rows");
+  BS_VERIFY(delta_free.size() == m,
+            "delta_free has " << delta_free.size() << " entries for " << m << " rows");
   BS_VERIFY(warm_start.size() == 0 || warm_start.size() == m,
             "warm start has " << warm_start.size() << " entries for " << m << " rows");
   BS_VERIFY(W.allFinite() && delta_free.allFinite(), "PGS input contains NaN or infinity");
@@ -123,8 +129,8 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
     i = j;
   }
 
-  const double lmax = options.lambda_max > 0 ? options.lambda_max
-                                             : std::numeric_limits<double>::infinity();
+  const double lmax =
+      options.lambda_max > 0 ? options.lambda_max : std::numeric_limits<double>::infinity();
   const double scale = std::max(delta_free.cwiseAbs().maxCoeff(), 1e-9);
   Eigen::VectorXd g = delta_free + W * res.lambda;
   double best = std::numeric_limits<double>::infinity();
@@ -194,7 +200,9 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
   std::ostringstream msg;
   if (res.message.empty()) {
     switch (res.stop) {
-      case PgsStop::CONVERGED: msg << "converged in " << res.iterations << " sweeps"; break;
+      case PgsStop::CONVERGED:
+        msg << "converged in " << res.iterations << " sweeps";
+        break;
       case PgsStop::MAX_ITERATIONS:
         msg << "iteration cap " << options.max_iterations << " reached, residual " << res.residual;
         break;
@@ -203,7 +211,8 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
             << ": constraints are inconsistent (antagonistic rows"
             << (res.bounded_rows > 0 ? ", or forces at lambda_max" : "") << ")";
         break;
-      case PgsStop::NO_ROWS: break;
+      case PgsStop::NO_ROWS:
+        break;
     }
   } else {
     msg << res.message;

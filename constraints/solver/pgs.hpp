@@ -13,20 +13,20 @@
 /// in mm, max over rows, relative to max(‖δ_free‖∞, 1e-9 mm). This is a statement about the
 /// constraint laws, not the size of the last sweep's change (SOFA's test); both are reported.
 
+#include "constraints/rows/constraint_rows.hpp"
+#include "core/config.hpp"
+
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "constraints/rows/constraint_rows.hpp"
-#include "core/config.hpp"
-
 namespace brainshift::constraints {
 
 struct PgsOptions {
-  int max_iterations = 500;          ///< sweeps
-  double tolerance = 1e-6;           ///< relative natural-map residual
-  double lambda_max = 0.0;           ///< bound on |λᵢ| (mN); 0 = unbounded
-  int stall_window = 100;            ///< sweeps without a 1 % residual decrease → STALLED
+  int max_iterations = 500;  ///< sweeps
+  double tolerance = 1e-6;   ///< relative natural-map residual
+  double lambda_max = 0.0;   ///< bound on |λᵢ| (mN); 0 = unbounded
+  int stall_window = 100;    ///< sweeps without a 1 % residual decrease → STALLED
   /// Rows whose Wᵢᵢ ≤ this × max Wⱼⱼ cannot move (they act only on fixed nodes): ignored, λ = 0.
   double null_row_tolerance = 1e-12;
   /// Active-set changes the direct solve (active_set.hpp) may make before it gives up to PGS.
@@ -50,22 +50,23 @@ enum class ActiveSetOutcome : std::uint8_t {
   LDLT_FAILED,   ///< the active block could not be factorised: PGS from the warm start
   NON_FINITE,    ///< the solve gave a non-finite λ: PGS from the warm start
   NO_SETTLING,   ///< the set still changed after active_set_max_changes: PGS from the warm start
-  INCONSISTENT,  ///< the set settled but its rows cannot all be met (antagonistic rows): PGS from the warm start
+  INCONSISTENT,  ///< the set settled but its rows cannot all be met (antagonistic rows): PGS from
+                 ///< the warm start
 };
 std::string to_string(ActiveSetOutcome o);
 
 struct PgsResult {
-  Eigen::VectorXd lambda;         ///< #rows, mN
+  Eigen::VectorXd lambda;             ///< #rows, mN
   Eigen::VectorXd constraint_values;  ///< g = δ_free + W λ at the end, mm
   int iterations = 0;
-  double residual = 0.0;          ///< final relative natural-map residual
-  double last_change = 0.0;       ///< max |Wᵢᵢ Δλᵢ| of the last sweep, mm (SOFA's measure)
+  double residual = 0.0;     ///< final relative natural-map residual
+  double last_change = 0.0;  ///< max |Wᵢᵢ Δλᵢ| of the last sweep, mm (SOFA's measure)
   PgsStop stop = PgsStop::NO_ROWS;
-  index_t ignored_rows = 0;       ///< rows with Wᵢᵢ ≈ 0 (on fixed nodes only)
-  index_t bounded_rows = 0;       ///< rows at |λ| = λ_max at the end
-  std::string message;            ///< one line: why it stopped, and any diagnosis
+  index_t ignored_rows = 0;  ///< rows with Wᵢᵢ ≈ 0 (on fixed nodes only)
+  index_t bounded_rows = 0;  ///< rows at |λ| = λ_max at the end
+  std::string message;       ///< one line: why it stopped, and any diagnosis
   ActiveSetOutcome active_set = ActiveSetOutcome::NOT_USED;  ///< set by solve_constraints()
-  int active_set_changes = 0;     ///< set changes the direct solve made
+  int active_set_changes = 0;                                ///< set changes the direct solve made
 };
 
 /// Solves the constraint problem with projected block Gauss–Seidel.

@@ -30,7 +30,8 @@ Eigen::VectorXd DofMap::restrict(ConstRef<Eigen::VectorXd> full) const {
   BS_VERIFY(full.size() == num_full(),
             "full vector has size " << full.size() << ", expected " << num_full());
   Eigen::VectorXd out(m_num_free);
-  for (index_t i = 0; i < m_num_free; ++i) out(i) = full(m_full_of_free[static_cast<std::size_t>(i)]);
+  for (index_t i = 0; i < m_num_free; ++i)
+    out(i) = full(m_full_of_free[static_cast<std::size_t>(i)]);
   return out;
 }
 
@@ -38,14 +39,15 @@ Eigen::VectorXd DofMap::expand(ConstRef<Eigen::VectorXd> free) const {
   BS_VERIFY(free.size() == m_num_free,
             "free vector has size " << free.size() << ", expected " << m_num_free);
   Eigen::VectorXd out = Eigen::VectorXd::Zero(num_full());
-  for (index_t i = 0; i < m_num_free; ++i) out(m_full_of_free[static_cast<std::size_t>(i)]) = free(i);
+  for (index_t i = 0; i < m_num_free; ++i)
+    out(m_full_of_free[static_cast<std::size_t>(i)]) = free(i);
   return out;
 }
 
 SparseMatrix DofMap::restrict(const SparseMatrix& full) const {
   BS_VERIFY(full.rows() == num_full() && full.cols() == num_full(),
-            "matrix is " << full.rows() << "×" << full.cols() << ", expected " << num_full()
-                         << "×" << num_full());
+            "matrix is " << full.rows() << "×" << full.cols() << ", expected " << num_full() << "×"
+                         << num_full());
   std::vector<Triplet> triplets;
   triplets.reserve(static_cast<std::size_t>(full.nonZeros()));
   for (index_t j = 0; j < full.outerSize(); ++j) {

@@ -3,9 +3,9 @@
 /// @brief Map between the full DOF vector (3N, node-major) and the free DOFs that remain after
 /// Dirichlet elimination of fixed nodes.
 
-#include <vector>
-
 #include "core/config.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

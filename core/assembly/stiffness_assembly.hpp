@@ -2,10 +2,10 @@
 /// @file
 /// @brief Global stiffness assembly.
 
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/fem/corotational.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

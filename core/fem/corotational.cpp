@@ -1,9 +1,9 @@
 #include "core/fem/corotational.hpp"
 
-#include <cmath>
-
 #include "core/error.hpp"
 #include "core/fem/rotation.hpp"
+
+#include <cmath>
 
 namespace brainshift::core {
 
@@ -38,9 +38,8 @@ ElementRotations CorotationalModel::element_rotations(ConstRef<MatrixX3d> x) con
   const index_t n = m_mesh.num_nodes();
   BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows, expected " << n << " nodes");
   for (index_t i = 0; i < n; ++i) {
-    BS_VERIFY(x.row(i).allFinite(), "node " << i << " has a non-finite position ("
-                                            << x(i, 0) << ", " << x(i, 1) << ", " << x(i, 2)
-                                            << ")");
+    BS_VERIFY(x.row(i).allFinite(), "node " << i << " has a non-finite position (" << x(i, 0)
+                                            << ", " << x(i, 1) << ", " << x(i, 2) << ")");
   }
   const MatrixX4i& T = m_mesh.tets();
   ElementRotations out;
@@ -86,7 +85,8 @@ Eigen::VectorXd CorotationalModel::gravity_force(const Vector3d& gravity, double
   const MatrixX4i& T = m_mesh.tets();
   Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * m_mesh.num_nodes());
   for (index_t t = 0; t < m_mesh.num_tets(); ++t) {
-    const Vector3d quarter = 0.25 * density * m_shapes[static_cast<std::size_t>(t)].volume * gravity;
+    const Vector3d quarter =
+        0.25 * density * m_shapes[static_cast<std::size_t>(t)].volume * gravity;
     for (int k = 0; k < 4; ++k) f.segment<3>(3 * T(t, k)) += quarter;
   }
   return f;

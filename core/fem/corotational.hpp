@@ -8,11 +8,11 @@
 /// where R̂_e = diag(R_e, R_e, R_e, R_e). Sign convention: f is the elastic force *on* the nodes'
 /// resistance, i.e. f_int = ∂Ψ/∂x; equilibrium is f_int = f_ext.
 
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/fem/linear_tet.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

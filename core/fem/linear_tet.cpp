@@ -1,9 +1,10 @@
 #include "core/fem/linear_tet.hpp"
 
-#include <Eigen/LU>
-#include <cmath>
-
 #include "core/error.hpp"
+
+#include <Eigen/LU>
+
+#include <cmath>
 
 namespace brainshift::core {
 
@@ -16,8 +17,8 @@ TetShape tet_shape(const Eigen::Matrix<double, 4, 3>& X) {
   TetShape shape;
   shape.volume = Dm.determinant() / 6.0;
   BS_VERIFY(shape.volume > 0.0 && std::isfinite(shape.volume),
-            "tetrahedron has non-positive rest volume " << shape.volume
-                << " mm³ (inverted or flat); reorder its nodes or remove it");
+            "tetrahedron has non-positive rest volume "
+                << shape.volume << " mm³ (inverted or flat); reorder its nodes or remove it");
   shape.rest_edges_inv = Dm.inverse();
   BS_VERIFY(shape.rest_edges_inv.allFinite(),
             "tetrahedron of volume " << shape.volume << " mm³ is too flat to invert its edges");
@@ -43,8 +44,7 @@ Eigen::Matrix<double, 6, 6> isotropic_elasticity(double youngs_modulus, double p
   return D;
 }
 
-Matrix12d linear_tet_stiffness(const TetShape& shape, double youngs_modulus,
-                               double poisson_ratio) {
+Matrix12d linear_tet_stiffness(const TetShape& shape, double youngs_modulus, double poisson_ratio) {
   // Strain-displacement matrix B (6×12), Voigt order xx, yy, zz, xy, yz, zx.
   Eigen::Matrix<double, 6, 12> B = Eigen::Matrix<double, 6, 12>::Zero();
   for (int k = 0; k < 4; ++k) {

@@ -5,9 +5,9 @@
 ///
 /// DOF order inside an element: (x0, y0, z0, x1, y1, z1, ..., z3).
 
-#include <Eigen/Core>
-
 #include "core/config.hpp"
+
+#include <Eigen/Core>
 
 namespace brainshift::core {
 

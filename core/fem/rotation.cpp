@@ -1,9 +1,10 @@
 #include "core/fem/rotation.hpp"
 
-#include <Eigen/SVD>
-#include <cmath>
-
 #include "core/error.hpp"
+
+#include <Eigen/SVD>
+
+#include <cmath>
 
 namespace brainshift::core {
 
@@ -64,8 +65,7 @@ Matrix3d rotation_from_deformation_gradient(const Matrix3d& F, bool* inverted) {
     // Scale by a power of two (exact) so det F neither underflows nor overflows: its sign is
     // then that of the determinant of F itself, at any magnitude (1e-150 I is not inverted).
     const double largest = F.cwiseAbs().maxCoeff();
-    *inverted = largest == 0.0 ||
-                (F * std::ldexp(1.0, -std::ilogb(largest))).determinant() <= 0.0;
+    *inverted = largest == 0.0 || (F * std::ldexp(1.0, -std::ilogb(largest))).determinant() <= 0.0;
   }
   return proper_polar_rotation(F);
 }

@@ -1,11 +1,11 @@
 #include "core/mapping/barycentric_mapping.hpp"
 
+#include "core/error.hpp"
+#include "core/mapping/tet_locator.hpp"
+
 #include <limits>
 #include <sstream>
 #include <string>
-
-#include "core/error.hpp"
-#include "core/mapping/tet_locator.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -22,9 +22,9 @@ std::string format_point(const Vector3d& p) {
 BarycentricMapping::BarycentricMapping(const TetMesh& mesh, ConstRef<MatrixX3d> points,
                                        const MappingOptions& options) {
   BS_VERIFY(mesh.num_tets() > 0, "barycentric mapping: the mesh has no tetrahedra");
-  BS_VERIFY(options.max_outside_distance >= 0.0,
-            "barycentric mapping: max_outside_distance is " << options.max_outside_distance
-                                                            << " mm, expected >= 0");
+  BS_VERIFY(options.max_outside_distance >= 0.0, "barycentric mapping: max_outside_distance is "
+                                                     << options.max_outside_distance
+                                                     << " mm, expected >= 0");
   const index_t num_points = static_cast<index_t>(points.rows());
   const TetLocator locator(mesh.nodes(), mesh.tets());
   m_tet.resize(static_cast<std::size_t>(num_points));
@@ -34,13 +34,14 @@ BarycentricMapping::BarycentricMapping(const TetMesh& mesh, ConstRef<MatrixX3d> 
   triplets.reserve(static_cast<std::size_t>(4 * num_points));
   for (index_t i = 0; i < num_points; ++i) {
     const Vector3d p = points.row(i).transpose();
-    BS_VERIFY(p.allFinite(), "barycentric mapping: point " << i << " at " << format_point(p)
-                                                           << " is not finite");
+    BS_VERIFY(p.allFinite(),
+              "barycentric mapping: point " << i << " at " << format_point(p) << " is not finite");
     const std::optional<TetLocation> loc = locator.locate(p, options.max_outside_distance);
     if (!loc) {
       // Error path only: search the whole mesh for the distance the message reports.
       const auto nearest = locator.locate(p, std::numeric_limits<double>::infinity());
-      BS_THROW("barycentric mapping: point " << i << " at " << format_point(p) << " mm is "
+      BS_THROW("barycentric mapping: point "
+               << i << " at " << format_point(p) << " mm is "
                << (nearest ? nearest->distance : std::numeric_limits<double>::infinity())
                << " mm from the mesh, more than max_outside_distance = "
                << options.max_outside_distance << " mm");

@@ -4,10 +4,10 @@
 /// vessel skeleton point, landmark) is tied once, at rest, to its containing (or nearest)
 /// tetrahedron. J is sparse #M×#N with ≤ 4 weights per row; positions p = J x, forces f = Jᵀ F.
 
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

@@ -1,13 +1,12 @@
 #include "core/mapping/tet_locator.hpp"
 
+#include "core/error.hpp"
 #include "core/mapping/closest_point.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-
-#include "core/error.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -81,7 +80,8 @@ TetLocator::TetLocator(ConstRef<MatrixX3d> nodes, ConstRef<MatrixX4i> tets)
       const Vector3d xi = m_nodes.row(m_tets(t, i));
       lo = lo.cwiseMin(xi);
       hi = hi.cwiseMax(xi);
-      for (int j = i + 1; j < 4; ++j) edge_sum += (xi - m_nodes.row(m_tets(t, j)).transpose()).norm();
+      for (int j = i + 1; j < 4; ++j)
+        edge_sum += (xi - m_nodes.row(m_tets(t, j)).transpose()).norm();
     }
   }
   const Vector3d extent = hi - lo;
@@ -124,7 +124,8 @@ TetLocator::TetLocator(ConstRef<MatrixX3d> nodes, ConstRef<MatrixX4i> tets)
   for (std::size_t c = 0; c < num_cells; ++c) m_cell_start[c + 1] += m_cell_start[c];
   m_cell_tets.resize(static_cast<std::size_t>(m_cell_start.back()));
   std::vector<index_t> fill(m_cell_start.begin(), m_cell_start.end() - 1);
-  for (index_t t = 0; t < num_tets; ++t) for_each_cell(t, [&](int c) { m_cell_tets[fill[c]++] = t; });
+  for (index_t t = 0; t < num_tets; ++t)
+    for_each_cell(t, [&](int c) { m_cell_tets[fill[c]++] = t; });
 }
 
 std::optional<TetLocation> TetLocator::locate(const Vector3d& p, double max_distance) const {
@@ -189,7 +190,7 @@ std::optional<TetLocation> TetLocator::locate(const Vector3d& p, double max_dist
   for (const index_t t : candidates) {
     const Eigen::Matrix<double, 4, 3> X = tet_nodes(t);
     const double box2 = squared_box_distance(p, X.colwise().minCoeff().transpose(),
-                                              X.colwise().maxCoeff().transpose());
+                                             X.colwise().maxCoeff().transpose());
     if (box2 > best_distance * best_distance) continue;
     TetLocation loc = point_tet_distance(X, p);
     if (loc.distance <= best_distance) {

@@ -4,10 +4,10 @@
 /// nearest when the point lies just outside. A uniform grid over the tetrahedra's bounding boxes
 /// (cell size ≈ mean edge length) gives O(1) candidates per query.
 
+#include "core/config.hpp"
+
 #include <optional>
 #include <vector>
-
-#include "core/config.hpp"
 
 namespace brainshift::core {
 
@@ -15,7 +15,7 @@ namespace brainshift::core {
 struct TetLocation {
   index_t tet = -1;
   Vector4d barycentric = Vector4d::Zero();  ///< sums to 1; all ≥ 0 when inside
-  double distance = 0.0;                     ///< 0 inside, else distance to the tetrahedron, mm
+  double distance = 0.0;                    ///< 0 inside, else distance to the tetrahedron, mm
 };
 
 class TetLocator {

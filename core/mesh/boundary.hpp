@@ -3,10 +3,10 @@
 /// @brief Boundary of a tetrahedral mesh: the faces that belong to exactly one tetrahedron,
 /// oriented outward (counter-clockwise seen from outside, so (b − a) × (c − a) points out).
 
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

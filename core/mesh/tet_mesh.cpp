@@ -1,10 +1,10 @@
 #include "core/mesh/tet_mesh.hpp"
 
+#include "core/error.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-
-#include "core/error.hpp"
 
 namespace brainshift::core {
 
@@ -23,9 +23,9 @@ TetMesh::TetMesh(MatrixX3d nodes, MatrixX4i tets, Eigen::VectorXd youngs_modulus
   BS_VERIFY(m_youngs_modulus.size() == m_tets.rows(),
             "youngs_modulus has " << m_youngs_modulus.size() << " values for " << m_tets.rows()
                                   << " tetrahedra");
-  BS_VERIFY(m_poisson_ratio.size() == m_tets.rows(),
-            "poisson_ratio has " << m_poisson_ratio.size() << " values for " << m_tets.rows()
-                                 << " tetrahedra");
+  BS_VERIFY(m_poisson_ratio.size() == m_tets.rows(), "poisson_ratio has "
+                                                         << m_poisson_ratio.size() << " values for "
+                                                         << m_tets.rows() << " tetrahedra");
 }
 
 Eigen::Matrix<double, 4, 3> TetMesh::tet_nodes(index_t t) const {
@@ -46,12 +46,18 @@ double signed_tet_volume(const Vector3d& a, const Vector3d& b, const Vector3d& c
 
 std::string to_string(MeshIssue::Kind kind) {
   switch (kind) {
-    case MeshIssue::Kind::NAN_COORDINATE: return "NaN coordinate";
-    case MeshIssue::Kind::INDEX_OUT_OF_RANGE: return "index out of range";
-    case MeshIssue::Kind::REPEATED_NODE: return "repeated node";
-    case MeshIssue::Kind::NON_POSITIVE_VOLUME: return "non-positive volume";
-    case MeshIssue::Kind::UNUSED_NODE: return "unused node";
-    case MeshIssue::Kind::BAD_MATERIAL: return "bad material";
+    case MeshIssue::Kind::NAN_COORDINATE:
+      return "NaN coordinate";
+    case MeshIssue::Kind::INDEX_OUT_OF_RANGE:
+      return "index out of range";
+    case MeshIssue::Kind::REPEATED_NODE:
+      return "repeated node";
+    case MeshIssue::Kind::NON_POSITIVE_VOLUME:
+      return "non-positive volume";
+    case MeshIssue::Kind::UNUSED_NODE:
+      return "unused node";
+    case MeshIssue::Kind::BAD_MATERIAL:
+      return "bad material";
   }
   BS_UNREACHABLE();
 }
@@ -114,7 +120,8 @@ std::vector<MeshIssue> find_mesh_issues(const TetMesh& mesh, std::size_t max_iss
   for (index_t i = 0; i < n; ++i) {
     if (!used[i]) {
       std::ostringstream s;
-      s << "node " << i << " is used by no tetrahedron (remove it: it makes the stiffness singular)";
+      s << "node " << i
+        << " is used by no tetrahedron (remove it: it makes the stiffness singular)";
       add(MeshIssue::Kind::UNUSED_NODE, i, s.str());
     }
   }
@@ -136,8 +143,8 @@ void validate(const TetMesh& mesh, const std::string& what) {
   if (issues.empty()) return;
   std::ostringstream s;
   s << what << ": " << to_string(issues.front().kind) << ": " << issues.front().message;
-  if (issues.size() > 1) s << " (and " << issues.size() - 1 << (issues.size() >= 1000 ? "+" : "")
-                           << " more problems)";
+  if (issues.size() > 1)
+    s << " (and " << issues.size() - 1 << (issues.size() >= 1000 ? "+" : "") << " more problems)";
   throw Error(s.str());
 }
 

@@ -6,13 +6,13 @@
 /// 0-based, positively oriented: det[X1−X0, X2−X0, X3−X0] > 0), `E` Young's modulus per
 /// tetrahedron (kPa), `nu` Poisson ratio per tetrahedron.
 
+#include "core/config.hpp"
+#include "core/units.hpp"
+
 #include <array>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include "core/config.hpp"
-#include "core/units.hpp"
 
 namespace brainshift::core {
 
@@ -79,13 +79,13 @@ void validate(const TetMesh& mesh, const std::string& what = "mesh");
 /// Element quality summary.
 struct QualityReport {
   index_t num_tets = 0;
-  double min_volume = 0.0;         ///< mm³
-  double max_volume = 0.0;         ///< mm³
-  double min_dihedral_deg = 0.0;   ///< smallest dihedral angle over all tetrahedra, degrees
-  double max_dihedral_deg = 0.0;   ///< largest dihedral angle, degrees
-  index_t sliver_count = 0;        ///< tetrahedra with a dihedral angle below the sliver threshold
+  double min_volume = 0.0;        ///< mm³
+  double max_volume = 0.0;        ///< mm³
+  double min_dihedral_deg = 0.0;  ///< smallest dihedral angle over all tetrahedra, degrees
+  double max_dihedral_deg = 0.0;  ///< largest dihedral angle, degrees
+  index_t sliver_count = 0;       ///< tetrahedra with a dihedral angle below the sliver threshold
   double sliver_threshold_deg = 0.0;
-  index_t worst_tet = -1;          ///< tetrahedron with the smallest dihedral angle
+  index_t worst_tet = -1;  ///< tetrahedron with the smallest dihedral angle
 };
 
 /// Dihedral angles of one tetrahedron (6 values, degrees), at its six edges.

@@ -1,11 +1,11 @@
 #include "core/solver/cholmod_factor.hpp"
 
+#include "core/error.hpp"
+
 #include <cholmod.h>
 
 #include <sstream>
 #include <utility>
-
-#include "core/error.hpp"
 
 namespace brainshift::core {
 
@@ -104,8 +104,8 @@ CholmodFactor& CholmodFactor::operator=(CholmodFactor&& other) noexcept {
 }
 
 void CholmodFactor::analyze(const SparseMatrix& A) {
-  BS_VERIFY(A.rows() == A.cols(), "matrix to factorise is not square: " << A.rows() << "×"
-                                                                         << A.cols());
+  BS_VERIFY(A.rows() == A.cols(),
+            "matrix to factorise is not square: " << A.rows() << "×" << A.cols());
   if (!m_impl) m_impl = std::make_unique<Impl>();  // a moved-from factor is usable again
   Impl& impl = *m_impl;
   if (impl.factor != nullptr) cholmod_free_factor(&impl.factor, &impl.common);
@@ -118,8 +118,8 @@ void CholmodFactor::analyze(const SparseMatrix& A) {
   impl.analyzed_rows = m_rows;
   if (impl.factor == nullptr || impl.common.status < CHOLMOD_OK) {
     std::ostringstream msg;
-    msg << "CHOLMOD symbolic analysis failed (status " << impl.common.status << ") for a "
-        << m_rows << "×" << m_rows << " matrix";
+    msg << "CHOLMOD symbolic analysis failed (status " << impl.common.status << ") for a " << m_rows
+        << "×" << m_rows << " matrix";
     m_message = msg.str();
   }
 }
@@ -139,9 +139,8 @@ FactorStatus CholmodFactor::factorize(const SparseMatrix& A) {
     const std::size_t minor = impl.factor->minor;
     const auto* perm = static_cast<const int*>(impl.factor->Perm);
     const long column = (perm != nullptr && minor < n) ? perm[minor] : static_cast<long>(minor);
-    msg << "matrix is not positive definite: non-positive pivot at column " << column
-        << " (step " << minor << " of " << n
-        << "); a singular (under-constrained) or indefinite matrix";
+    msg << "matrix is not positive definite: non-positive pivot at column " << column << " (step "
+        << minor << " of " << n << "); a singular (under-constrained) or indefinite matrix";
     m_status = FactorStatus::NOT_POSITIVE_DEFINITE;
   } else if (!ok || impl.common.status < CHOLMOD_OK) {
     msg << "CHOLMOD numeric factorisation failed (status " << impl.common.status << ")";

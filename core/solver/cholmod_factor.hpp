@@ -3,10 +3,10 @@
 /// @brief CHOLMOD supernodal Cholesky factor A = P L Lᵀ Pᵀ with the analyse / factorise /
 /// solve split (symbolic once per sparsity pattern, numeric per matrix, solve per right-hand side).
 
+#include "core/config.hpp"
+
 #include <memory>
 #include <string>
-
-#include "core/config.hpp"
 
 namespace brainshift::core {
 

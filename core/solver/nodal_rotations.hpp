@@ -3,10 +3,10 @@
 /// @brief Nodal rotations for compliance warping: R_n = polar( Σ_{e∋n} V_e R_e ) (volume-weighted
 /// average of the adjacent element rotations, re-orthonormalised; SOFA's getRotation, weighted).
 
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

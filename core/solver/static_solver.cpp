@@ -1,15 +1,15 @@
 #include "core/solver/static_solver.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <limits>
-#include <sstream>
-
 #include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/solver/nodal_rotations.hpp"
 #include "core/solver/warped_compliance.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
 
 namespace brainshift::core {
 
@@ -42,7 +42,8 @@ double relative_residual(const Eigen::VectorXd& r_free, const Eigen::VectorXd& f
 /// Empty when the Dirichlet nodes contain three non-collinear nodes (no rigid mode survives in
 /// a connected mesh), else the reason.
 std::string rigid_mode_issue(const TetMesh& mesh, const std::vector<index_t>& dirichlet_nodes) {
-  const double size = (mesh.nodes().colwise().maxCoeff() - mesh.nodes().colwise().minCoeff()).norm();
+  const double size =
+      (mesh.nodes().colwise().maxCoeff() - mesh.nodes().colwise().minCoeff()).norm();
   // Collinearity threshold: area of the triangle relative to size², far above rounding.
   const double area_floor = 1e-10 * size * size;
   const auto describe = [&](const std::string& why) {
@@ -81,8 +82,8 @@ MatrixX3d initial_positions(const TetMesh& mesh, const DofMap& dofs,
     BS_VERIFY(dofs.is_fixed_node(p.node),
               "node " << p.node << " has a prescribed displacement but is not a Dirichlet node");
     BS_VERIFY(p.displacement.allFinite(), "prescribed displacement of node "
-                                              << p.node << " is not finite: "
-                                              << p.displacement.transpose());
+                                              << p.node
+                                              << " is not finite: " << p.displacement.transpose());
     x.row(p.node) = mesh.nodes().row(p.node) + p.displacement.transpose();
   }
   return x;
@@ -125,10 +126,14 @@ std::string StaticOptions::validate() const {
 
 std::string to_string(SolveStatus status) {
   switch (status) {
-    case SolveStatus::CONVERGED: return "converged";
-    case SolveStatus::MAX_ITERATIONS: return "max iterations";
-    case SolveStatus::DIVERGED: return "diverged";
-    case SolveStatus::FACTOR_FAILED: return "factorisation failed";
+    case SolveStatus::CONVERGED:
+      return "converged";
+    case SolveStatus::MAX_ITERATIONS:
+      return "max iterations";
+    case SolveStatus::DIVERGED:
+      return "diverged";
+    case SolveStatus::FACTOR_FAILED:
+      return "factorisation failed";
   }
   BS_UNREACHABLE();
 }
@@ -144,9 +149,10 @@ StaticSolver::StaticSolver(const TetMesh& mesh, const std::vector<index_t>& diri
   const SparseMatrix K0_ff = m_dofs.restrict(assemble_rest_stiffness(m_model));
   const FactorStatus status = m_factor.compute(K0_ff);
   if (status != FactorStatus::OK) {
-    logger().warn("static solver: K0 restricted to {} free DOFs ({} Dirichlet nodes) could not "
-                  "be factorised: {}",
-                  m_dofs.num_free(), dirichlet_nodes.size(), m_factor.message());
+    logger().warn(
+        "static solver: K0 restricted to {} free DOFs ({} Dirichlet nodes) could not "
+        "be factorised: {}",
+        m_dofs.num_free(), dirichlet_nodes.size(), m_factor.message());
   }
 }
 
@@ -196,11 +202,10 @@ StaticResult StaticSolver::solve(const std::vector<PrescribedDisplacement>& pres
     const double residual = relative_residual(m_dofs.restrict(r), f_ext, f_int);
     const Eigen::VectorXd dx = compliance.apply(r);
     const double increment = max_nodal_norm(dx);
-    if (!std::isfinite(increment) ||
-        (it > 1 && increment > divergence_growth * first_increment)) {
+    if (!std::isfinite(increment) || (it > 1 && increment > divergence_growth * first_increment)) {
       std::ostringstream msg;
-      msg << "diverged at iteration " << it << ": increment " << increment
-          << " mm (first " << first_increment << " mm); returning the last finite iterate";
+      msg << "diverged at iteration " << it << ": increment " << increment << " mm (first "
+          << first_increment << " mm); returning the last finite iterate";
       result.status = SolveStatus::DIVERGED;
       result.message = msg.str();
       stopped = true;
@@ -212,9 +217,10 @@ StaticResult StaticSolver::solve(const std::vector<PrescribedDisplacement>& pres
     result.final_increment = increment;
     result.increment_history.push_back(increment);
     const double scale = std::max(1.0, (x - mesh.nodes()).rowwise().norm().maxCoeff());
-    logger().debug("static solve: iteration {} increment {:.3e} mm (tolerance {:.3e} mm), "
-                   "residual before step {:.3e}",
-                   it, increment, options.increment_tolerance * scale, residual);
+    logger().debug(
+        "static solve: iteration {} increment {:.3e} mm (tolerance {:.3e} mm), "
+        "residual before step {:.3e}",
+        it, increment, options.increment_tolerance * scale, residual);
     if (!options.corotational) {
       result.status = SolveStatus::CONVERGED;
       result.message = "linear FEM: one solve with K0";

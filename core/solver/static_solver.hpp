@@ -5,13 +5,13 @@
 /// warped pre-factorised rest stiffness) until the increment is below a tolerance. At small strain
 /// the first iteration is the linear FEM solution.
 
-#include <string>
-#include <vector>
-
 #include "core/assembly/dof_map.hpp"
 #include "core/config.hpp"
 #include "core/fem/corotational.hpp"
 #include "core/solver/cholmod_factor.hpp"
+
+#include <string>
+#include <vector>
 
 namespace brainshift::core {
 
@@ -22,34 +22,34 @@ struct PrescribedDisplacement {
 };
 
 struct StaticOptions {
-  int max_iterations = 200;            ///< cap on corotational iterations
-  double increment_tolerance = 1e-6;   ///< stop when max nodal |Δx| < this × max(1 mm, max |u|)
-  Vector3d gravity = Vector3d::Zero(); ///< body acceleration, mm/s² (e.g. (0, 0, −9810))
-  double density = 1040e-9;            ///< kg/mm³ (brain ≈ 1040 kg/m³)
-  bool corotational = true;            ///< false: plain linear FEM (one solve, no rotations)
+  int max_iterations = 200;             ///< cap on corotational iterations
+  double increment_tolerance = 1e-6;    ///< stop when max nodal |Δx| < this × max(1 mm, max |u|)
+  Vector3d gravity = Vector3d::Zero();  ///< body acceleration, mm/s² (e.g. (0, 0, −9810))
+  double density = 1040e-9;             ///< kg/mm³ (brain ≈ 1040 kg/m³)
+  bool corotational = true;             ///< false: plain linear FEM (one solve, no rotations)
   /// Empty when valid, else the reason.
   [[nodiscard]] std::string validate() const;
 };
 
 enum class SolveStatus {
   CONVERGED,
-  MAX_ITERATIONS,   ///< cap reached; result is the last finite iterate
-  DIVERGED,         ///< the increment grew without bound or became non-finite; last finite iterate
-  FACTOR_FAILED,    ///< K0_ff could not be factorised (under-constrained model)
+  MAX_ITERATIONS,  ///< cap reached; result is the last finite iterate
+  DIVERGED,        ///< the increment grew without bound or became non-finite; last finite iterate
+  FACTOR_FAILED,   ///< K0_ff could not be factorised (under-constrained model)
 };
 std::string to_string(SolveStatus status);
 
 struct StaticResult {
   SolveStatus status = SolveStatus::FACTOR_FAILED;
-  std::string message;                  ///< one line: why it stopped
-  MatrixX3d displacement;               ///< #N×3, mm
+  std::string message;     ///< one line: why it stopped
+  MatrixX3d displacement;  ///< #N×3, mm
   int iterations = 0;
-  double final_increment = 0.0;         ///< max nodal |Δx| of the last iteration, mm
+  double final_increment = 0.0;  ///< max nodal |Δx| of the last iteration, mm
   /// ‖f_ext − f_int‖ on free DOFs / ‖f_ext,total‖, dimensionless; the total load is
   /// max(‖f_ext‖, ‖f_int‖) over all DOFs, so the reactions of the Dirichlet nodes count.
   double final_residual = 0.0;
   std::vector<double> increment_history;
-  index_t inverted_elements = 0;        ///< in the final configuration
+  index_t inverted_elements = 0;  ///< in the final configuration
 };
 
 /// Prepared forward solver: K0 assembled, Dirichlet nodes eliminated, CHOLMOD factor computed

@@ -4,11 +4,11 @@
 /// intra-operative path is C(R) = R K0⁻¹ Rᵀ, with R = diag(R_1 … R_N) the nodal rotations and
 /// K0⁻¹ the inverse of the rest stiffness with Dirichlet DOFs eliminated (zero rows/columns there).
 
-#include <vector>
-
 #include "core/assembly/dof_map.hpp"
 #include "core/config.hpp"
 #include "core/solver/cholmod_factor.hpp"
+
+#include <vector>
 
 namespace brainshift::core {
 

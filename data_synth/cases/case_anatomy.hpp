@@ -4,16 +4,16 @@
 /// (from CaseParameters::geometry) or a label volume (label_case.hpp). Everything the case
 /// writer needs to know about it, in world RAS mm.
 
-#include <functional>
-#include <optional>
-
-#include <nlohmann/json.hpp>
-
 #include "data_synth/cases/case_catalog.hpp"
 #include "data_synth/geometry/brain_shape.hpp"
 #include "data_synth/geometry/phantom_mesh.hpp"
 #include "data_synth/truth/tled_solver.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <functional>
+#include <optional>
 
 namespace brainshift::data_synth {
 

@@ -1,15 +1,15 @@
 #include "data_synth/cases/case_catalog.hpp"
 
-#include <sstream>
-
 #include "core/error.hpp"
+
+#include <sstream>
 
 namespace brainshift::data_synth {
 
 std::vector<std::string> case_names() {
-  return {"standard",       "large_shift",    "deep_tumour_one_side_vessels",
-          "noisy_doppler",  "tracking_error", "sparse_vessels",
-          "resection",      "thin_structures", "offset_12mm",
+  return {"standard",      "large_shift",     "deep_tumour_one_side_vessels",
+          "noisy_doppler", "tracking_error",  "sparse_vessels",
+          "resection",     "thin_structures", "offset_12mm",
           "offset_20mm"};
 }
 
@@ -28,8 +28,8 @@ CaseParameters named_case(const std::string& name, std::uint32_t seed) {
   if (name == "standard" || name == "thin_structures") {
     p.thin_structures = name == "thin_structures";
   } else if (name == "large_shift") {
-    p.mesh.brain_youngs_modulus = 0.6;       // kPa: 40 % of the default
-    p.load.drain_depth = 200.0;              // fully drained
+    p.mesh.brain_youngs_modulus = 0.6;  // kPa: 40 % of the default
+    p.load.drain_depth = 200.0;         // fully drained
     p.load.gravity_direction = {-0.3, 0.0, -1.0};
   } else if (name == "deep_tumour_one_side_vessels") {
     p.geometry.tumour_offset = {18.0, 8.0, 8.0};
@@ -43,15 +43,16 @@ CaseParameters named_case(const std::string& name, std::uint32_t seed) {
     p.doppler.clutter_sigma = 12.0;
     p.doppler.blur_sigma = 1.0;
   } else if (name == "tracking_error") {
-    p.tracking.translation = Vector3d(2.0, -1.5, 1.5);  // |t| ≈ 2.9 mm
+    p.tracking.translation = Vector3d(2.0, -1.5, 1.5);   // |t| ≈ 2.9 mm
     p.tracking.rotation_deg = Vector3d(2.0, -1.5, 1.5);  // ≈ 2.9°
   } else if (name == "offset_12mm" || name == "offset_20mm") {
     // The standard sag seen through a large rigid tracking offset (RESECT: 1–20 mm, mostly
     // rigid), in the direction of tracking_error's: 12 mm / 3° or 20 mm / 4°.
     const bool big = name == "offset_20mm";
     const Vector3d dir = Vector3d(2.0, -1.5, 1.5).normalized();
-    p.tracking.translation = (big ? 20.0 : 12.0) * dir;   // mm
-    p.tracking.rotation_deg = (big ? 4.0 : 3.0) * dir;    // degrees (Z·Y·X angles ≈ a rotation vector)
+    p.tracking.translation = (big ? 20.0 : 12.0) * dir;  // mm
+    p.tracking.rotation_deg =
+        (big ? 4.0 : 3.0) * dir;    // degrees (Z·Y·X angles ≈ a rotation vector)
     p.truth_in_image_frame = true;  // an offset to recover, truth where the images put it (RESECT)
   } else if (name == "sparse_vessels") {
     p.vessels.cortical_trees = 1;

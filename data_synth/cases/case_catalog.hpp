@@ -16,10 +16,6 @@
 /// | offset_12mm                   | standard seen through a 12 mm / 3° tracking offset         |
 /// | offset_20mm                   | standard seen through a 20 mm / 4° tracking offset         |
 
-#include <cstdint>
-#include <string>
-#include <vector>
-
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "data_synth/geometry/phantom_mesh.hpp"
 #include "data_synth/images/preop_images.hpp"
@@ -28,6 +24,10 @@
 #include "data_synth/truth/brain_sag.hpp"
 #include "data_synth/truth/tled_solver.hpp"
 #include "data_synth/vessels/vessel_tree.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
 
 namespace brainshift::data_synth {
 
@@ -48,8 +48,8 @@ struct CaseParameters {
   /// Thin structures in the pre-operative labels (not in the truth mechanics, whose mesh cannot
   /// resolve them): a ventricle horn of radius horn_radius and a one-voxel sulcus.
   bool thin_structures = false;
-  double horn_radius = 1.2;   ///< mm
-  double sulcus_depth = 15.0; ///< mm
+  double horn_radius = 1.2;    ///< mm
+  double sulcus_depth = 15.0;  ///< mm
   VesselTreeOptions vessels;
   MriOptions mri;
   MraOptions mra;

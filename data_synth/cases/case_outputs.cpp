@@ -1,10 +1,10 @@
 #include "data_synth/cases/case_outputs.hpp"
 
-#include <string>
-
 #include "core/error.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/surface_io.hpp"
+
+#include <string>
 
 namespace brainshift::data_synth {
 
@@ -21,7 +21,8 @@ void write_landmarks_csv(const std::filesystem::path& path, const std::vector<Ve
 std::vector<Vector3d> read_landmarks_csv(const std::filesystem::path& path) {
   const imaging::Landmarks l = imaging::read_landmarks(path);
   std::vector<Vector3d> points;
-  for (Eigen::Index i = 0; i < l.points.rows(); ++i) points.emplace_back(l.points.row(i).transpose());
+  for (Eigen::Index i = 0; i < l.points.rows(); ++i)
+    points.emplace_back(l.points.row(i).transpose());
   return points;
 }
 

@@ -4,13 +4,13 @@
 /// surfaces (.vtp, world RAS mm) through imaging's readers and writers, plus the surface of a
 /// labelled region of the truth mesh (e.g. the ventricles, for Hausdorff distances).
 
-#include <cstdint>
-#include <filesystem>
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/mesh/boundary.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
 
 namespace brainshift::data_synth {
 

@@ -1,9 +1,9 @@
 #include "data_synth/cases/label_case.hpp"
 
-#include <memory>
-
 #include "core/error.hpp"
 #include "imaging/io/image_io.hpp"
+
+#include <memory>
 
 namespace brainshift::data_synth {
 namespace {
@@ -22,7 +22,8 @@ CaseParameters label_case_parameters(const LabelCaseRequest& r) {
 }
 
 CaseAnatomy label_case_anatomy(const LabelCaseRequest& r, const CaseParameters& p) {
-  BS_VERIFY(std::filesystem::is_regular_file(r.labels), "label file " << r.labels.string() << " does not exist");
+  BS_VERIFY(std::filesystem::is_regular_file(r.labels),
+            "label file " << r.labels.string() << " does not exist");
   const imaging::LabelVolume labels = imaging::read_labels(r.labels);
   LabelAnatomyOptions o;
   o.craniotomy = r.craniotomy;
@@ -31,7 +32,8 @@ CaseAnatomy label_case_anatomy(const LabelCaseRequest& r, const CaseParameters& 
   o.up = -p.load.gravity_direction;
   o.craniotomy_radius = p.geometry.craniotomy_radius;
   o.skull_gap = p.geometry.skull_gap;
-  const auto a = std::make_shared<const LabelAnatomy>(make_label_anatomy(labels, o, r.labels.string()));
+  const auto a =
+      std::make_shared<const LabelAnatomy>(make_label_anatomy(labels, o, r.labels.string()));
 
   CaseAnatomy an;
   an.shape = a->shape();
@@ -55,18 +57,21 @@ CaseAnatomy label_case_anatomy(const LabelCaseRequest& r, const CaseParameters& 
       {"craniotomy_placement",
        to_string(a->craniotomy_placement) +
            (a->craniotomy_placement == Placement::DEFAULT
-                ? ": the hull point furthest along -gravity tilted 25 deg toward +R" : "")},
+                ? ": the hull point furthest along -gravity tilted 25 deg toward +R"
+                : "")},
       {"craniotomy_radius_mm", a->craniotomy_radius},
       {"skull_gap_mm", a->skull_gap},
-      {"fixed_base", "boundary nodes within " + std::to_string(int(a->base_height)) + " mm of the lowest (S)"},
+      {"fixed_base",
+       "boundary nodes within " + std::to_string(int(a->base_height)) + " mm of the lowest (S)"},
       {"fixed_base_nodes", an.mesh.base_nodes.size()}};
   return an;
 }
 
 CaseSummary generate_label_case(const LabelCaseRequest& request, const CaseOptions& options) {
   check_case_options(options);
-  BS_VERIFY(!options.user_vessels, "--vessels cannot be combined with --labels (the user tree is placed into the "
-                                   "analytic phantom only)");
+  BS_VERIFY(!options.user_vessels,
+            "--vessels cannot be combined with --labels (the user tree is placed into the "
+            "analytic phantom only)");
   const CaseParameters p = label_case_parameters(request);
   return generate_case(p, label_case_anatomy(request, p), options);
 }

@@ -7,24 +7,24 @@
 /// labels file, the hull, and where the craniotomy and the tumour came from (given, from the
 /// labels, or default) — see label_anatomy.hpp.
 
+#include "data_synth/cases/case_anatomy.hpp"
+#include "data_synth/cases/phantom_case.hpp"
+#include "data_synth/geometry/label_anatomy.hpp"
+
 #include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
 
-#include "data_synth/cases/case_anatomy.hpp"
-#include "data_synth/cases/phantom_case.hpp"
-#include "data_synth/geometry/label_anatomy.hpp"
-
 namespace brainshift::data_synth {
 
 struct LabelCaseRequest {
-  std::filesystem::path labels;            ///< label volume (0/1/2/3), world RAS
-  std::string case_name = "standard";      ///< the recipe: one of case_names()
+  std::filesystem::path labels;        ///< label volume (0/1/2/3), world RAS
+  std::string case_name = "standard";  ///< the recipe: one of case_names()
   std::uint32_t seed = 1;
-  std::optional<Vector3d> craniotomy;      ///< near the brain surface, mm (default: label_anatomy.hpp)
-  std::optional<Vector3d> tumour_center;   ///< inside the brain, mm
-  std::optional<double> tumour_radius;     ///< mm
+  std::optional<Vector3d> craniotomy;  ///< near the brain surface, mm (default: label_anatomy.hpp)
+  std::optional<Vector3d> tumour_center;  ///< inside the brain, mm
+  std::optional<double> tumour_radius;    ///< mm
   /// Truth mesh cell, mm. prepare's clinical model has edges of ~10 mm; 5 mm keeps the truth
   /// mesh independent and finer (≈ 15k nodes on an adult brain).
   double cell_size = 5.0;

@@ -1,14 +1,5 @@
 #include "data_synth/cases/phantom_case.hpp"
 
-#include <nlohmann/json.hpp>
-
-#include <chrono>
-#include <fstream>
-#include <iomanip>
-#include <memory>
-#include <random>
-#include <sstream>
-
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "data_synth/cases/case_anatomy.hpp"
@@ -17,6 +8,15 @@
 #include "data_synth/vessels/tree_graph.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/skeleton_io.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <fstream>
+#include <iomanip>
+#include <memory>
+#include <random>
+#include <sstream>
 
 namespace brainshift::data_synth {
 namespace {
@@ -47,7 +47,8 @@ TruthState solve_truth(const CaseParameters& p, const CaseAnatomy& an, const Tle
   const PhantomMesh& pm = an.mesh;
   TledProblem problem;
   problem.external_force = sag_nodal_force(pm.mesh, load);
-  for (const index_t i : pm.base_nodes) problem.constraints.push_back({i, {true, true, true}, Vector3d::Zero()});
+  for (const index_t i : pm.base_nodes)
+    problem.constraints.push_back({i, {true, true, true}, Vector3d::Zero()});
   problem.contact = an.contact;
   problem.contact->candidate_nodes = pm.surface_nodes;
   TruthState s;
@@ -77,10 +78,11 @@ VesselTree deformed(const VesselTree& tree, const TruthField& field) {
   return out;
 }
 
-/// Landmarks (rest positions): tree bifurcations that land in the field of view, then points around the tumour along ±R, ±A, ±S.
-std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const CaseAnatomy& an, const VesselTree& tree,
-                                       const TruthField& field, const Probe& probe,
-                                       index_t& vessel_count) {
+/// Landmarks (rest positions): tree bifurcations that land in the field of view, then points around
+/// the tumour along ±R, ±A, ±S.
+std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const CaseAnatomy& an,
+                                       const VesselTree& tree, const TruthField& field,
+                                       const Probe& probe, index_t& vessel_count) {
   std::vector<Vector3d> out;
   for (const index_t b : tree.bifurcations()) {
     const Vector3d X = tree.points[std::size_t(b)];
@@ -136,7 +138,8 @@ json to_json(const ShiftStats& s) {
 
 /// Intra-operative truth points in the frame the case writes them in (CaseParameters::
 /// truth_in_image_frame): the world, or that of the intra-operative images (tracking applied).
-std::vector<Vector3d> in_truth_frame(const CaseParameters& p, const Probe& probe, std::vector<Vector3d> x) {
+std::vector<Vector3d> in_truth_frame(const CaseParameters& p, const Probe& probe,
+                                     std::vector<Vector3d> x) {
   if (p.truth_in_image_frame)
     for (Vector3d& q : x) q = p.tracking.apply(q, probe.face_center);
   return x;
@@ -158,39 +161,47 @@ void write_ultrasound(const CaseParameters& p, const CaseAnatomy& an, const Vess
 }
 
 json parameters_json(const CaseParameters& p, const CaseAnatomy& an) {
-  return {
-      {"geometry", an.geometry},
-      {"truth_mesh",
-       {{"cell_size_mm", p.mesh.cell_size}, {"brain_youngs_modulus_kPa", p.mesh.brain_youngs_modulus},
-        {"tumour_youngs_modulus_kPa", p.mesh.tumour_youngs_modulus},
-        {"poisson_ratio", p.mesh.poisson_ratio}, {"resection", p.resection},
-        {"cavity_youngs_modulus_kPa", p.cavity_youngs_modulus}}},
-      {"load",
-       {{"gravity_direction", to_json(p.load.gravity_direction.normalized())},
-        {"drain_depth_mm", p.load.drain_depth}, {"load_scale", p.load.load_scale}}},
-      {"vessels",
-       {{"cortical_trees", p.vessels.cortical_trees}, {"one_side", p.vessels.one_side},
-        {"deep_branches", p.vessels.deep_branches},
-        {"generations", {p.vessels.min_generations, p.vessels.max_generations}}}},
-      {"probe",
-       {{"half_angle_deg", p.probe.half_angle_deg}, {"depth_mm", p.probe.depth},
-        {"footprint_radius_mm", p.probe.footprint_radius}, {"spacing_mm", p.probe.spacing}}},
-      {"doppler",
-       {{"dropout", p.doppler.dropout}, {"speckle_shape", p.doppler.speckle_shape},
-        {"spurious_blobs", p.doppler.spurious_blobs}, {"blur_sigma_mm", p.doppler.blur_sigma}}},
-      {"tracking_error",
-       {{"translation_mm", to_json(p.tracking.translation)},
-        {"rotation_deg", to_json(p.tracking.rotation_deg)},
-        {"truth_in_image_frame", p.truth_in_image_frame}}},
-      {"thin_structures", p.thin_structures},
-      {"preop_spacing_mm", p.preop_spacing}};
+  return {{"geometry", an.geometry},
+          {"truth_mesh",
+           {{"cell_size_mm", p.mesh.cell_size},
+            {"brain_youngs_modulus_kPa", p.mesh.brain_youngs_modulus},
+            {"tumour_youngs_modulus_kPa", p.mesh.tumour_youngs_modulus},
+            {"poisson_ratio", p.mesh.poisson_ratio},
+            {"resection", p.resection},
+            {"cavity_youngs_modulus_kPa", p.cavity_youngs_modulus}}},
+          {"load",
+           {{"gravity_direction", to_json(p.load.gravity_direction.normalized())},
+            {"drain_depth_mm", p.load.drain_depth},
+            {"load_scale", p.load.load_scale}}},
+          {"vessels",
+           {{"cortical_trees", p.vessels.cortical_trees},
+            {"one_side", p.vessels.one_side},
+            {"deep_branches", p.vessels.deep_branches},
+            {"generations", {p.vessels.min_generations, p.vessels.max_generations}}}},
+          {"probe",
+           {{"half_angle_deg", p.probe.half_angle_deg},
+            {"depth_mm", p.probe.depth},
+            {"footprint_radius_mm", p.probe.footprint_radius},
+            {"spacing_mm", p.probe.spacing}}},
+          {"doppler",
+           {{"dropout", p.doppler.dropout},
+            {"speckle_shape", p.doppler.speckle_shape},
+            {"spurious_blobs", p.doppler.spurious_blobs},
+            {"blur_sigma_mm", p.doppler.blur_sigma}}},
+          {"tracking_error",
+           {{"translation_mm", to_json(p.tracking.translation)},
+            {"rotation_deg", to_json(p.tracking.rotation_deg)},
+            {"truth_in_image_frame", p.truth_in_image_frame}}},
+          {"thin_structures", p.thin_structures},
+          {"preop_spacing_mm", p.preop_spacing}};
 }
 
 fs::path temporary_sibling(const fs::path& dir) {
   std::random_device rd;
   for (int attempt = 0; attempt < 100; ++attempt) {
     std::ostringstream name;
-    name << dir.filename().string() << ".tmp-" << std::setw(6) << std::setfill('0') << rd() % 1000000;
+    name << dir.filename().string() << ".tmp-" << std::setw(6) << std::setfill('0')
+         << rd() % 1000000;
     const fs::path tmp = dir.parent_path() / name.str();
     if (!fs::exists(tmp)) return tmp;
   }
@@ -198,7 +209,8 @@ fs::path temporary_sibling(const fs::path& dir) {
 }
 
 /// Everything of one case into `root` (a fresh folder).
-CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const CaseOptions& o, const fs::path& root) {
+CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const CaseOptions& o,
+                       const fs::path& root) {
   const auto t0 = Clock::now();
   CaseSummary summary;
   summary.name = p.name;
@@ -208,8 +220,10 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
   say(o, "vessels");
   VesselTree tree;
   if (o.user_vessels) {
-    BS_VERIFY(an.analytic, "a user vessel tree (--vessels) can only be placed into the analytic phantom");
-    tree = place_user_tree(from_vessel_graph(imaging::read_skeleton_vtp(*o.user_vessels)), *an.analytic);
+    BS_VERIFY(an.analytic,
+              "a user vessel tree (--vessels) can only be placed into the analytic phantom");
+    tree = place_user_tree(from_vessel_graph(imaging::read_skeleton_vtp(*o.user_vessels)),
+                           *an.analytic);
   } else {
     tree = make_vessel_tree(an.shape, p.vessels);
   }
@@ -241,11 +255,13 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
   summary.landmarks = index_t(pre.size());
   write_landmarks_csv(root / "truth/landmarks_preop.csv", pre);
   write_landmarks_csv(root / "truth/landmarks_intraop.csv", in_truth_frame(p, probe, intra));
-  const core::BoundarySurface ventricles = region_surface(pm.mesh, pm.tet_labels, imaging::VENTRICLES);
+  const core::BoundarySurface ventricles =
+      region_surface(pm.mesh, pm.tet_labels, imaging::VENTRICLES);
   MatrixX3d moved = ventricles.vertices;
   for (index_t v = 0; v < moved.rows(); ++v) {
     moved.row(v) += truth.result.displacement.row(ventricles.node_of_vertex[std::size_t(v)]);
-    if (p.truth_in_image_frame) moved.row(v) = p.tracking.apply(moved.row(v).transpose(), probe.face_center).transpose();
+    if (p.truth_in_image_frame)
+      moved.row(v) = p.tracking.apply(moved.row(v).transpose(), probe.face_center).transpose();
   }
   write_surface_vtp(root / "truth/ventricles_preop.vtp", ventricles.vertices, ventricles.faces);
   write_surface_vtp(root / "truth/ventricles_intraop.vtp", moved, ventricles.faces);
@@ -271,7 +287,8 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
     write_landmarks_csv(dir / "landmarks_intraop.csv", in_truth_frame(p, frame_probe, x));
     const ShiftStats s = shift_stats(an, field.nodal_displacement(), pre, x);
     summary.frames.push_back(s);
-    frames.push_back({{"frame", k - 1}, {"drain_depth_mm", load.drain_depth}, {"stats", to_json(s)}});
+    frames.push_back(
+        {{"frame", k - 1}, {"drain_depth_mm", load.drain_depth}, {"stats", to_json(s)}});
   }
 
   summary.seconds = seconds_since(t0);
@@ -285,15 +302,20 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
       {"stats", to_json(summary.stats)},
       {"frames", frames},
       {"truth_solver",
-       {{"status", to_string(truth.result.status)}, {"message", truth.result.message},
-        {"iterations", truth.result.iterations}, {"nodes", pm.mesh.num_nodes()},
-        {"tets", pm.mesh.num_tets()}, {"seconds", solve_seconds},
+       {{"status", to_string(truth.result.status)},
+        {"message", truth.result.message},
+        {"iterations", truth.result.iterations},
+        {"nodes", pm.mesh.num_nodes()},
+        {"tets", pm.mesh.num_tets()},
+        {"seconds", solve_seconds},
         {"min_jacobian", truth.result.min_jacobian}}},
       {"probe",
        {{"face_center_mm", to_json(probe.face_center)}, {"axis", to_json(probe.frame.col(2))}}},
       {"counts",
-       {{"landmarks", summary.landmarks}, {"vessel_landmarks", summary.vessel_landmarks},
-        {"vessel_points", summary.vessel_points}, {"bifurcations", tree.bifurcations().size()},
+       {{"landmarks", summary.landmarks},
+        {"vessel_landmarks", summary.vessel_landmarks},
+        {"vessel_points", summary.vessel_points},
+        {"bifurcations", tree.bifurcations().size()},
         {"max_generation", tree.max_generation()}}},
       {"seconds", summary.seconds}};
   std::ofstream(root / "case.json") << doc.dump(2) << '\n';
@@ -324,11 +346,15 @@ CaseAnatomy analytic_anatomy(const CaseParameters& p) {
   an.contact.skull = g.skull();
   an.contact.opening_center = g.craniotomy_center_on_skull();
   an.contact.opening_radius = g.craniotomy_radius;
-  an.geometry = {{"center_mm", to_json(g.center)}, {"semi_axes_mm", to_json(g.semi_axes)},
-                 {"base_depth", g.base_depth}, {"tumour_center_mm", to_json(g.tumour_center())},
-                 {"tumour_radius_mm", g.tumour_radius}, {"ventricle_scale", g.ventricle_scale},
+  an.geometry = {{"center_mm", to_json(g.center)},
+                 {"semi_axes_mm", to_json(g.semi_axes)},
+                 {"base_depth", g.base_depth},
+                 {"tumour_center_mm", to_json(g.tumour_center())},
+                 {"tumour_radius_mm", g.tumour_radius},
+                 {"ventricle_scale", g.ventricle_scale},
                  {"craniotomy_center_mm", to_json(g.craniotomy_center_on_brain())},
-                 {"craniotomy_radius_mm", g.craniotomy_radius}, {"skull_gap_mm", g.skull_gap}};
+                 {"craniotomy_radius_mm", g.craniotomy_radius},
+                 {"skull_gap_mm", g.skull_gap}};
   an.analytic = g;
   return an;
 }
@@ -345,7 +371,8 @@ imaging::LabelVolume case_labels(const CaseParameters& p) {
   const Vector3d a = v.center + Vector3d(0.0, 0.9 * v.semi_axes.y(), 0.0);
   const Vector3d b = a + Vector3d(0.0, 25.0, -5.0);
   // Sulcus: the one-voxel slab through the voxel column nearest to 30 mm left of the centre.
-  const int sulcus_i = int(std::lround(g.world_to_index(p.geometry.center - Vector3d(30.0, 0, 0)).x()));
+  const int sulcus_i =
+      int(std::lround(g.world_to_index(p.geometry.center - Vector3d(30.0, 0, 0)).x()));
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i) {
@@ -353,7 +380,8 @@ imaging::LabelVolume case_labels(const CaseParameters& p) {
         if (l != imaging::BRAIN) continue;
         const Vector3d x = g.index_to_world(Vector3d(i, j, k));
         const double t = std::clamp((x - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
-        if ((x - (a + t * (b - a))).norm() <= p.horn_radius) l = imaging::VENTRICLES;
+        if ((x - (a + t * (b - a))).norm() <= p.horn_radius)
+          l = imaging::VENTRICLES;
         else if (i == sulcus_i && (brain.closest_point(x) - x).norm() <= p.sulcus_depth)
           l = imaging::BACKGROUND;
       }
@@ -382,7 +410,8 @@ void check_case_options(const CaseOptions& options) {
               "vessel file " << options.user_vessels->string() << " does not exist");
 }
 
-CaseSummary generate_case(const CaseParameters& parameters, const CaseAnatomy& anatomy, const CaseOptions& options) {
+CaseSummary generate_case(const CaseParameters& parameters, const CaseAnatomy& anatomy,
+                          const CaseOptions& options) {
   check_case_options(options);
   const fs::path dir = fs::absolute(options.out);
   const fs::path tmp = temporary_sibling(dir);

@@ -18,14 +18,14 @@
 /// u interpolated in the rest truth mesh. The folder appears complete or not at all: everything
 /// is written into DIR.tmp-NNNN next to DIR, which is then renamed.
 
+#include "data_synth/cases/case_catalog.hpp"
+
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include "data_synth/cases/case_catalog.hpp"
 
 namespace brainshift::data_synth {
 
@@ -52,14 +52,14 @@ struct ShiftStats {
 struct CaseSummary {
   std::string name;
   std::uint32_t seed = 0;
-  ShiftStats stats;                  ///< of the final (full-load) state
-  std::vector<ShiftStats> frames;    ///< per frame, when frames > 0
+  ShiftStats stats;                ///< of the final (full-load) state
+  std::vector<ShiftStats> frames;  ///< per frame, when frames > 0
   TledStatus solver_status = TledStatus::DIVERGED;
   std::string solver_message;
-  index_t landmarks = 0;             ///< how many (vessel bifurcations in the field of view + deep)
+  index_t landmarks = 0;  ///< how many (vessel bifurcations in the field of view + deep)
   index_t vessel_landmarks = 0;
   index_t vessel_points = 0;
-  double seconds = 0.0;              ///< wall time of the whole generation
+  double seconds = 0.0;  ///< wall time of the whole generation
 };
 
 /// Generates the named case for `seed` into options.out.

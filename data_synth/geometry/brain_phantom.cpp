@@ -1,10 +1,10 @@
 #include "data_synth/geometry/brain_phantom.hpp"
 
+#include "core/error.hpp"
+
 #include <cmath>
 #include <numbers>
 #include <sstream>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -89,8 +89,10 @@ PhantomVolumes analytic_volumes(const PhantomGeometry& g) {
 
 std::string PhantomImageOptions::validate() const {
   std::ostringstream s;
-  if (!(spacing > 0.0)) s << "image spacing must be positive, got " << spacing << " mm";
-  else if (!(margin >= 0.0)) s << "image margin must be >= 0, got " << margin << " mm";
+  if (!(spacing > 0.0))
+    s << "image spacing must be positive, got " << spacing << " mm";
+  else if (!(margin >= 0.0))
+    s << "image margin must be >= 0, got " << margin << " mm";
   else if (!direction.allFinite() ||
            !(direction.transpose() * direction).isApprox(Matrix3d::Identity(), 1e-9) ||
            direction.determinant() < 0.0)

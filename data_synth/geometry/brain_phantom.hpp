@@ -8,11 +8,11 @@
 /// Labels (imaging::Label): 0 background, 1 brain, 2 tumour, 3 ventricles (CSF). The tumour and
 /// the ventricles are labelled only inside the brain; the tumour wins over the ventricles.
 
-#include <string>
-
 #include "core/config.hpp"
 #include "data_synth/geometry/ellipsoid.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <string>
 
 namespace brainshift::data_synth {
 
@@ -31,10 +31,10 @@ struct PhantomGeometry {
   double tumour_radius = 12.0;               ///< mm, > 0
   /// Lateral ventricles: two ellipsoids at center + (±ventricle_spacing/2, 0, 0) + ventricle_offset
   /// with semi-axes ventricle_semi_axes · ventricle_scale.
-  Vector3d ventricle_offset{0.0, 0.0, 8.0};       ///< mm
-  Vector3d ventricle_semi_axes{5.0, 22.0, 9.0};   ///< at scale 1, mm
-  double ventricle_spacing = 20.0;                ///< distance between the two centres, mm
-  double ventricle_scale = 1.0;                   ///< dimensionless, ≥ 0 (0: no ventricles)
+  Vector3d ventricle_offset{0.0, 0.0, 8.0};      ///< mm
+  Vector3d ventricle_semi_axes{5.0, 22.0, 9.0};  ///< at scale 1, mm
+  double ventricle_spacing = 20.0;               ///< distance between the two centres, mm
+  double ventricle_scale = 1.0;                  ///< dimensionless, ≥ 0 (0: no ventricles)
   /// Craniotomy centre: where the ray center + s·direction (s > 0) meets the brain surface
   /// (default: superior, over the right hemisphere).
   Vector3d craniotomy_direction{0.45, 0.35, 1.0};

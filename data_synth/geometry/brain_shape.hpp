@@ -4,11 +4,11 @@
 /// a phantom's brain, independent of how the brain is described (the analytic ellipsoid of
 /// PhantomGeometry, or a label volume: label_anatomy.hpp). World RAS mm throughout.
 
-#include <functional>
-
 #include "core/config.hpp"
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <functional>
 
 namespace brainshift::data_synth {
 

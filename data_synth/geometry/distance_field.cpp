@@ -1,10 +1,10 @@
 #include "data_synth/geometry/distance_field.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include "core/error.hpp"
 #include "imaging/vessels/distance_transform.hpp"
+
+#include <algorithm>
+#include <cmath>
 
 namespace brainshift::data_synth {
 namespace {
@@ -46,14 +46,19 @@ double DistanceField::value(const Vector3d& x) const {
   const Vector3d hi = (g.size - Eigen::Vector3i::Ones()).cast<double>();
   const Vector3d c = ijk.cwiseMax(Vector3d::Zero()).cwiseMin(hi);
   const double outside = (ijk - c).cwiseProduct(g.spacing).norm();
-  const Eigen::Vector3i i0 = c.array().floor().cast<int>().min((g.size - Eigen::Vector3i::Constant(2)).array().max(0)).matrix();
+  const Eigen::Vector3i i0 = c.array()
+                                 .floor()
+                                 .cast<int>()
+                                 .min((g.size - Eigen::Vector3i::Constant(2)).array().max(0))
+                                 .matrix();
   const Vector3d f = c - i0.cast<double>();
   double v = 0.0;
   for (int corner = 0; corner < 8; ++corner) {
     const int dx = corner & 1, dy = (corner >> 1) & 1, dz = (corner >> 2) & 1;
     const int i = std::min(i0.x() + dx, g.size.x() - 1), j = std::min(i0.y() + dy, g.size.y() - 1),
               k = std::min(i0.z() + dz, g.size.z() - 1);
-    const double w = (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
+    const double w =
+        (dx ? f.x() : 1.0 - f.x()) * (dy ? f.y() : 1.0 - f.y()) * (dz ? f.z() : 1.0 - f.z());
     v += w * double(m_phi.at(i, j, k));
   }
   return v + outside;
@@ -94,7 +99,8 @@ DistanceField signed_distance(const imaging::LabelVolume& mask, double padding) 
   const double half = 0.5 * mask.geometry.spacing.minCoeff();
   imaging::VolumeF phi(in.geometry, 1, 0.0F);
   for (std::size_t v = 0; v < phi.data.size(); ++v)
-    phi.data[v] = in.data[v] != 0 ? float(-(double(d_in.data[v]) - half)) : float(double(d_out.data[v]) - half);
+    phi.data[v] = in.data[v] != 0 ? float(-(double(d_in.data[v]) - half))
+                                  : float(double(d_out.data[v]) - half);
   return DistanceField(std::move(phi));
 }
 

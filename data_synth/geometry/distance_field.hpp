@@ -4,10 +4,10 @@
 /// values, finite-difference gradients, closest points on a level set. Used for surfaces that
 /// come from label volumes (the dura-like brain hull, the skull hull around it).
 
-#include <cstdint>
-
 #include "core/config.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
 
 namespace brainshift::data_synth {
 

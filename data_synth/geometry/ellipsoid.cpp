@@ -34,11 +34,17 @@ Vector3d Ellipsoid::closest_point(const Vector3d& x) const {
   double t = 0.0;
   for (int it = 0; it < 100; ++it) {
     const double gt = g(t);
-    if (gt > 0.0) lo = t; else hi = t;
+    if (gt > 0.0)
+      lo = t;
+    else
+      hi = t;
     const double d = dg(t);
     double next = (d < 0.0) ? t - gt / d : 0.5 * (lo + hi);
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::abs(next - t) <= 1e-14 * (1.0 + std::abs(t))) { t = next; break; }
+    if (std::abs(next - t) <= 1e-14 * (1.0 + std::abs(t))) {
+      t = next;
+      break;
+    }
     t = next;
   }
   Vector3d q = a2.cwiseProduct(p).array() / (a2.array() + t);

@@ -1,12 +1,12 @@
 #include "data_synth/geometry/label_anatomy.hpp"
 
-#include <cmath>
-#include <numbers>
-#include <sstream>
-
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "imaging/filters/gaussian.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <sstream>
 
 namespace brainshift::data_synth {
 namespace {
@@ -25,14 +25,16 @@ imaging::LabelVolume brain_mask(const imaging::LabelVolume& labels, const std::s
   std::int64_t brain = 0;
   for (std::size_t v = 0; v < labels.data.size(); ++v) {
     const std::uint8_t l = labels.data[v];
-    BS_VERIFY(l <= imaging::VENTRICLES, source << ": label " << int(l) << " at voxel " << v
-                                               << " is not one of 0 background, 1 brain, 2 tumour, 3 ventricles");
+    BS_VERIFY(l <= imaging::VENTRICLES,
+              source << ": label " << int(l) << " at voxel " << v
+                     << " is not one of 0 background, 1 brain, 2 tumour, 3 ventricles");
     if (l != imaging::BACKGROUND) {
       mask.data[v] = 1;
       ++brain;
     }
   }
-  BS_VERIFY(brain > 0, source << " has no brain: no voxel labelled 1 (brain), 2 (tumour) or 3 (ventricles)");
+  BS_VERIFY(brain > 0,
+            source << " has no brain: no voxel labelled 1 (brain), 2 (tumour) or 3 (ventricles)");
   return mask;
 }
 
@@ -69,16 +71,20 @@ Vector3d furthest_hull_point(const DistanceField& hull, const Vector3d& d) {
 
 std::string to_string(Placement p) {
   switch (p) {
-    case Placement::GIVEN: return "given";
-    case Placement::FROM_LABELS: return "from the labels";
-    case Placement::DEFAULT: return "default";
+    case Placement::GIVEN:
+      return "given";
+    case Placement::FROM_LABELS:
+      return "from the labels";
+    case Placement::DEFAULT:
+      return "default";
   }
   return "?";
 }
 
 imaging::Label LabelAnatomy::voxel_label(const Vector3d& x) const {
   const Vector3d ijk = labels.geometry.world_to_index(x);
-  const int i = int(std::lround(ijk.x())), j = int(std::lround(ijk.y())), k = int(std::lround(ijk.z()));
+  const int i = int(std::lround(ijk.x())), j = int(std::lround(ijk.y())),
+            k = int(std::lround(ijk.z()));
   if (!ijk.allFinite() || !labels.geometry.contains_index(i, j, k)) return imaging::BACKGROUND;
   return imaging::Label(labels.at(i, j, k));
 }
@@ -108,7 +114,8 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
   BS_VERIFY(o.up.allFinite() && o.up.norm() > 0.0, "the up direction must be finite and non-zero");
   BS_VERIFY(o.skull_gap >= 0.0 && o.closing_radius >= 0.0 && o.hull_smoothing >= 0.0 &&
                 o.craniotomy_radius > 0.0 && o.default_tumour_radius > 0.0 && o.base_height > 0.0,
-            "label anatomy options: skull_gap, closing_radius, hull_smoothing >= 0; radii and base_height > 0");
+            "label anatomy options: skull_gap, closing_radius, hull_smoothing >= 0; radii and "
+            "base_height > 0");
   const imaging::LabelVolume mask = brain_mask(labels, source);
   LabelAnatomy a;
   a.labels = labels;
@@ -137,8 +144,9 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
     BS_VERIFY(c.allFinite(), "craniotomy " << fmt(c) << " is not finite");
     const double d = a.hull->value(c);
     BS_VERIFY(std::abs(d) <= o.max_craniotomy_distance,
-              "craniotomy " << fmt(c) << " mm is outside the brain of " << source << ": " << std::abs(d)
-                            << " mm from its surface (at most " << o.max_craniotomy_distance << " mm)");
+              "craniotomy " << fmt(c) << " mm is outside the brain of " << source << ": "
+                            << std::abs(d) << " mm from its surface (at most "
+                            << o.max_craniotomy_distance << " mm)");
     a.craniotomy_center = a.hull->closest_point(c);
     a.craniotomy_placement = Placement::GIVEN;
   } else {
@@ -165,42 +173,54 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
     a.tumour_placement = Placement::GIVEN;
   } else if (tumour_voxels > 0) {
     a.tumour_center = sum / double(tumour_voxels);
-    a.tumour_radius = std::cbrt(3.0 * double(tumour_voxels) * voxel_ml * 1000.0 / (4.0 * std::numbers::pi));
+    a.tumour_radius =
+        std::cbrt(3.0 * double(tumour_voxels) * voxel_ml * 1000.0 / (4.0 * std::numbers::pi));
     a.tumour_placement = Placement::FROM_LABELS;
   } else {
     a.tumour_center = a.craniotomy_center - o.default_tumour_depth * a.craniotomy_normal;
     a.tumour_radius = o.tumour_radius.value_or(o.default_tumour_radius);
     a.tumour_placement = Placement::DEFAULT;
   }
-  BS_VERIFY(a.tumour_center.allFinite(), "tumour centre " << fmt(a.tumour_center) << " is not finite");
+  BS_VERIFY(a.tumour_center.allFinite(),
+            "tumour centre " << fmt(a.tumour_center) << " is not finite");
   BS_VERIFY(std::isfinite(a.tumour_radius) && a.tumour_radius > 0.0,
             "tumour radius " << a.tumour_radius << " mm must be positive");
   const imaging::Label at_centre = a.voxel_label(a.tumour_center);
-  BS_VERIFY(at_centre == imaging::BRAIN || at_centre == imaging::TUMOUR,
-            (a.tumour_placement == Placement::DEFAULT ? "the default tumour centre " : "tumour centre ")
-                << fmt(a.tumour_center) << " mm is outside the brain of " << source << " (label " << int(at_centre)
-                << " there)" << (a.tumour_placement == Placement::DEFAULT ? "; give --tumour X,Y,Z,RADIUS" : ""));
+  BS_VERIFY(
+      at_centre == imaging::BRAIN || at_centre == imaging::TUMOUR,
+      (a.tumour_placement == Placement::DEFAULT ? "the default tumour centre " : "tumour centre ")
+          << fmt(a.tumour_center) << " mm is outside the brain of " << source << " (label "
+          << int(at_centre) << " there)"
+          << (a.tumour_placement == Placement::DEFAULT ? "; give --tumour X,Y,Z,RADIUS" : ""));
 
   // Write the tumour into the labels (a given or default sphere), and measure the brain.
   if (a.tumour_placement != Placement::FROM_LABELS) {
-    const Vector3d lo = g.world_to_index(a.tumour_center) - (a.tumour_radius / g.spacing.array()).matrix();
-    const Vector3d hi = g.world_to_index(a.tumour_center) + (a.tumour_radius / g.spacing.array()).matrix();
-    for (int k = std::max(0, int(std::floor(std::min(lo.z(), hi.z())))); k <= std::min(g.size[2] - 1, int(std::ceil(std::max(lo.z(), hi.z())))); ++k)
-      for (int j = std::max(0, int(std::floor(std::min(lo.y(), hi.y())))); j <= std::min(g.size[1] - 1, int(std::ceil(std::max(lo.y(), hi.y())))); ++j)
-        for (int i = std::max(0, int(std::floor(std::min(lo.x(), hi.x())))); i <= std::min(g.size[0] - 1, int(std::ceil(std::max(lo.x(), hi.x())))); ++i) {
+    const Vector3d lo =
+        g.world_to_index(a.tumour_center) - (a.tumour_radius / g.spacing.array()).matrix();
+    const Vector3d hi =
+        g.world_to_index(a.tumour_center) + (a.tumour_radius / g.spacing.array()).matrix();
+    for (int k = std::max(0, int(std::floor(std::min(lo.z(), hi.z()))));
+         k <= std::min(g.size[2] - 1, int(std::ceil(std::max(lo.z(), hi.z())))); ++k)
+      for (int j = std::max(0, int(std::floor(std::min(lo.y(), hi.y()))));
+           j <= std::min(g.size[1] - 1, int(std::ceil(std::max(lo.y(), hi.y())))); ++j)
+        for (int i = std::max(0, int(std::floor(std::min(lo.x(), hi.x()))));
+             i <= std::min(g.size[0] - 1, int(std::ceil(std::max(lo.x(), hi.x())))); ++i) {
           std::uint8_t& l = a.labels.at(i, j, k);
-          if (l != imaging::BACKGROUND && (g.index_to_world(Vector3d(i, j, k)) - a.tumour_center).norm() <= a.tumour_radius)
+          if (l != imaging::BACKGROUND &&
+              (g.index_to_world(Vector3d(i, j, k)) - a.tumour_center).norm() <= a.tumour_radius)
             l = imaging::TUMOUR;
         }
   }
   std::int64_t brain = 0;
   for (const std::uint8_t l : a.labels.data) brain += l != imaging::BACKGROUND;
   a.brain_volume_ml = double(brain) * voxel_ml;
-  logger().info("label anatomy {}: {:.0f} mL of brain, craniotomy ({:.1f}, {:.1f}, {:.1f}) {}, tumour ({:.1f}, {:.1f}, "
-                "{:.1f}) r {:.1f} mm {}",
-                source, a.brain_volume_ml, a.craniotomy_center.x(), a.craniotomy_center.y(), a.craniotomy_center.z(),
-                to_string(a.craniotomy_placement), a.tumour_center.x(), a.tumour_center.y(), a.tumour_center.z(),
-                a.tumour_radius, to_string(a.tumour_placement));
+  logger().info(
+      "label anatomy {}: {:.0f} mL of brain, craniotomy ({:.1f}, {:.1f}, {:.1f}) {}, tumour "
+      "({:.1f}, {:.1f}, "
+      "{:.1f}) r {:.1f} mm {}",
+      source, a.brain_volume_ml, a.craniotomy_center.x(), a.craniotomy_center.y(),
+      a.craniotomy_center.z(), to_string(a.craniotomy_placement), a.tumour_center.x(),
+      a.tumour_center.y(), a.tumour_center.z(), a.tumour_radius, to_string(a.tumour_placement));
   return a;
 }
 
@@ -223,8 +243,10 @@ PhantomMesh make_label_mesh(const LabelAnatomy& a, const PhantomMeshOptions& o) 
   BS_VERIFY(lo.x() <= hi.x(), "the brain's hull is empty");
   const Vector3d origin = lo - Vector3d::Constant(h);
   const Eigen::Vector3i cells = ((hi - lo) / h).array().ceil().cast<int>() + 2;
-  const CubeTets cubes = make_cube_tets(origin, h, cells, [&](const Vector3d& x) { return a.hull->value(x) < 0.0; });
-  BS_VERIFY(!cubes.ijk.empty(), "label mesh is empty: cell_size " << h << " mm is too large for the brain");
+  const CubeTets cubes =
+      make_cube_tets(origin, h, cells, [&](const Vector3d& x) { return a.hull->value(x) < 0.0; });
+  BS_VERIFY(!cubes.ijk.empty(),
+            "label mesh is empty: cell_size " << h << " mm is too large for the brain");
 
   const MatrixX3d& rest = cubes.nodes;
   MatrixX3d nodes = rest;
@@ -245,9 +267,13 @@ PhantomMesh make_label_mesh(const LabelAnatomy& a, const PhantomMeshOptions& o) 
   for (const index_t n : boundary)
     (nodes(n, 2) <= lowest + a.base_height ? out.base_nodes : out.surface_nodes).push_back(n);
   for (const char s : snapped) out.snapped_nodes += s;
-  assign_materials(std::move(nodes), cubes.tets, [&](const Vector3d& x) { return a.voxel_label(x); }, o, out);
-  logger().info("label truth mesh: h {} mm, {} nodes, {} tets, {} fixed base nodes, {} snapped of {} boundary nodes", h,
-                out.mesh.num_nodes(), out.mesh.num_tets(), out.base_nodes.size(), out.snapped_nodes, boundary.size());
+  assign_materials(
+      std::move(nodes), cubes.tets, [&](const Vector3d& x) { return a.voxel_label(x); }, o, out);
+  logger().info(
+      "label truth mesh: h {} mm, {} nodes, {} tets, {} fixed base nodes, {} snapped of {} "
+      "boundary nodes",
+      h, out.mesh.num_nodes(), out.mesh.num_tets(), out.base_nodes.size(), out.snapped_nodes,
+      boundary.size());
   return out;
 }
 

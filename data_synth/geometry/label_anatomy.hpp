@@ -19,14 +19,14 @@
 ///   flattened tetrahedra), independent of `prepare`'s CGAL mesh; the fixed base is the boundary
 ///   nodes within base_height of the lowest one along S (brain stem / skull base).
 
-#include <memory>
-#include <optional>
-#include <string>
-
 #include "data_synth/geometry/brain_shape.hpp"
 #include "data_synth/geometry/distance_field.hpp"
 #include "data_synth/geometry/phantom_mesh.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <memory>
+#include <optional>
+#include <string>
 
 namespace brainshift::data_synth {
 
@@ -42,7 +42,7 @@ struct LabelAnatomyOptions {
   double closing_radius = 5.0;            ///< sulci narrower than ~2× this are filled, mm
   double skull_closing_radius = 12.0;     ///< the skull's closing (bridges concave notches), mm
   double hull_smoothing = 1.5;            ///< Gaussian sigma on the hull's distance field, mm
-  double base_height = 10.0;              ///< fixed base: boundary nodes this close to the lowest, mm
+  double base_height = 10.0;  ///< fixed base: boundary nodes this close to the lowest, mm
   double max_craniotomy_distance = 15.0;  ///< a given craniotomy this far from the hull at most, mm
 };
 
@@ -51,19 +51,19 @@ enum class Placement { GIVEN, FROM_LABELS, DEFAULT };
 std::string to_string(Placement p);
 
 struct LabelAnatomy {
-  imaging::LabelVolume labels;                  ///< the input with the tumour written in
-  std::shared_ptr<const DistanceField> hull;    ///< outer brain surface (φ < 0 inside), mm
-  std::shared_ptr<const DistanceField> skull;   ///< the hull grown by skull_gap, mm
-  Vector3d craniotomy_center = Vector3d::Zero();///< on the hull, mm
-  Vector3d craniotomy_normal = Vector3d::UnitZ();///< outward unit normal of the hull there
-  double craniotomy_radius = 25.0;              ///< mm
+  imaging::LabelVolume labels;                     ///< the input with the tumour written in
+  std::shared_ptr<const DistanceField> hull;       ///< outer brain surface (φ < 0 inside), mm
+  std::shared_ptr<const DistanceField> skull;      ///< the hull grown by skull_gap, mm
+  Vector3d craniotomy_center = Vector3d::Zero();   ///< on the hull, mm
+  Vector3d craniotomy_normal = Vector3d::UnitZ();  ///< outward unit normal of the hull there
+  double craniotomy_radius = 25.0;                 ///< mm
   Placement craniotomy_placement = Placement::DEFAULT;
-  Vector3d tumour_center = Vector3d::Zero();    ///< mm
-  double tumour_radius = 10.0;                  ///< mm
+  Vector3d tumour_center = Vector3d::Zero();  ///< mm
+  double tumour_radius = 10.0;                ///< mm
   Placement tumour_placement = Placement::DEFAULT;
-  double skull_gap = 2.5;                       ///< mm
-  double base_height = 10.0;                    ///< mm
-  double brain_volume_ml = 0.0;                 ///< labels 1-3 (after the tumour is written)
+  double skull_gap = 2.5;        ///< mm
+  double base_height = 10.0;     ///< mm
+  double brain_volume_ml = 0.0;  ///< labels 1-3 (after the tumour is written)
 
   /// Label of the voxel nearest to x (0 outside the grid).
   [[nodiscard]] imaging::Label voxel_label(const Vector3d& x) const;
@@ -76,8 +76,8 @@ struct LabelAnatomy {
 /// Builds the anatomy. `source` names the labels in error messages (e.g. the file name).
 /// \throws brainshift::Error (one line naming the value) on a label outside 0-3, no brain, a
 /// tumour centre outside the brain, a non-positive tumour radius, or a craniotomy far from it.
-LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelAnatomyOptions& options,
-                                const std::string& source);
+LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels,
+                                const LabelAnatomyOptions& options, const std::string& source);
 
 /// The truth mesh of the anatomy (see the file comment); base_nodes fixed, surface_nodes the
 /// contact candidates. \throws brainshift::Error on invalid options or an empty mesh.

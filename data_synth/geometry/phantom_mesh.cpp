@@ -1,13 +1,13 @@
 #include "data_synth/geometry/phantom_mesh.hpp"
 
-#include <array>
-#include <functional>
-#include <cmath>
-#include <optional>
-#include <sstream>
-
 #include "core/error.hpp"
 #include "core/logger.hpp"
+
+#include <array>
+#include <cmath>
+#include <functional>
+#include <optional>
+#include <sstream>
 
 namespace brainshift::data_synth {
 namespace {
@@ -38,7 +38,8 @@ struct Grid {
 
 std::string PhantomMeshOptions::validate() const {
   std::ostringstream s;
-  if (!(cell_size > 0.0)) s << "cell_size must be positive, got " << cell_size << " mm";
+  if (!(cell_size > 0.0))
+    s << "cell_size must be positive, got " << cell_size << " mm";
   else if (!(min_snapped_volume_fraction > 0.0 && min_snapped_volume_fraction < 1.0))
     s << "min_snapped_volume_fraction must be in (0, 1), got " << min_snapped_volume_fraction;
   else if (!(brain_youngs_modulus > 0.0 && tumour_youngs_modulus > 0.0 &&
@@ -91,8 +92,8 @@ CubeTets make_cube_tets(const Vector3d& origin, double h, const Eigen::Vector3i&
             if (is_kept(nb.x(), nb.y(), nb.z())) continue;
             for (int c = 0; c < 8; ++c) {
               if (((c >> axis) & 1) != side) continue;
-              boundary[std::size_t(grid.node_id(i + (c & 1), j + ((c >> 1) & 1),
-                                                k + ((c >> 2) & 1)))] = 1;
+              boundary[std::size_t(
+                  grid.node_id(i + (c & 1), j + ((c >> 1) & 1), k + ((c >> 2) & 1)))] = 1;
             }
           }
       }
@@ -127,14 +128,15 @@ CubeTets make_cube_tets(const Vector3d& origin, double h, const Eigen::Vector3i&
 
 void undo_flattening_snaps(const MatrixX3d& rest, const std::vector<std::array<index_t, 4>>& tets,
                            double min_fraction, MatrixX3d& nodes, std::vector<char>& snapped) {
-  // Undo snaps that flatten a tetrahedron, largest move first; repeat until every tetrahedron is acceptable.
+  // Undo snaps that flatten a tetrahedron, largest move first; repeat until every tetrahedron is
+  // acceptable.
   for (bool changed = true; changed;) {
     changed = false;
     for (const auto& v : tets) {
-      const double v0 = core::signed_tet_volume(rest.row(v[0]), rest.row(v[1]),
-                                                rest.row(v[2]), rest.row(v[3]));
-      const double v1 = core::signed_tet_volume(nodes.row(v[0]), nodes.row(v[1]),
-                                                nodes.row(v[2]), nodes.row(v[3]));
+      const double v0 =
+          core::signed_tet_volume(rest.row(v[0]), rest.row(v[1]), rest.row(v[2]), rest.row(v[3]));
+      const double v1 = core::signed_tet_volume(nodes.row(v[0]), nodes.row(v[1]), nodes.row(v[2]),
+                                                nodes.row(v[3]));
       if (v1 >= min_fraction * v0) continue;
       // Undo the largest snap of this tetrahedron; the next pass re-checks it.
       index_t worst = -1;
@@ -186,19 +188,22 @@ PhantomMesh make_phantom_mesh(const PhantomGeometry& g, const PhantomMeshOptions
   const int nx = int(std::ceil(g.semi_axes.x() / h)) + 1;
   const int ny = int(std::ceil(g.semi_axes.y() / h)) + 1;
   const double height = g.center.z() + g.semi_axes.z() - g.base_level();
-  const CubeTets cubes = make_cube_tets(
-      Vector3d(g.center.x() - nx * h, g.center.y() - ny * h, g.base_level()), h,
-      {2 * nx, 2 * ny, int(std::ceil(height / h)) + 1},
-      [&](const Vector3d& x) { return g.inside_brain(x); });
-  BS_VERIFY(!cubes.ijk.empty(), "phantom mesh is empty: cell_size " << h
-                                   << " mm is too large for the brain " << g.semi_axes.transpose());
+  const CubeTets cubes =
+      make_cube_tets(Vector3d(g.center.x() - nx * h, g.center.y() - ny * h, g.base_level()), h,
+                     {2 * nx, 2 * ny, int(std::ceil(height / h)) + 1},
+                     [&](const Vector3d& x) { return g.inside_brain(x); });
+  BS_VERIFY(!cubes.ijk.empty(), "phantom mesh is empty: cell_size "
+                                    << h << " mm is too large for the brain "
+                                    << g.semi_axes.transpose());
 
   const MatrixX3d& rest = cubes.nodes;
   const std::vector<std::array<index_t, 4>>& tets = cubes.tets;
   PhantomMesh out;
   for (std::size_t n = 0; n < cubes.ijk.size(); ++n) {
-    if (cubes.ijk[n].z() == 0) out.base_nodes.push_back(index_t(n));
-    else if (cubes.boundary[n]) out.surface_nodes.push_back(index_t(n));
+    if (cubes.ijk[n].z() == 0)
+      out.base_nodes.push_back(index_t(n));
+    else if (cubes.boundary[n])
+      out.surface_nodes.push_back(index_t(n));
   }
 
   MatrixX3d nodes = rest;
@@ -223,14 +228,17 @@ PhantomMesh make_phantom_mesh(const PhantomGeometry& g, const PhantomMeshOptions
       if (const auto q = horizontal(rest.row(n).transpose())) snap(n, *q);
     for (const index_t n : out.surface_nodes) {
       const Vector3d x = rest.row(n).transpose(), q = brain.closest_point(x);
-      if (q.z() >= g.base_level() + 0.5 * h) snap(n, q);
-      else if (const auto qh = horizontal(x)) snap(n, *qh);  // near the base: stay above it
+      if (q.z() >= g.base_level() + 0.5 * h)
+        snap(n, q);
+      else if (const auto qh = horizontal(x))
+        snap(n, *qh);  // near the base: stay above it
     }
     undo_flattening_snaps(rest, tets, o.min_snapped_volume_fraction, nodes, snapped);
     for (const char s : snapped) out.snapped_nodes += s;
   }
 
-  assign_materials(std::move(nodes), tets, [&](const Vector3d& x) { return g.label_at(x); }, o, out);
+  assign_materials(
+      std::move(nodes), tets, [&](const Vector3d& x) { return g.label_at(x); }, o, out);
   logger().debug("phantom mesh: h {} mm, {} nodes, {} tets, {} snapped of {} surface nodes", h,
                  out.mesh.num_nodes(), out.mesh.num_tets(), out.snapped_nodes,
                  out.surface_nodes.size());

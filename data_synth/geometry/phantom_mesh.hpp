@@ -6,26 +6,26 @@
 /// (alternating by parity so that neighbouring cubes share face diagonals), kept when the cube
 /// centre is inside the brain. Boundary nodes are optionally snapped onto the analytic brain
 /// ellipsoid (closest point; base nodes and nodes just above the base only horizontally, and
-/// only from outside, so the base stays flat); while a tetrahedron is thinner than a set fraction of its unsnapped
-/// volume, the largest snap among its nodes is undone (at h = 4 mm about 70 % of the boundary
-/// nodes end on the ellipsoid; the others, at re-entrant stair corners, stay within √3/2·h of it).
-/// Base-rim nodes whose snap is undone may stick out of the brain ellipsoid (and the skull) by
-/// up to √3/2·h; they are the fixed skull-base nodes of the sag case, so they never move.
+/// only from outside, so the base stays flat); while a tetrahedron is thinner than a set fraction
+/// of its unsnapped volume, the largest snap among its nodes is undone (at h = 4 mm about 70 % of
+/// the boundary nodes end on the ellipsoid; the others, at re-entrant stair corners, stay within
+/// √3/2·h of it). Base-rim nodes whose snap is undone may stick out of the brain ellipsoid (and the
+/// skull) by up to √3/2·h; they are the fixed skull-base nodes of the sag case, so they never move.
 ///
 /// Materials by the label at each tetrahedron's centroid: brain, tumour, and the ventricles
 /// modelled as a very soft solid (a fluid-filled cavity that keeps its volume: nu as the brain,
 /// E a tenth of the brain's by default) rather than holes, so the mesh stays simply connected and
 /// the CSF inside cannot collapse.
 
+#include "core/mesh/tet_mesh.hpp"
+#include "core/units.hpp"
+#include "data_synth/geometry/brain_phantom.hpp"
+
 #include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
-
-#include "core/mesh/tet_mesh.hpp"
-#include "core/units.hpp"
-#include "data_synth/geometry/brain_phantom.hpp"
 
 namespace brainshift::data_synth {
 
@@ -53,17 +53,18 @@ struct PhantomMesh {
 
 /// Builds the mesh. \throws brainshift::Error on invalid geometry or options, or when the mesh
 /// would be empty (cell size larger than the brain).
-PhantomMesh make_phantom_mesh(const PhantomGeometry& geometry, const PhantomMeshOptions& options = {});
+PhantomMesh make_phantom_mesh(const PhantomGeometry& geometry,
+                              const PhantomMeshOptions& options = {});
 
 // --- building blocks of voxel truth meshes (also used by label_anatomy.hpp) ------------------
 
 /// Cubes of edge h on the grid origin + h·(i, j, k), 0 ≤ (i, j, k) < cells, kept where
 /// inside(cube centre), each split into five positively oriented tetrahedra.
 struct CubeTets {
-  MatrixX3d nodes;                             ///< #N×3 grid positions of the kept cubes' corners, mm
-  std::vector<std::array<index_t, 4>> tets;    ///< #T
-  std::vector<Eigen::Vector3i> ijk;            ///< #N grid index of each node
-  std::vector<char> boundary;                  ///< #N 1 on a face of a kept cube with no kept neighbour
+  MatrixX3d nodes;  ///< #N×3 grid positions of the kept cubes' corners, mm
+  std::vector<std::array<index_t, 4>> tets;  ///< #T
+  std::vector<Eigen::Vector3i> ijk;          ///< #N grid index of each node
+  std::vector<char> boundary;  ///< #N 1 on a face of a kept cube with no kept neighbour
 };
 CubeTets make_cube_tets(const Vector3d& origin, double h, const Eigen::Vector3i& cells,
                         const std::function<bool(const Vector3d&)>& inside);

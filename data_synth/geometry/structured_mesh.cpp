@@ -1,10 +1,10 @@
 #include "data_synth/geometry/structured_mesh.hpp"
 
+#include "core/error.hpp"
+
 #include <array>
 #include <cmath>
 #include <functional>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -12,8 +12,8 @@ namespace {
 /// Grid of (n+1)^3 nodes on [-1,1]^3 (or [0,1]^3), mapped by `map`, split into Kuhn tetrahedra.
 core::TetMesh make_mapped_grid(const Eigen::Vector3i& cells,
                                const std::function<Vector3d(const Vector3d&)>& map) {
-  BS_VERIFY((cells.array() >= 1).all(), "mesh needs at least one cell per axis, got "
-                                            << cells.transpose());
+  BS_VERIFY((cells.array() >= 1).all(),
+            "mesh needs at least one cell per axis, got " << cells.transpose());
   const int nx = cells.x() + 1, ny = cells.y() + 1, nz = cells.z() + 1;
   MatrixX3d nodes(static_cast<Eigen::Index>(nx) * ny * nz, 3);
   auto id = [&](int i, int j, int k) { return i + nx * (j + ny * k); };
@@ -52,9 +52,8 @@ core::TetMesh make_mapped_grid(const Eigen::Vector3i& cells,
 core::TetMesh make_box_mesh(const Vector3d& size, const Eigen::Vector3i& cells,
                             const Vector3d& origin) {
   BS_VERIFY((size.array() > 0).all(), "box size must be positive, got " << size.transpose());
-  return make_mapped_grid(cells, [&](const Vector3d& u) -> Vector3d {
-    return origin + u.cwiseProduct(size);
-  });
+  return make_mapped_grid(
+      cells, [&](const Vector3d& u) -> Vector3d { return origin + u.cwiseProduct(size); });
 }
 
 core::TetMesh make_cylinder_mesh(double radius, double length, int radial_cells, int axial_cells,

@@ -10,7 +10,8 @@
 namespace brainshift::data_synth {
 
 /// Box [0, size.x] × [0, size.y] × [0, size.z] (mm) with `cells` hexahedra per axis, offset by
-/// `origin` (mm). Nodes are numbered x fastest, then y, then z: (i, j, k) → i + (nx+1)(j + (ny+1)k).
+/// `origin` (mm). Nodes are numbered x fastest, then y, then z: (i, j, k) → i + (nx+1)(j +
+/// (ny+1)k).
 core::TetMesh make_box_mesh(const Vector3d& size, const Eigen::Vector3i& cells,
                             const Vector3d& origin = Vector3d::Zero());
 

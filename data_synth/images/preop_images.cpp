@@ -1,12 +1,12 @@
 #include "data_synth/images/preop_images.hpp"
 
+#include "core/error.hpp"
+#include "data_synth/images/tube_raster.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <sstream>
-
-#include "core/error.hpp"
-#include "data_synth/images/tube_raster.hpp"
 
 namespace brainshift::data_synth {
 
@@ -14,15 +14,19 @@ std::string MriOptions::validate() const {
   std::ostringstream s;
   if (!(bias_amplitude >= 0.0 && bias_amplitude < 1.0))
     s << "bias_amplitude must lie in [0, 1), got " << bias_amplitude;
-  else if (!(noise_sigma >= 0.0)) s << "noise_sigma must be >= 0, got " << noise_sigma;
-  else if (!(cortex_thickness >= 0.0)) s << "cortex_thickness must be >= 0 mm";
+  else if (!(noise_sigma >= 0.0))
+    s << "noise_sigma must be >= 0, got " << noise_sigma;
+  else if (!(cortex_thickness >= 0.0))
+    s << "cortex_thickness must be >= 0 mm";
   return s.str();
 }
 
 std::string MraOptions::validate() const {
   std::ostringstream s;
-  if (!(noise_sigma >= 0.0)) s << "noise_sigma must be >= 0, got " << noise_sigma;
-  else if (!(large_radius > 0.0)) s << "large_radius must be > 0 mm, got " << large_radius;
+  if (!(noise_sigma >= 0.0))
+    s << "noise_sigma must be >= 0, got " << noise_sigma;
+  else if (!(large_radius > 0.0))
+    s << "large_radius must be > 0 mm, got " << large_radius;
   return s.str();
 }
 
@@ -79,12 +83,20 @@ imaging::VolumeF make_mri(const imaging::LabelVolume& labels, const MriOptions& 
         const auto v = std::size_t(g.linear_index(i, j, k));
         double value = options.background;
         switch (labels.data[v]) {
-          case imaging::BACKGROUND: break;
-          case imaging::BRAIN: value = rim[v] ? options.cortex : options.brain; break;
-          case imaging::TUMOUR: value = options.tumour; break;
-          case imaging::VENTRICLES: value = options.ventricles; break;
-          default: BS_THROW("label " << int(labels.data[v]) << " at voxel (" << i << ", " << j
-                                     << ", " << k << ") is not 0, 1, 2 or 3");
+          case imaging::BACKGROUND:
+            break;
+          case imaging::BRAIN:
+            value = rim[v] ? options.cortex : options.brain;
+            break;
+          case imaging::TUMOUR:
+            value = options.tumour;
+            break;
+          case imaging::VENTRICLES:
+            value = options.ventricles;
+            break;
+          default:
+            BS_THROW("label " << int(labels.data[v]) << " at voxel (" << i << ", " << j << ", " << k
+                              << ") is not 0, 1, 2 or 3");
         }
         const Vector3d x = (Vector3d(i, j, k) - half).cwiseQuotient(half.cwiseMax(1.0));
         const double b = c[0] + c[1] * x[0] + c[2] * x[1] + c[3] * x[2] + c[4] * x[0] * x[0] +
@@ -102,7 +114,8 @@ imaging::VolumeF make_mra(const imaging::LabelVolume& labels, const VesselTree& 
   const std::string bad = options.validate();
   BS_VERIFY(bad.empty(), "invalid MRA options: " << bad);
   imaging::VolumeF vessels(labels.geometry, 1, 0.0F);
-  const double r0 = tree.radius.empty() ? 0.5 : *std::min_element(tree.radius.begin(), tree.radius.end());
+  const double r0 =
+      tree.radius.empty() ? 0.5 : *std::min_element(tree.radius.begin(), tree.radius.end());
   draw_tubes(vessels, tube_segments(tree), [&](double r) {
     const double t = std::clamp((r - r0) / std::max(options.large_radius - r0, 1e-6), 0.0, 1.0);
     return options.vessel_small + t * (options.vessel_large - options.vessel_small);

@@ -5,11 +5,11 @@
 /// a time-of-flight-like MRA (dark tissue, vessels bright by radius with partial-volume edges,
 /// noise). Intensities are arbitrary units.
 
-#include <cstdint>
-#include <string>
-
 #include "data_synth/vessels/vessel_tree.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
+#include <string>
 
 namespace brainshift::data_synth {
 
@@ -17,11 +17,11 @@ struct MriOptions {
   std::uint32_t seed = 1;
   double background = 10.0;
   double brain = 500.0;
-  double cortex = 380.0;        ///< grey-matter rim: brain voxels within cortex_thickness of the
-  double cortex_thickness = 3.0;///< outside of the brain, mm (found by erosion of the label mask)
-  double tumour = 750.0;        ///< contrast-enhanced
+  double cortex = 380.0;          ///< grey-matter rim: brain voxels within cortex_thickness of the
+  double cortex_thickness = 3.0;  ///< outside of the brain, mm (found by erosion of the label mask)
+  double tumour = 750.0;          ///< contrast-enhanced
   double ventricles = 150.0;
-  double bias_amplitude = 0.15; ///< relative: the bias field lies in [1 − a, 1 + a]
+  double bias_amplitude = 0.15;  ///< relative: the bias field lies in [1 − a, 1 + a]
   double noise_sigma = 12.0;
   [[nodiscard]] std::string validate() const;
 };
@@ -32,10 +32,10 @@ imaging::VolumeF make_mri(const imaging::LabelVolume& labels, const MriOptions& 
 struct MraOptions {
   std::uint32_t seed = 2;
   double background = 5.0;
-  double tissue = 40.0;        ///< brain, tumour and ventricles
-  double vessel_small = 250.0; ///< peak of a vessel of radius min_radius
-  double vessel_large = 450.0; ///< peak of a vessel of radius ≥ large_radius
-  double large_radius = 2.0;   ///< mm
+  double tissue = 40.0;         ///< brain, tumour and ventricles
+  double vessel_small = 250.0;  ///< peak of a vessel of radius min_radius
+  double vessel_large = 450.0;  ///< peak of a vessel of radius ≥ large_radius
+  double large_radius = 2.0;    ///< mm
   double noise_sigma = 8.0;
   [[nodiscard]] std::string validate() const;
 };

@@ -1,10 +1,10 @@
 #include "data_synth/images/probe.hpp"
 
+#include "core/error.hpp"
+
 #include <cmath>
 #include <numbers>
 #include <sstream>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 
@@ -38,7 +38,8 @@ bool Probe::in_field_of_view(const Vector3d& p) const {
 
 imaging::ImageGeometry Probe::grid() const {
   const double h = options.spacing;
-  const double w = options.footprint_radius + options.depth * std::tan(radians(options.half_angle_deg));
+  const double w =
+      options.footprint_radius + options.depth * std::tan(radians(options.half_angle_deg));
   const int nl = int(std::ceil(2.0 * w / h)) + 1;
   const int na = int(std::ceil(options.depth / h)) + 1;
   imaging::ImageGeometry g;

@@ -6,18 +6,18 @@
 /// grid of its volumes (axes along the probe frame, so the world header carries a rotation), and
 /// an optional rigid tracking error applied to that header.
 
-#include <string>
-
 #include "core/config.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <string>
 
 namespace brainshift::data_synth {
 
 struct ProbeOptions {
-  double half_angle_deg = 40.0;   ///< half opening angle of the sector, degrees, in (0, 80)
-  double depth = 60.0;            ///< field-of-view depth below the probe face, mm, > 0
-  double footprint_radius = 15.0; ///< radius of the probe face (contact disc), mm, > 0
-  double spacing = 0.8;           ///< isotropic voxel size of the volumes, mm, > 0
+  double half_angle_deg = 40.0;    ///< half opening angle of the sector, degrees, in (0, 80)
+  double depth = 60.0;             ///< field-of-view depth below the probe face, mm, > 0
+  double footprint_radius = 15.0;  ///< radius of the probe face (contact disc), mm, > 0
+  double spacing = 0.8;            ///< isotropic voxel size of the volumes, mm, > 0
   [[nodiscard]] std::string validate() const;
 };
 
@@ -47,9 +47,7 @@ Probe make_probe(const Vector3d& face_center, const Vector3d& axis, const ProbeO
 struct TrackingError {
   Vector3d translation = Vector3d::Zero();   ///< mm, world RAS
   Vector3d rotation_deg = Vector3d::Zero();  ///< degrees about R, A, S through the face centre
-  [[nodiscard]] bool is_zero() const {
-    return translation.isZero() && rotation_deg.isZero();
-  }
+  [[nodiscard]] bool is_zero() const { return translation.isZero() && rotation_deg.isZero(); }
   /// The rigid map applied to a world point p, mm.
   [[nodiscard]] Vector3d apply(const Vector3d& p, const Vector3d& pivot) const;
 };

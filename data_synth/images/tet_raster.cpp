@@ -1,10 +1,10 @@
 #include "data_synth/images/tet_raster.hpp"
 
+#include "core/mapping/tet_locator.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
-
-#include "core/mapping/tet_locator.hpp"
 
 namespace brainshift::data_synth {
 
@@ -32,7 +32,8 @@ std::int64_t rasterize_tets(ConstRef<MatrixX3d> nodes, ConstRef<MatrixX4i> tets,
         for (int i = a[0]; i <= b[0]; ++i) {
           const std::int64_t v = grid.linear_index(i, j, k);
           if (done[std::size_t(v)]) continue;
-          const Vector4d w = core::barycentric_coordinates(X, grid.index_to_world(Vector3d(i, j, k)));
+          const Vector4d w =
+              core::barycentric_coordinates(X, grid.index_to_world(Vector3d(i, j, k)));
           if (w.minCoeff() < -inside_tolerance) continue;
           done[std::size_t(v)] = 1;
           ++visited;

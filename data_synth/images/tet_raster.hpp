@@ -5,11 +5,11 @@
 /// Used to sample the truth field on the pre-operative grid (rest tetrahedra) and to render
 /// intra-operative images in the deformed space (deformed tetrahedra).
 
-#include <cstdint>
-#include <functional>
-
 #include "core/config.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
+#include <functional>
 
 namespace brainshift::data_synth {
 

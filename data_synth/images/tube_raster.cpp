@@ -1,9 +1,9 @@
 #include "data_synth/images/tube_raster.hpp"
 
+#include "core/error.hpp"
+
 #include <algorithm>
 #include <cmath>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 

@@ -3,13 +3,13 @@
 /// @brief Drawing vessel tubes into a volume with partial-volume edges, and the small filters the
 /// synthetic images share (separable Gaussian blur, seeded noise).
 
-#include <functional>
-#include <random>
-#include <vector>
-
 #include "core/config.hpp"
 #include "data_synth/vessels/vessel_tree.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <functional>
+#include <random>
+#include <vector>
 
 namespace brainshift::data_synth {
 

@@ -1,20 +1,22 @@
 #include "data_synth/images/ultrasound_images.hpp"
 
+#include "core/error.hpp"
+#include "data_synth/images/tet_raster.hpp"
+#include "data_synth/images/tube_raster.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <sstream>
 
-#include "core/error.hpp"
-#include "data_synth/images/tet_raster.hpp"
-#include "data_synth/images/tube_raster.hpp"
-
 namespace brainshift::data_synth {
 
 std::string DopplerOptions::validate() const {
   std::ostringstream s;
-  if (!(dropout >= 0.0 && dropout <= 0.4)) s << "dropout must lie in [0, 0.4], got " << dropout;
-  else if (!(dropout_run >= 1.0)) s << "dropout_run must be >= 1, got " << dropout_run;
+  if (!(dropout >= 0.0 && dropout <= 0.4))
+    s << "dropout must lie in [0, 0.4], got " << dropout;
+  else if (!(dropout_run >= 1.0))
+    s << "dropout_run must be >= 1, got " << dropout_run;
   else if (!(thickening_scale > 0.0 && thickening_add >= 0.0 && blur_sigma >= 0.0))
     s << "thickening_scale > 0, thickening_add >= 0 and blur_sigma >= 0 expected";
   else if (!(speckle_shape > 0.0) || spurious_blobs < 0 || !(clutter_sigma >= 0.0))
@@ -31,7 +33,8 @@ std::string BmodeOptions::validate() const {
 
 imaging::LabelVolume deformed_labels(const TruthField& truth, const PhantomGeometry& geometry,
                                      const imaging::ImageGeometry& grid, bool resected) {
-  return deformed_labels(truth, [&](const Vector3d& X) { return geometry.label_at(X); }, grid, resected);
+  return deformed_labels(
+      truth, [&](const Vector3d& X) { return geometry.label_at(X); }, grid, resected);
 }
 
 imaging::LabelVolume deformed_labels(const TruthField& truth,
@@ -40,14 +43,16 @@ imaging::LabelVolume deformed_labels(const TruthField& truth,
   imaging::LabelVolume labels(grid, 1, imaging::BACKGROUND);
   const MatrixX3d& rest = truth.rest_nodes();
   const MatrixX4i& tets = truth.tets();
-  rasterize_tets(truth.deformed_nodes(), tets, grid, [&](std::int64_t v, index_t t, const Vector4d& w) {
-    Vector3d X = Vector3d::Zero();
-    for (int a = 0; a < 4; ++a) X += w[a] * rest.row(tets(t, a)).transpose();
-    imaging::Label l = label_at(X);
-    if (l == imaging::BACKGROUND) l = imaging::BRAIN;  // truth-mesh slivers outside the ellipsoid
-    if (resected && l == imaging::TUMOUR) l = imaging::BACKGROUND;
-    labels.data[std::size_t(v)] = l;
-  });
+  rasterize_tets(truth.deformed_nodes(), tets, grid,
+                 [&](std::int64_t v, index_t t, const Vector4d& w) {
+                   Vector3d X = Vector3d::Zero();
+                   for (int a = 0; a < 4; ++a) X += w[a] * rest.row(tets(t, a)).transpose();
+                   imaging::Label l = label_at(X);
+                   if (l == imaging::BACKGROUND)
+                     l = imaging::BRAIN;  // truth-mesh slivers outside the ellipsoid
+                   if (resected && l == imaging::TUMOUR) l = imaging::BACKGROUND;
+                   labels.data[std::size_t(v)] = l;
+                 });
   return labels;
 }
 
@@ -94,7 +99,8 @@ imaging::VolumeF make_doppler(const Probe& probe, const VesselTree& deformed_tre
   // Spurious flow blobs inside the deformed brain and the field of view.
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (int b = 0, tries = 0; b < options.spurious_blobs && tries < 1000; ++tries) {
-    const Vector3d ijk(u(rng) * (grid.size[0] - 1), u(rng) * (grid.size[1] - 1), u(rng) * (grid.size[2] - 1));
+    const Vector3d ijk(u(rng) * (grid.size[0] - 1), u(rng) * (grid.size[1] - 1),
+                       u(rng) * (grid.size[2] - 1));
     const Vector3d c = grid.index_to_world(ijk);
     const Eigen::Vector3i n = ijk.array().round().cast<int>();
     if (!probe.in_field_of_view(c) || labels.at(n[0], n[1], n[2]) == imaging::BACKGROUND) continue;
@@ -103,7 +109,8 @@ imaging::VolumeF make_doppler(const Probe& probe, const VesselTree& deformed_tre
     const int reach = int(std::ceil(3.0 * sigma / grid.spacing[0]));
     for (int k = std::max(0, n[2] - reach); k <= std::min(grid.size[2] - 1, n[2] + reach); ++k)
       for (int j = std::max(0, n[1] - reach); j <= std::min(grid.size[1] - 1, n[1] + reach); ++j)
-        for (int i = std::max(0, n[0] - reach); i <= std::min(grid.size[0] - 1, n[0] + reach); ++i) {
+        for (int i = std::max(0, n[0] - reach); i <= std::min(grid.size[0] - 1, n[0] + reach);
+             ++i) {
           const double d2 = (grid.index_to_world(Vector3d(i, j, k)) - c).squaredNorm();
           float& v = image.at(i, j, k);
           v = std::max(v, float(amplitude * std::exp(-0.5 * d2 / (sigma * sigma))));
@@ -145,10 +152,17 @@ imaging::VolumeF make_bmode(const Probe& probe, const imaging::LabelVolume& labe
         const double depth = probe.depth_of(p);
         double echo = options.fluid;
         switch (labels.at(i, j, k)) {
-          case imaging::BRAIN: echo = options.brain; break;
-          case imaging::TUMOUR: echo = options.tumour; break;
-          case imaging::VENTRICLES: echo = options.ventricles; break;
-          default: break;
+          case imaging::BRAIN:
+            echo = options.brain;
+            break;
+          case imaging::TUMOUR:
+            echo = options.tumour;
+            break;
+          case imaging::VENTRICLES:
+            echo = options.ventricles;
+            break;
+          default:
+            break;
         }
         if (surface < 0.0 && labels.at(i, j, k) != imaging::BACKGROUND && probe.in_field_of_view(p))
           surface = depth;

@@ -5,15 +5,15 @@
 /// the deformed anatomy with the probe contact band. Nothing outside the probe's field of view
 /// carries signal (exactly 0). Intensities in [0, 255] (arbitrary units).
 
-#include <cstdint>
-#include <functional>
-#include <string>
-
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "data_synth/images/probe.hpp"
 #include "data_synth/truth/truth_field.hpp"
 #include "data_synth/vessels/vessel_tree.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <string>
 
 namespace brainshift::data_synth {
 
@@ -49,11 +49,11 @@ imaging::VolumeF make_doppler(const Probe& probe, const VesselTree& deformed_tre
 
 struct BmodeOptions {
   std::uint32_t seed = 4;
-  double brain = 0.45;       ///< echogenicity of parenchyma, in [0, 1]
+  double brain = 0.45;  ///< echogenicity of parenchyma, in [0, 1]
   double tumour = 0.8;
   double ventricles = 0.05;
-  double fluid = 0.03;       ///< outside the brain (saline, CSF) and in a resection cavity
-  double attenuation = 0.008;///< 1/mm: intensity × exp(−attenuation · depth)
+  double fluid = 0.03;         ///< outside the brain (saline, CSF) and in a resection cavity
+  double attenuation = 0.008;  ///< 1/mm: intensity × exp(−attenuation · depth)
   /// The contact band: the interface echo of the brain surface under the probe face, this deep
   /// below the surface, mm. Real B-mode (RESECT, 17 volumes): a band about 2 mm thick (FWHM 1.5-
   /// 2.5 mm) at the top of the sector, its echo 1.5-3.7 × the tissue's below (median 2.4).
@@ -62,7 +62,7 @@ struct BmodeOptions {
   /// The band is drawn where the brain surface lies within this depth below the face (in
   /// contact, or under a thin film of saline or gel), mm.
   double contact_gap = 3.0;
-  double speckle_blur = 0.4; ///< mm: correlation of the Rayleigh speckle
+  double speckle_blur = 0.4;  ///< mm: correlation of the Rayleigh speckle
   [[nodiscard]] std::string validate() const;
 };
 

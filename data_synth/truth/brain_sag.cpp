@@ -1,8 +1,8 @@
 #include "data_synth/truth/brain_sag.hpp"
 
-#include <sstream>
-
 #include "core/error.hpp"
+
+#include <sstream>
 
 namespace brainshift::data_synth {
 
@@ -10,10 +10,14 @@ std::string SagLoad::validate() const {
   std::ostringstream s;
   if (!(gravity_direction.allFinite() && gravity_direction.norm() > 0.0))
     s << "gravity_direction must be finite and non-zero";
-  else if (!(gravity >= 0.0)) s << "gravity must be >= 0, got " << gravity << " mm/s^2";
-  else if (!(csf_density >= 0.0 && brain_density >= 0.0)) s << "densities must be >= 0";
-  else if (!(drain_depth >= 0.0)) s << "drain_depth must be >= 0, got " << drain_depth << " mm";
-  else if (!(load_scale >= 0.0)) s << "load_scale must be >= 0, got " << load_scale;
+  else if (!(gravity >= 0.0))
+    s << "gravity must be >= 0, got " << gravity << " mm/s^2";
+  else if (!(csf_density >= 0.0 && brain_density >= 0.0))
+    s << "densities must be >= 0";
+  else if (!(drain_depth >= 0.0))
+    s << "drain_depth must be >= 0, got " << drain_depth << " mm";
+  else if (!(load_scale >= 0.0))
+    s << "load_scale must be >= 0, got " << load_scale;
   return s.str();
 }
 
@@ -40,7 +44,8 @@ TledProblem make_sag_problem(const PhantomGeometry& geometry, const PhantomMesh&
                              const SagLoad& load) {
   TledProblem p;
   p.external_force = sag_nodal_force(mesh.mesh, load);
-  for (const index_t i : mesh.base_nodes) p.constraints.push_back({i, {true, true, true}, Vector3d::Zero()});
+  for (const index_t i : mesh.base_nodes)
+    p.constraints.push_back({i, {true, true, true}, Vector3d::Zero()});
   SkullContact contact;
   contact.skull = geometry.skull();
   contact.opening_center = geometry.craniotomy_center_on_skull();

@@ -14,21 +14,21 @@
 /// Boundary: the nodes of the flattened base (skull base, brainstem) are fixed; the rest of the
 /// surface slides without friction on the rigid skull ellipsoid except under the craniotomy.
 
-#include <string>
-
 #include "core/mesh/tet_mesh.hpp"
 #include "core/units.hpp"
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "data_synth/geometry/phantom_mesh.hpp"
 #include "data_synth/truth/tled_solver.hpp"
 
+#include <string>
+
 namespace brainshift::data_synth {
 
 struct SagLoad {
-  Vector3d gravity_direction{0.0, 0.0, -1.0};  ///< world RAS, any length > 0 (normalised)
-  double gravity = units::standard_gravity;    ///< mm/s²
-  double csf_density = units::csf_density;     ///< kg/mm³
-  double brain_density = units::brain_density; ///< kg/mm³ (used by the pre-operative weight)
+  Vector3d gravity_direction{0.0, 0.0, -1.0};   ///< world RAS, any length > 0 (normalised)
+  double gravity = units::standard_gravity;     ///< mm/s²
+  double csf_density = units::csf_density;      ///< kg/mm³
+  double brain_density = units::brain_density;  ///< kg/mm³ (used by the pre-operative weight)
   /// Depth of the CSF surface below the brain's highest point along −g, mm, ≥ 0
   /// (0: nothing drained; ≥ the brain's height: fully drained).
   double drain_depth = 60.0;

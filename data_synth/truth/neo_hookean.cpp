@@ -1,15 +1,15 @@
 #include "data_synth/truth/neo_hookean.hpp"
 
-#include <cmath>
-
 #include "core/error.hpp"
+
+#include <cmath>
 
 namespace brainshift::data_synth {
 
 NeoHookean NeoHookean::from_youngs(double youngs_modulus, double poisson_ratio) {
   BS_VERIFY(youngs_modulus > 0.0 && poisson_ratio > -1.0 && poisson_ratio < 0.5,
-            "neo-Hookean needs E > 0 and nu in (-1, 0.5), got E = " << youngs_modulus
-                                                                    << " kPa, nu = " << poisson_ratio);
+            "neo-Hookean needs E > 0 and nu in (-1, 0.5), got E = "
+                << youngs_modulus << " kPa, nu = " << poisson_ratio);
   return {youngs_modulus / (2.0 * (1.0 + poisson_ratio)),
           youngs_modulus / (3.0 * (1.0 - 2.0 * poisson_ratio))};
 }

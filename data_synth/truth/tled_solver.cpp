@@ -1,13 +1,13 @@
 #include "data_synth/truth/tled_solver.hpp"
 
+#include "core/error.hpp"
+#include "core/fem/linear_tet.hpp"
+#include "core/logger.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
-
-#include "core/error.hpp"
-#include "core/fem/linear_tet.hpp"
-#include "core/logger.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -87,22 +87,33 @@ double max_row_norm(const MatrixX3d& m) {
 
 std::string TledOptions::validate() const {
   std::ostringstream s;
-  if (max_iterations < 1) s << "max_iterations must be >= 1, got " << max_iterations;
-  else if (!(error_tolerance > 0.0)) s << "error_tolerance must be positive, got " << error_tolerance;
-  else if (ramp_iterations < 1) s << "ramp_iterations must be >= 1, got " << ramp_iterations;
-  else if (!(stiffness_safety >= 1.0)) s << "stiffness_safety must be >= 1, got " << stiffness_safety;
-  else if (damping_update_interval < 1) s << "damping_update_interval must be >= 1";
-  else if (rate_window < 2) s << "rate_window must be >= 2, got " << rate_window;
-  else if (converged_steps < 1) s << "converged_steps must be >= 1, got " << converged_steps;
-  else if (!(divergence_displacement > 0.0)) s << "divergence_displacement must be positive";
+  if (max_iterations < 1)
+    s << "max_iterations must be >= 1, got " << max_iterations;
+  else if (!(error_tolerance > 0.0))
+    s << "error_tolerance must be positive, got " << error_tolerance;
+  else if (ramp_iterations < 1)
+    s << "ramp_iterations must be >= 1, got " << ramp_iterations;
+  else if (!(stiffness_safety >= 1.0))
+    s << "stiffness_safety must be >= 1, got " << stiffness_safety;
+  else if (damping_update_interval < 1)
+    s << "damping_update_interval must be >= 1";
+  else if (rate_window < 2)
+    s << "rate_window must be >= 2, got " << rate_window;
+  else if (converged_steps < 1)
+    s << "converged_steps must be >= 1, got " << converged_steps;
+  else if (!(divergence_displacement > 0.0))
+    s << "divergence_displacement must be positive";
   return s.str();
 }
 
 std::string to_string(TledStatus status) {
   switch (status) {
-    case TledStatus::CONVERGED: return "converged";
-    case TledStatus::MAX_ITERATIONS: return "iteration cap reached";
-    case TledStatus::DIVERGED: return "diverged";
+    case TledStatus::CONVERGED:
+      return "converged";
+    case TledStatus::MAX_ITERATIONS:
+      return "iteration cap reached";
+    case TledStatus::DIVERGED:
+      return "diverged";
   }
   BS_UNREACHABLE();
 }
@@ -144,16 +155,15 @@ double TledSolver::add_internal_force(const MatrixX3d& u, MatrixX3d& f) const {
       f.row(m_tets(e, 0)).setConstant(std::numeric_limits<double>::quiet_NaN());
       continue;
     }
-    const Eigen::Matrix<double, 3, 4> fe =
-        m_volume[t] * m_material[t].first_piola(F) * m_grad[t];
+    const Eigen::Matrix<double, 3, 4> fe = m_volume[t] * m_material[t].first_piola(F) * m_grad[t];
     for (int a = 0; a < 4; ++a) f.row(m_tets(e, a)) += fe.col(a).transpose();
   }
   return min_j;
 }
 
 MatrixX3d TledSolver::internal_force(ConstRef<MatrixX3d> u, double* min_jacobian) const {
-  BS_VERIFY(u.rows() == m_num_nodes, "displacement has " << u.rows() << " rows, mesh has "
-                                                         << m_num_nodes << " nodes");
+  BS_VERIFY(u.rows() == m_num_nodes,
+            "displacement has " << u.rows() << " rows, mesh has " << m_num_nodes << " nodes");
   MatrixX3d f = MatrixX3d::Zero(m_num_nodes, 3);
   const double j = add_internal_force(MatrixX3d(u), f);
   if (min_jacobian) *min_jacobian = j;
@@ -161,8 +171,8 @@ MatrixX3d TledSolver::internal_force(ConstRef<MatrixX3d> u, double* min_jacobian
 }
 
 double TledSolver::strain_energy(ConstRef<MatrixX3d> u) const {
-  BS_VERIFY(u.rows() == m_num_nodes, "displacement has " << u.rows() << " rows, mesh has "
-                                                         << m_num_nodes << " nodes");
+  BS_VERIFY(u.rows() == m_num_nodes,
+            "displacement has " << u.rows() << " rows, mesh has " << m_num_nodes << " nodes");
   double psi = 0.0;
   Eigen::Matrix<double, 3, 4> ue;
   for (std::size_t t = 0; t < m_grad.size(); ++t) {
@@ -199,8 +209,9 @@ TledResult TledSolver::solve(const TledProblem& p, const TledOptions& o) const {
   const std::string bad = o.validate();
   BS_VERIFY(bad.empty(), "invalid TLED options: " << bad);
   const index_t n = m_num_nodes;
-  BS_VERIFY(p.external_force.rows() == 0 || p.external_force.rows() == n,
-            "external force has " << p.external_force.rows() << " rows, mesh has " << n << " nodes");
+  BS_VERIFY(
+      p.external_force.rows() == 0 || p.external_force.rows() == n,
+      "external force has " << p.external_force.rows() << " rows, mesh has " << n << " nodes");
   BS_VERIFY(p.external_force.allFinite(), "external force is not finite");
   const MatrixX3d f_ext = p.external_force.rows() == n ? p.external_force : MatrixX3d::Zero(n, 3);
   const Constraints cons = gather_constraints(p, n);
@@ -217,7 +228,8 @@ TledResult TledSolver::solve(const TledProblem& p, const TledOptions& o) const {
   double lambda_min = 1e-4 * lambda_max;  // first guess, re-estimated below
   Damping damping = Damping::optimal(lambda_min, lambda_max);
 
-  MatrixX3d u_prev = MatrixX3d::Zero(n, 3), u = u_prev, u_next = u_prev, f = u_prev, f_prev = u_prev;
+  MatrixX3d u_prev = MatrixX3d::Zero(n, 3), u = u_prev, u_next = u_prev, f = u_prev,
+            f_prev = u_prev;
   std::vector<double> increments;
   TledResult r;
   auto finish = [&](TledStatus status, const std::string& message, const MatrixX3d& last) {
@@ -236,8 +248,8 @@ TledResult TledSolver::solve(const TledProblem& p, const TledOptions& o) const {
     r.min_jacobian = add_internal_force(u, f);
     if (!(r.min_jacobian > 0.0) || !f.allFinite()) {
       std::ostringstream m;
-      m << "element inverted or force not finite at step " << it << " (min det F "
-        << r.min_jacobian << ")";
+      m << "element inverted or force not finite at step " << it << " (min det F " << r.min_jacobian
+        << ")";
       return finish(TledStatus::DIVERGED, m.str(), u);
     }
     if (it > o.ramp_iterations && it % o.damping_update_interval == 0) {
@@ -256,10 +268,12 @@ TledResult TledSolver::solve(const TledProblem& p, const TledOptions& o) const {
       for (int c = 0; c < 3; ++c)
         if (cons.fixed[std::size_t(i)][std::size_t(c)]) u_next(i, c) = s * cons.value(i, c);
     u_prev.swap(u);  // u_prev = current iterate
-    if (p.contact) r.contact_nodes = enforce_contact(*p.contact, candidates, m_rest, u_prev, u_next, u_prev);
+    if (p.contact)
+      r.contact_nodes = enforce_contact(*p.contact, candidates, m_rest, u_prev, u_next, u_prev);
     if (!u_next.allFinite() || max_row_norm(u_next) > o.divergence_displacement) {
       std::ostringstream m;
-      m << "displacement not finite or beyond " << o.divergence_displacement << " mm at step " << it;
+      m << "displacement not finite or beyond " << o.divergence_displacement << " mm at step "
+        << it;
       return finish(TledStatus::DIVERGED, m.str(), u_prev);
     }
     u.swap(u_next);
@@ -271,8 +285,9 @@ TledResult TledSolver::solve(const TledProblem& p, const TledOptions& o) const {
     r.convergence_rate = e.rate;
     streak = e.error < o.error_tolerance ? streak + 1 : 0;
     if (it % 2000 == 0)
-      logger().debug("TLED step {}: increment {:.3e} mm, error {:.3e} mm, rate {:.6f}, lambda_min {:.3e}",
-                     it, increments.back(), e.error, e.rate, lambda_min);
+      logger().debug(
+          "TLED step {}: increment {:.3e} mm, error {:.3e} mm, rate {:.6f}, lambda_min {:.3e}", it,
+          increments.back(), e.error, e.rate, lambda_min);
     if (streak >= o.converged_steps) {
       std::ostringstream m;
       m << "converged in " << it << " steps, estimated error " << e.error << " mm";

@@ -25,17 +25,17 @@
 /// skull is its zero level instead; a node that rests outside it (a stair corner of the voxel
 /// truth mesh) may not move further out than where it rests.
 
-#include <array>
-#include <memory>
-#include <optional>
-#include <string>
-#include <vector>
-
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "data_synth/geometry/distance_field.hpp"
 #include "data_synth/geometry/ellipsoid.hpp"
 #include "data_synth/truth/neo_hookean.hpp"
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace brainshift::data_synth {
 
@@ -49,13 +49,13 @@ struct NodeConstraint {
 /// Rigid skull with an opening (the craniotomy): nodes may not leave the ellipsoid except
 /// where the closest skull point is within opening_radius of opening_center.
 struct SkullContact {
-  Ellipsoid skull;                            ///< world RAS mm (unused with a hull)
+  Ellipsoid skull;  ///< world RAS mm (unused with a hull)
   /// The skull as the zero level of a signed distance field (mm, negative inside) instead of the
   /// ellipsoid: the brain's outer surface grown by the CSF gap (label anatomies).
   std::shared_ptr<const DistanceField> hull;
-  Vector3d opening_center = Vector3d::Zero(); ///< on the skull, mm
-  double opening_radius = 0.0;                ///< mm, ≥ 0 (0: closed skull)
-  std::vector<index_t> candidate_nodes;       ///< nodes that can touch the skull (empty: all)
+  Vector3d opening_center = Vector3d::Zero();  ///< on the skull, mm
+  double opening_radius = 0.0;                 ///< mm, ≥ 0 (0: closed skull)
+  std::vector<index_t> candidate_nodes;        ///< nodes that can touch the skull (empty: all)
 };
 
 /// What to solve: loads, prescribed displacements, contact.
@@ -66,12 +66,12 @@ struct TledProblem {
 };
 
 struct TledOptions {
-  int max_iterations = 100000;     ///< cap on explicit steps
-  double error_tolerance = 1e-3;   ///< mm: stop when the estimated max nodal error is below this
-  int ramp_iterations = 200;       ///< loads and prescribed displacements ramp linearly, ≥ 1
-  double stiffness_safety = 1.3;   ///< λ_max used = this × the rest Gershgorin bound, ≥ 1
+  int max_iterations = 100000;       ///< cap on explicit steps
+  double error_tolerance = 1e-3;     ///< mm: stop when the estimated max nodal error is below this
+  int ramp_iterations = 200;         ///< loads and prescribed displacements ramp linearly, ≥ 1
+  double stiffness_safety = 1.3;     ///< λ_max used = this × the rest Gershgorin bound, ≥ 1
   int damping_update_interval = 20;  ///< re-estimate λ_min every this many steps, ≥ 1
-  int rate_window = 50;            ///< steps over which the observed convergence rate is taken, ≥ 2
+  int rate_window = 50;  ///< steps over which the observed convergence rate is taken, ≥ 2
   /// The error estimate must hold this many steps in a row, ≥ 1. A full rate window guards
   /// against the optimistic estimate of the first steps after the ramp (on the phantom, 10
   /// steps stopped with a true error twice the tolerance; 50 keeps it below the tolerance).
@@ -84,21 +84,21 @@ struct TledOptions {
 enum class TledStatus {
   CONVERGED,       ///< estimated error below tolerance
   MAX_ITERATIONS,  ///< cap reached; the last (finite) iterate is returned
-  DIVERGED,        ///< non-finite value, inverted element or runaway displacement; last finite iterate
+  DIVERGED,  ///< non-finite value, inverted element or runaway displacement; last finite iterate
 };
 std::string to_string(TledStatus status);
 
 struct TledResult {
   TledStatus status = TledStatus::DIVERGED;
-  std::string message;                 ///< one line: why it stopped
-  MatrixX3d displacement;              ///< #N×3, mm, always finite
+  std::string message;     ///< one line: why it stopped
+  MatrixX3d displacement;  ///< #N×3, mm, always finite
   int iterations = 0;
-  double estimated_error = 0.0;        ///< mm, ρ/(1−ρ)·last max nodal increment
-  double max_displacement = 0.0;       ///< max nodal |u|, mm
-  double convergence_rate = 0.0;       ///< ρ used by the last error estimate
-  double lambda_min = 0.0;             ///< last estimate of λ_min(M⁻¹K), dimensionless (λ_max ≤ 1)
-  index_t contact_nodes = 0;           ///< nodes held on the skull at the last step
-  double min_jacobian = 0.0;           ///< smallest det F over the elements
+  double estimated_error = 0.0;   ///< mm, ρ/(1−ρ)·last max nodal increment
+  double max_displacement = 0.0;  ///< max nodal |u|, mm
+  double convergence_rate = 0.0;  ///< ρ used by the last error estimate
+  double lambda_min = 0.0;    ///< last estimate of λ_min(M⁻¹K), dimensionless (λ_max ≤ 1)
+  index_t contact_nodes = 0;  ///< nodes held on the skull at the last step
+  double min_jacobian = 0.0;  ///< smallest det F over the elements
 };
 
 /// Prepared TLED solver: shape gradients, volumes, materials and scaled masses of a mesh.
@@ -115,7 +115,8 @@ class TledSolver {
 
   /// Internal force f_int(u) = ∂Ψ/∂u (#N×3, mN) at displacement u (#N×3, mm).
   /// @param[out] min_jacobian  smallest det F (optional). Elements with det F ≤ 0 give NaN forces.
-  [[nodiscard]] MatrixX3d internal_force(ConstRef<MatrixX3d> u, double* min_jacobian = nullptr) const;
+  [[nodiscard]] MatrixX3d internal_force(ConstRef<MatrixX3d> u,
+                                         double* min_jacobian = nullptr) const;
   /// Total strain energy Ψ(u) = Σ V_e W(F_e), mJ (= mN·mm); +∞ if an element is inverted.
   [[nodiscard]] double strain_energy(ConstRef<MatrixX3d> u) const;
 

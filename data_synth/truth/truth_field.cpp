@@ -1,17 +1,21 @@
 #include "data_synth/truth/truth_field.hpp"
 
-#include <vector>
-
 #include "core/error.hpp"
 #include "data_synth/images/tet_raster.hpp"
+
+#include <vector>
 
 namespace brainshift::data_synth {
 
 TruthField::TruthField(const core::TetMesh& rest, MatrixX3d displacement, double max_outside)
-    : m_rest(rest.nodes()), m_tets(rest.tets()), m_u(std::move(displacement)),
-      m_max_outside(max_outside), m_locator(rest.nodes(), rest.tets()) {
-  BS_VERIFY(m_u.rows() == m_rest.rows(), "truth displacement has " << m_u.rows()
-                                             << " rows, the mesh " << m_rest.rows() << " nodes");
+    : m_rest(rest.nodes()),
+      m_tets(rest.tets()),
+      m_u(std::move(displacement)),
+      m_max_outside(max_outside),
+      m_locator(rest.nodes(), rest.tets()) {
+  BS_VERIFY(m_u.rows() == m_rest.rows(), "truth displacement has "
+                                             << m_u.rows() << " rows, the mesh " << m_rest.rows()
+                                             << " nodes");
   BS_VERIFY(m_u.allFinite(), "truth displacement has non-finite values");
   BS_VERIFY(max_outside >= 0.0, "max_outside must be >= 0 mm, got " << max_outside);
 }

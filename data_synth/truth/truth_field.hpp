@@ -4,12 +4,12 @@
 /// interpolated linearly (barycentric in the rest truth mesh) at any rest point X, giving the
 /// forward map X ↦ x = X + u(X) (pre-operative → intra-operative, world RAS mm).
 
-#include <optional>
-
 #include "core/config.hpp"
 #include "core/mapping/tet_locator.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <optional>
 
 namespace brainshift::data_synth {
 

@@ -1,10 +1,10 @@
 #include "data_synth/vessels/tree_graph.hpp"
 
+#include "core/error.hpp"
+
 #include <algorithm>
 #include <deque>
 #include <map>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 

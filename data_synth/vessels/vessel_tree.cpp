@@ -1,12 +1,12 @@
 #include "data_synth/vessels/vessel_tree.hpp"
 
+#include "core/error.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
 #include <sstream>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 
@@ -49,20 +49,24 @@ void VesselTree::verify() const {
 
 std::string VesselTreeOptions::validate() const {
   std::ostringstream s;
-  if (cortical_trees < 0) s << "cortical_trees must be >= 0, got " << cortical_trees;
-  else if (!(min_radius > 0.0 && min_radius <= root_radius_min && root_radius_min <= root_radius_max &&
-             root_radius_max <= max_radius))
-    s << "radii must satisfy 0 < min_radius <= root_radius_min <= root_radius_max <= max_radius, got "
+  if (cortical_trees < 0)
+    s << "cortical_trees must be >= 0, got " << cortical_trees;
+  else if (!(min_radius > 0.0 && min_radius <= root_radius_min &&
+             root_radius_min <= root_radius_max && root_radius_max <= max_radius))
+    s << "radii must satisfy 0 < min_radius <= root_radius_min <= root_radius_max <= max_radius, "
+         "got "
       << min_radius << ", " << root_radius_min << ", " << root_radius_max << ", " << max_radius;
   else if (min_generations < 1 || max_generations < min_generations)
-    s << "generations must satisfy 1 <= min <= max, got " << min_generations << ", " << max_generations;
+    s << "generations must satisfy 1 <= min <= max, got " << min_generations << ", "
+      << max_generations;
   else if (!(min_depth >= 0.0 && max_depth >= min_depth))
     s << "depths must satisfy 0 <= min_depth <= max_depth, got " << min_depth << ", " << max_depth;
   else if (!(step > 0.0) || !(length_per_radius > 0.0) || !(root_spread >= 0.0))
     s << "step, length_per_radius must be > 0 and root_spread >= 0";
   else if (deep_branches < 0 || deep_generations < 0 || !(deep_radius >= min_radius) ||
            !(tumour_shell > 1.0))
-    s << "deep branches: count and generations >= 0, deep_radius >= min_radius, tumour_shell > 1 mm";
+    s << "deep branches: count and generations >= 0, deep_radius >= min_radius, tumour_shell > 1 "
+         "mm";
   return s.str();
 }
 
@@ -103,7 +107,8 @@ class TreeGrower {
 
   [[nodiscard]] bool valid(const Vector3d& p) const {
     return m_g.label_at(p) == imaging::BRAIN &&
-           (p - m_g.tumour_center).norm() >= m_g.tumour_radius + 1.0 && p.z() >= m_g.base_level + 3.0;
+           (p - m_g.tumour_center).norm() >= m_g.tumour_radius + 1.0 &&
+           p.z() >= m_g.base_level + 3.0;
   }
 
   /// Unit normal of the guide surface near p (outward).
@@ -154,7 +159,8 @@ class TreeGrower {
       if (toward.norm() < 1e-6) toward = nr.unitOrthogonal();
       const Vector3d dir = Eigen::AngleAxisd(deg(uniform(-25.0, 25.0)), nr) * toward.normalized();
       const double r = uniform(m_o.root_radius_min, m_o.root_radius_max);
-      const int cap = std::uniform_int_distribution<int>(m_o.min_generations, m_o.max_generations)(m_rng);
+      const int cap =
+          std::uniform_int_distribution<int>(m_o.min_generations, m_o.max_generations)(m_rng);
       const index_t start = add_point(root, r, 1, -1);
       run({start, dir, r, 1, cap, guide});
       return;
@@ -207,7 +213,8 @@ class TreeGrower {
     const Vector3d d_big = Eigen::AngleAxisd(side * deg(uniform(15.0, 35.0)), n) * dir;
     const Vector3d d_small = Eigen::AngleAxisd(-side * deg(uniform(30.0, 60.0)), n) * dir;
     const int g = job.generation + 1;
-    stack.push_back({at, d_small, r_small, g, job.max_generation, random_guide(job.guide.cortical)});
+    stack.push_back(
+        {at, d_small, r_small, g, job.max_generation, random_guide(job.guide.cortical)});
     stack.push_back({at, d_big, r_big, g, job.max_generation, random_guide(job.guide.cortical)});
   }
 
@@ -221,11 +228,12 @@ class TreeGrower {
         candidates.push_back(i);
     if (candidates.empty()) return;
     std::sort(candidates.begin(), candidates.end(), [&](index_t a, index_t b) {
-      return (m_tree.points[std::size_t(a)] - tc).norm() < (m_tree.points[std::size_t(b)] - tc).norm();
+      return (m_tree.points[std::size_t(a)] - tc).norm() <
+             (m_tree.points[std::size_t(b)] - tc).norm();
     });
     candidates.resize(std::min<std::size_t>(candidates.size(), 40));
-    const index_t start =
-        candidates[std::size_t(std::uniform_int_distribution<int>(0, int(candidates.size()) - 1)(m_rng))];
+    const index_t start = candidates[std::size_t(
+        std::uniform_int_distribution<int>(0, int(candidates.size()) - 1)(m_rng))];
     const int generation = m_tree.generation[std::size_t(start)] + 1;
     const Guide shell = random_guide(false);
     Vector3d p = m_tree.points[std::size_t(start)];

@@ -11,23 +11,23 @@
 /// reached. Deep (penetrating) branches leave the cortical trees toward the tumour and then
 /// branch over a shell a few mm around it.
 
+#include "core/config.hpp"
+#include "data_synth/geometry/brain_phantom.hpp"
+#include "data_synth/geometry/brain_shape.hpp"
+
 #include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "core/config.hpp"
-#include "data_synth/geometry/brain_phantom.hpp"
-#include "data_synth/geometry/brain_shape.hpp"
-
 namespace brainshift::data_synth {
 
 /// A vessel skeleton: a graph (usually a forest of trees) of centreline points with radii.
 struct VesselTree {
-  std::vector<Vector3d> points;              ///< #P centreline points, world RAS mm
-  std::vector<double> radius;                ///< #P vessel radius at each point, mm
-  std::vector<int> generation;               ///< #P branch generation (1 = root branch)
-  std::vector<std::array<index_t, 2>> edges; ///< segments (parent point, child point)
+  std::vector<Vector3d> points;               ///< #P centreline points, world RAS mm
+  std::vector<double> radius;                 ///< #P vessel radius at each point, mm
+  std::vector<int> generation;                ///< #P branch generation (1 = root branch)
+  std::vector<std::array<index_t, 2>> edges;  ///< segments (parent point, child point)
 
   [[nodiscard]] index_t size() const { return static_cast<index_t>(points.size()); }
   /// Number of segments at each point.
@@ -43,8 +43,8 @@ struct VesselTree {
 
 /// How the synthetic trees grow. Lengths in mm.
 struct VesselTreeOptions {
-  std::uint32_t seed = 1;      ///< std::mt19937 seed: same seed and options ⇒ identical tree
-  int cortical_trees = 3;      ///< trees rooted on the cortex around the craniotomy, ≥ 0
+  std::uint32_t seed = 1;  ///< std::mt19937 seed: same seed and options ⇒ identical tree
+  int cortical_trees = 3;  ///< trees rooted on the cortex around the craniotomy, ≥ 0
   /// Roots lie this far (mm, along the surface, roughly) from the craniotomy centre, in
   /// [0.4, 1] × root_spread; the trees grow toward the craniotomy.
   double root_spread = 40.0;
@@ -62,11 +62,11 @@ struct VesselTreeOptions {
   double step = 1.5;       ///< centreline point spacing, mm, > 0
   /// Branch length = length_per_radius × r × U(0.7, 1.3) + 4 mm.
   double length_per_radius = 9.0;
-  double wander_deg = 12.0;        ///< standard deviation of the per-step turn, degrees
-  int deep_branches = 2;           ///< penetrating branches toward the tumour, ≥ 0
-  double deep_radius = 1.2;        ///< radius of a penetrating branch, mm
-  double tumour_shell = 4.0;       ///< deep branches spread this far outside the tumour, mm
-  int deep_generations = 2;        ///< bifurcation levels of the deep branches around the tumour
+  double wander_deg = 12.0;   ///< standard deviation of the per-step turn, degrees
+  int deep_branches = 2;      ///< penetrating branches toward the tumour, ≥ 0
+  double deep_radius = 1.2;   ///< radius of a penetrating branch, mm
+  double tumour_shell = 4.0;  ///< deep branches spread this far outside the tumour, mm
+  int deep_generations = 2;   ///< bifurcation levels of the deep branches around the tumour
   /// Empty when valid, else the reason (names the value).
   [[nodiscard]] std::string validate() const;
 };

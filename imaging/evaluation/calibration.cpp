@@ -1,10 +1,10 @@
 #include "imaging/evaluation/calibration.hpp"
 
+#include "core/error.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-
-#include "core/error.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -31,7 +31,8 @@ double spearman(const std::vector<double>& a, const std::vector<double>& b) {
   if (a.size() < 2) return 0.0;
   const std::vector<double> ra = ranks(a), rb = ranks(b);
   const double n = static_cast<double>(a.size());
-  const double ma = std::accumulate(ra.begin(), ra.end(), 0.0) / n, mb = std::accumulate(rb.begin(), rb.end(), 0.0) / n;
+  const double ma = std::accumulate(ra.begin(), ra.end(), 0.0) / n,
+               mb = std::accumulate(rb.begin(), rb.end(), 0.0) / n;
   double sab = 0, saa = 0, sbb = 0;
   for (std::size_t i = 0; i < ra.size(); ++i) {
     sab += (ra[i] - ma) * (rb[i] - mb);
@@ -44,8 +45,8 @@ double spearman(const std::vector<double>& a, const std::vector<double>& b) {
 UncertaintyCalibration calibrate_uncertainty(const std::vector<double>& predicted_mm,
                                              const std::vector<double>& actual_mm) {
   BS_VERIFY(predicted_mm.size() == actual_mm.size(),
-            "uncertainty calibration: " << predicted_mm.size() << " predicted and " << actual_mm.size()
-                                        << " actual errors");
+            "uncertainty calibration: " << predicted_mm.size() << " predicted and "
+                                        << actual_mm.size() << " actual errors");
   UncertaintyCalibration c;
   c.count = static_cast<int>(predicted_mm.size());
   if (c.count == 0) return c;
@@ -55,7 +56,8 @@ UncertaintyCalibration calibrate_uncertainty(const std::vector<double>& predicte
   for (std::size_t i = 0; i < predicted_mm.size(); ++i) {
     const double p = predicted_mm[i], a = actual_mm[i];
     BS_VERIFY(std::isfinite(p) && std::isfinite(a) && p >= 0 && a >= 0,
-              "uncertainty calibration: error " << i << " is negative or not finite (" << p << ", " << a << ")");
+              "uncertainty calibration: error " << i << " is negative or not finite (" << p << ", "
+                                                << a << ")");
     in1 += a <= p;
     in2 += a <= 2 * p;
     c.mean_predicted_mm += p;

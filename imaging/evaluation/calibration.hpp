@@ -18,8 +18,8 @@ inline constexpr double expected_within_1_sigma_pct = 60.84;
 inline constexpr double expected_within_2_sigma_pct = 99.26;
 
 struct UncertaintyCalibration {
-  int count = 0;                  ///< landmarks compared
-  double spearman = 0.0;          ///< rank correlation predicted vs actual error (0 when undefined)
+  int count = 0;          ///< landmarks compared
+  double spearman = 0.0;  ///< rank correlation predicted vs actual error (0 when undefined)
   double within_1_sigma_pct = 0.0;
   double within_2_sigma_pct = 0.0;
   double mean_predicted_mm = 0.0;

@@ -1,18 +1,18 @@
 #include "imaging/filters/gaussian.hpp"
 
+#include "imaging/filters/parallel.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-
-#include "imaging/filters/parallel.hpp"
 
 namespace brainshift::imaging::filters {
 namespace {
 
 /// One pass of `kernel` along `axis` of `data` (grid `n`, in place). Order 0 renormalises the
 /// weights at the faces; other orders repeat the face voxel.
-void filter_axis(std::vector<float>& data, const Eigen::Vector3i& n, int axis, const std::vector<double>& kernel,
-                 bool renormalise) {
+void filter_axis(std::vector<float>& data, const Eigen::Vector3i& n, int axis,
+                 const std::vector<double>& kernel, bool renormalise) {
   const int r = int(kernel.size() / 2);
   const int len = n[axis];
   const std::int64_t stride[3] = {1, n[0], std::int64_t(n[0]) * n[1]};
@@ -62,7 +62,8 @@ std::vector<double> gaussian_kernel(double s, int order) {
   std::vector<double> k(g.size());
   for (int t = -r; t <= r; ++t) {
     const double w = g[std::size_t(t + r)];
-    k[std::size_t(t + r)] = order == 1 ? -t / (s * s) * w : (double(t) * t / (s * s * s * s) - 1.0 / (s * s)) * w;
+    k[std::size_t(t + r)] =
+        order == 1 ? -t / (s * s) * w : (double(t) * t / (s * s * s * s) - 1.0 / (s * s)) * w;
   }
   // Exact moments on the sampled, truncated kernel: Σ t·k = −1 (order 1); Σ k = 0 and
   // Σ t²·k = 2 (order 2), so ramps and parabolas are differentiated exactly.
@@ -82,12 +83,15 @@ std::vector<double> gaussian_kernel(double s, int order) {
 }
 
 VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<int, 3>& order) {
-  BS_VERIFY(image.components == 1, "Gaussian filter needs a one-component volume, got " << image.components);
-  BS_VERIFY(sigma_mm >= 0.0 && std::isfinite(sigma_mm), "Gaussian filter σ must be ≥ 0 and finite, got " << sigma_mm);
-  for (const int o : order) BS_VERIFY(o >= 0 && o <= 2, "Gaussian derivative order must be 0, 1 or 2, got " << o);
+  BS_VERIFY(image.components == 1,
+            "Gaussian filter needs a one-component volume, got " << image.components);
+  BS_VERIFY(sigma_mm >= 0.0 && std::isfinite(sigma_mm),
+            "Gaussian filter σ must be ≥ 0 and finite, got " << sigma_mm);
+  for (const int o : order)
+    BS_VERIFY(o >= 0 && o <= 2, "Gaussian derivative order must be 0, 1 or 2, got " << o);
   BS_VERIFY(image.data.size() == std::size_t(image.geometry.voxel_count()),
-            "Gaussian filter: volume holds " << image.data.size() << " values for " << image.geometry.voxel_count()
-                                             << " voxels");
+            "Gaussian filter: volume holds " << image.data.size() << " values for "
+                                             << image.geometry.voxel_count() << " voxels");
   VolumeF out = image;
   bool any_non_finite = false;
   for (float& v : out.data)
@@ -98,15 +102,21 @@ VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<
   const Eigen::Vector3i& n = image.geometry.size;
   for (int axis = 0; axis < 3; ++axis) {
     const double s = sigma_mm / image.geometry.spacing[axis];
-    std::vector<double> kernel = n[axis] >= 2 ? gaussian_kernel(s, order[std::size_t(axis)]) : std::vector<double>{};
+    std::vector<double> kernel =
+        n[axis] >= 2 ? gaussian_kernel(s, order[std::size_t(axis)]) : std::vector<double>{};
     if (kernel.empty() && order[std::size_t(axis)] > 0) {
       // Narrow or absent smoothing: central differences (zero on a one-voxel axis).
-      kernel = order[std::size_t(axis)] == 1 ? std::vector<double>{0.5, 0.0, -0.5} : std::vector<double>{1.0, -2.0, 1.0};
+      kernel = order[std::size_t(axis)] == 1 ? std::vector<double>{0.5, 0.0, -0.5}
+                                             : std::vector<double>{1.0, -2.0, 1.0};
       if (n[axis] < 2) kernel = {0.0, 0.0, 0.0};
     }
     if (kernel.empty()) continue;
-    if (order[std::size_t(axis)] == 1) std::reverse(kernel.begin(), kernel.end());  // correlation → convolution
-    for (double& w : kernel) w /= (order[std::size_t(axis)] == 0 ? 1.0 : std::pow(image.geometry.spacing[axis], order[std::size_t(axis)]));
+    if (order[std::size_t(axis)] == 1)
+      std::reverse(kernel.begin(), kernel.end());  // correlation → convolution
+    for (double& w : kernel)
+      w /= (order[std::size_t(axis)] == 0
+                ? 1.0
+                : std::pow(image.geometry.spacing[axis], order[std::size_t(axis)]));
     filter_axis(out.data, n, axis, kernel, order[std::size_t(axis)] == 0);
   }
   if (any_non_finite)
@@ -129,7 +139,8 @@ double gaussian_noise_gain(const ImageGeometry& g, double sigma_mm) {
 }
 
 VolumeF downsample(const VolumeF& image, const Eigen::Vector3i& factor, bool maximum) {
-  BS_VERIFY(image.components == 1, "downsampling needs a one-component volume, got " << image.components);
+  BS_VERIFY(image.components == 1,
+            "downsampling needs a one-component volume, got " << image.components);
   BS_VERIFY(factor.minCoeff() >= 1, "downsampling factors must be ≥ 1, got " << factor.transpose());
   const ImageGeometry& g = image.geometry;
   ImageGeometry c = g;
@@ -149,8 +160,10 @@ VolumeF downsample(const VolumeF& image, const Eigen::Vector3i& factor, bool max
         const float v = in[i];
         if (!std::isfinite(v)) continue;
         const std::size_t o = std::size_t(row + i / factor[0]);
-        if (maximum) out.data[o] = count[o] == 0.0F ? v : std::max(out.data[o], v);
-        else out.data[o] += v;
+        if (maximum)
+          out.data[o] = count[o] == 0.0F ? v : std::max(out.data[o], v);
+        else
+          out.data[o] += v;
         count[o] += 1.0F;
       }
     }

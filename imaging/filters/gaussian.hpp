@@ -11,10 +11,10 @@
 /// (Neumann boundary). Derivatives are taken along the index axes in image units per mm^order;
 /// with an orthonormal direction matrix the Hessian eigenvalues are those of the world frame.
 
+#include "imaging/io/volume.hpp"
+
 #include <array>
 #include <vector>
-
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::imaging::filters {
 
@@ -34,7 +34,8 @@ std::vector<double> gaussian_kernel(double s, int order);
 /// @param[in] order  derivative order per index axis.
 /// \throws brainshift::Error for a multi-component volume, a negative or non-finite σ, or an
 /// order outside {0, 1, 2}.
-VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<int, 3>& order = {0, 0, 0});
+VolumeF gaussian_filter(const VolumeF& image, double sigma_mm,
+                        const std::array<int, 3>& order = {0, 0, 0});
 
 /// The factor by which gaussian_filter() (order 0) scales the standard deviation of white noise
 /// on grid `g`: the product over the filtered axes of √(Σ w²) of the normalised kernel.

@@ -13,14 +13,17 @@ namespace brainshift::imaging::filters {
 /// write data owned by its chunk. Single-threaded when n is small or one thread is available.
 template <typename F>
 void parallel_for(int n, F&& body) {
-  const int threads = std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(8, std::max(1, n / 4)));
+  const int threads =
+      std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(8, std::max(1, n / 4)));
   if (threads <= 1) {
     body(0, n);
     return;
   }
   std::vector<std::thread> pool;
   for (int t = 1; t < threads; ++t)
-    pool.emplace_back([&body, n, t, threads] { body(int(std::int64_t(n) * t / threads), int(std::int64_t(n) * (t + 1) / threads)); });
+    pool.emplace_back([&body, n, t, threads] {
+      body(int(std::int64_t(n) * t / threads), int(std::int64_t(n) * (t + 1) / threads));
+    });
   body(0, int(std::int64_t(n) / threads));
   for (auto& th : pool) th.join();
 }

@@ -1,13 +1,13 @@
 #include "imaging/filters/vesselness.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <sstream>
+#include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/parallel.hpp"
 
 #include <Eigen/Eigenvalues>
 
-#include "imaging/filters/gaussian.hpp"
-#include "imaging/filters/parallel.hpp"
+#include <algorithm>
+#include <cmath>
+#include <sstream>
 
 namespace brainshift::imaging::filters {
 namespace {
@@ -24,9 +24,12 @@ Eigen::Matrix3d hessian_at(const VolumeF& s, int i, int j, int k, const Vector3d
     h(0, 0) = (p[sx] - c2 + p[-sx]) * inv_h[0] * inv_h[0];
     h(1, 1) = (p[sy] - c2 + p[-sy]) * inv_h[1] * inv_h[1];
     h(2, 2) = (p[sz] - c2 + p[-sz]) * inv_h[2] * inv_h[2];
-    h(0, 1) = h(1, 0) = (p[sx + sy] - p[sx - sy] - p[sy - sx] + p[-sx - sy]) * 0.25 * inv_h[0] * inv_h[1];
-    h(0, 2) = h(2, 0) = (p[sx + sz] - p[sx - sz] - p[sz - sx] + p[-sx - sz]) * 0.25 * inv_h[0] * inv_h[2];
-    h(1, 2) = h(2, 1) = (p[sy + sz] - p[sy - sz] - p[sz - sy] + p[-sy - sz]) * 0.25 * inv_h[1] * inv_h[2];
+    h(0, 1) = h(1, 0) =
+        (p[sx + sy] - p[sx - sy] - p[sy - sx] + p[-sx - sy]) * 0.25 * inv_h[0] * inv_h[1];
+    h(0, 2) = h(2, 0) =
+        (p[sx + sz] - p[sx - sz] - p[sz - sx] + p[-sx - sz]) * 0.25 * inv_h[0] * inv_h[2];
+    h(1, 2) = h(2, 1) =
+        (p[sy + sz] - p[sy - sz] - p[sz - sy] + p[-sy - sz]) * 0.25 * inv_h[1] * inv_h[2];
     return h;
   }
   const auto value = [&](int di, int dj, int dk) {
@@ -38,15 +41,17 @@ Eigen::Matrix3d hessian_at(const VolumeF& s, int i, int j, int k, const Vector3d
   for (int a = 0; a < 3; ++a) {
     Eigen::Vector3i e = Eigen::Vector3i::Zero();
     e[a] = 1;
-    h(a, a) = n[a] < 2 ? 0.0 : (value(e[0], e[1], e[2]) - 2.0 * centre + value(-e[0], -e[1], -e[2])) * inv_h[a] * inv_h[a];
+    h(a, a) = n[a] < 2 ? 0.0
+                       : (value(e[0], e[1], e[2]) - 2.0 * centre + value(-e[0], -e[1], -e[2])) *
+                             inv_h[a] * inv_h[a];
     for (int b = a + 1; b < 3; ++b) {
       Eigen::Vector3i f = Eigen::Vector3i::Zero();
       f[b] = 1;
       const Eigen::Vector3i p = e + f, m = e - f;
       const double d = (n[a] < 2 || n[b] < 2)
                            ? 0.0
-                           : (value(p[0], p[1], p[2]) - value(m[0], m[1], m[2]) - value(-m[0], -m[1], -m[2]) +
-                              value(-p[0], -p[1], -p[2])) *
+                           : (value(p[0], p[1], p[2]) - value(m[0], m[1], m[2]) -
+                              value(-m[0], -m[1], -m[2]) + value(-p[0], -p[1], -p[2])) *
                                  0.25 * inv_h[a] * inv_h[b];
       h(a, b) = h(b, a) = d;
     }
@@ -60,9 +65,11 @@ std::string VesselnessOptions::validate() const {
   std::ostringstream why;
   if (scales_mm.empty()) why << "scales_mm must not be empty; ";
   for (const double s : scales_mm)
-    if (!(s > 0.0) || !std::isfinite(s)) why << "scales_mm must be > 0 and finite, got " << s << "; ";
+    if (!(s > 0.0) || !std::isfinite(s))
+      why << "scales_mm must be > 0 and finite, got " << s << "; ";
   if (!(alpha > 0.0) || !(beta > 0.0)) why << "alpha and beta must be > 0; ";
-  if (!(c_fraction > 0.0) || !std::isfinite(c_fraction)) why << "c_fraction must be > 0, got " << c_fraction << "; ";
+  if (!(c_fraction > 0.0) || !std::isfinite(c_fraction))
+    why << "c_fraction must be > 0, got " << c_fraction << "; ";
   std::string text = why.str();
   if (!text.empty()) text.resize(text.size() - 2);
   return text;
@@ -71,7 +78,8 @@ std::string VesselnessOptions::validate() const {
 VolumeF frangi_vesselness(const VolumeF& image, const VesselnessOptions& options) {
   const std::string invalid = options.validate();
   BS_VERIFY(invalid.empty(), "vesselness options: " << invalid);
-  BS_VERIFY(image.components == 1, "vesselness needs a one-component volume, got " << image.components);
+  BS_VERIFY(image.components == 1,
+            "vesselness needs a one-component volume, got " << image.components);
   const ImageGeometry& g = image.geometry;
   VolumeF best(g, 1, 0.0F);
   if (image.empty()) return best;
@@ -80,8 +88,10 @@ VolumeF frangi_vesselness(const VolumeF& image, const VesselnessOptions& options
     // Scales of two or more voxels run on a grid coarsened so that σ stays ≈ 1–2 voxels: the
     // response of a tube that wide changes little over a voxel, and the cost falls by f³·f.
     Eigen::Vector3i factor;
-    for (int a = 0; a < 3; ++a) factor[a] = std::max(1, int(std::floor(sigma / (2.0 * g.spacing[a]))));
-    const VolumeF coarse = factor == Eigen::Vector3i::Ones() ? VolumeF{} : downsample(image, factor);
+    for (int a = 0; a < 3; ++a)
+      factor[a] = std::max(1, int(std::floor(sigma / (2.0 * g.spacing[a]))));
+    const VolumeF coarse =
+        factor == Eigen::Vector3i::Ones() ? VolumeF{} : downsample(image, factor);
     const VolumeF& source = factor == Eigen::Vector3i::Ones() ? image : coarse;
     const ImageGeometry& h = source.geometry;
     const VolumeF s = gaussian_filter(source, sigma);
@@ -128,11 +138,13 @@ VolumeF frangi_vesselness(const VolumeF& image, const VesselnessOptions& options
             if (structure <= out) continue;
             eig.computeDirect(normalise * hessian_at(s, ci, cj, ck, inv_h), Eigen::EigenvaluesOnly);
             Vector3d l = eig.eigenvalues();
-            std::sort(l.data(), l.data() + 3, [](double x, double y) { return std::abs(x) < std::abs(y); });
+            std::sort(l.data(), l.data() + 3,
+                      [](double x, double y) { return std::abs(x) < std::abs(y); });
             if (!(l[1] < 0.0 && l[2] < 0.0)) continue;
             const double ra = std::abs(l[1]) / std::abs(l[2]);
             const double rb = std::abs(l[0]) / std::sqrt(std::abs(l[1] * l[2]));
-            out = std::max(out, float((1.0 - std::exp(-ra * ra / a2)) * std::exp(-rb * rb / b2) * structure));
+            out = std::max(
+                out, float((1.0 - std::exp(-ra * ra / a2)) * std::exp(-rb * rb / b2) * structure));
           }
     });
   }

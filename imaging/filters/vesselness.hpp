@@ -17,9 +17,9 @@
 /// responds most at σ ≈ r/√2 (Sato et al. 1998); plates (skin, fat, the skull's edge) have
 /// Ra ≈ 0 and blobs Rb ≈ 1, so both are suppressed.
 
-#include <vector>
-
 #include "imaging/io/volume.hpp"
+
+#include <vector>
 
 namespace brainshift::imaging::filters {
 

@@ -1,15 +1,14 @@
 #include "imaging/io/atomic_write.hpp"
 
+#include "core/error.hpp"
+
 #include <atomic>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <string>
 #include <system_error>
-
 #include <unistd.h>
-
-#include "core/error.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -30,12 +29,12 @@ std::filesystem::path temporary_name(const std::filesystem::path& target) {
 /// Creates the (empty) file `temporary` next to `target`, or throws one line saying why not.
 void create_temporary(const std::filesystem::path& target, const std::filesystem::path& temporary) {
   namespace fs = std::filesystem;
-  BS_VERIFY(!target.filename().empty(), "cannot write '" << target.string() << "': not a file name");
+  BS_VERIFY(!target.filename().empty(),
+            "cannot write '" << target.string() << "': not a file name");
   const fs::path folder = target.parent_path().empty() ? fs::path(".") : target.parent_path();
   std::error_code ec;
-  BS_VERIFY(fs::exists(folder, ec),
-            "cannot write " << target.string() << ": folder " << folder.string()
-                            << " does not exist");
+  BS_VERIFY(fs::exists(folder, ec), "cannot write " << target.string() << ": folder "
+                                                    << folder.string() << " does not exist");
   BS_VERIFY(fs::is_directory(folder, ec),
             "cannot write " << target.string() << ": " << folder.string() << " is not a folder");
   BS_VERIFY(!fs::is_directory(target, ec),

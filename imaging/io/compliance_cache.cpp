@@ -1,19 +1,20 @@
 #include "imaging/io/compliance_cache.hpp"
 
+#include "core/error.hpp"
+#include "core/hash.hpp"
+#include "imaging/io/atomic_write.hpp"
+
 #include <bit>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/hash.hpp"
-#include "imaging/io/atomic_write.hpp"
-
 namespace brainshift::imaging {
 namespace {
 
-static_assert(std::endian::native == std::endian::little, "compliance cache I/O assumes a little-endian machine");
+static_assert(std::endian::native == std::endian::little,
+              "compliance cache I/O assumes a little-endian machine");
 
 constexpr char magic[8] = {'B', 'S', 'C', 'O', 'M', 'P', 'L', '\0'};
 
@@ -26,7 +27,9 @@ class HashingWriter {
     m_out.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
   }
   template <typename T>
-  void put(const T& v) { put(&v, sizeof v); }
+  void put(const T& v) {
+    put(&v, sizeof v);
+  }
   [[nodiscard]] std::uint64_t hash() const { return m_hash; }
 
  private:
@@ -37,9 +40,11 @@ class HashingWriter {
 /// Reads from an in-memory copy of the file with bounds checks.
 class Reader {
  public:
-  Reader(const std::filesystem::path& path, std::vector<char> bytes) : m_path(path), m_bytes(std::move(bytes)) {}
+  Reader(const std::filesystem::path& path, std::vector<char> bytes)
+      : m_path(path), m_bytes(std::move(bytes)) {}
   void get(void* data, std::size_t bytes) {
-    BS_VERIFY(bytes <= m_bytes.size() - m_pos, m_path.string() << ": truncated compliance cache (run prepare again)");
+    BS_VERIFY(bytes <= m_bytes.size() - m_pos,
+              m_path.string() << ": truncated compliance cache (run prepare again)");
     std::memcpy(data, m_bytes.data() + m_pos, bytes);
     m_pos += bytes;
   }
@@ -51,7 +56,9 @@ class Reader {
   }
   [[nodiscard]] std::size_t position() const { return m_pos; }
   [[nodiscard]] std::size_t remaining() const { return m_bytes.size() - m_pos; }
-  [[nodiscard]] std::uint64_t hash_before(std::size_t end) const { return core::fnv1a(m_bytes.data(), end); }
+  [[nodiscard]] std::uint64_t hash_before(std::size_t end) const {
+    return core::fnv1a(m_bytes.data(), end);
+  }
 
  private:
   std::filesystem::path m_path;
@@ -61,11 +68,12 @@ class Reader {
 
 }  // namespace
 
-void write_compliance_cache(const std::filesystem::path& path, const constraints::ComplianceBlock& block) {
+void write_compliance_cache(const std::filesystem::path& path,
+                            const constraints::ComplianceBlock& block) {
   const auto nb = static_cast<Eigen::Index>(3 * block.nodes.size());
   BS_VERIFY(block.matrix.rows() == nb && block.matrix.cols() == nb,
-            path.string() << ": compliance block is " << block.matrix.rows() << "x" << block.matrix.cols()
-                          << " for " << block.nodes.size() << " nodes");
+            path.string() << ": compliance block is " << block.matrix.rows() << "x"
+                          << block.matrix.cols() << " for " << block.nodes.size() << " nodes");
   write_atomically(path, [&](const std::filesystem::path& tmp) {
     std::ofstream out(tmp, std::ios::binary);
     BS_VERIFY(out.good(), tmp.string() << ": cannot open for writing");
@@ -98,11 +106,12 @@ constraints::ComplianceBlock read_compliance_cache(const std::filesystem::path& 
   char m[8];
   BS_VERIFY(size >= sizeof m, path.string() << ": not a brainshift compliance cache (too short)");
   r.get(m, sizeof m);
-  BS_VERIFY(std::memcmp(m, magic, sizeof m) == 0, path.string() << ": not a brainshift compliance cache");
+  BS_VERIFY(std::memcmp(m, magic, sizeof m) == 0, path.string()
+                                                      << ": not a brainshift compliance cache");
   const auto version = r.get<std::uint32_t>();
-  BS_VERIFY(version == compliance_cache_version, path.string() << ": compliance cache version " << version
-                                                                << ", this brainshift reads "
-                                                                << compliance_cache_version << " (run prepare again)");
+  BS_VERIFY(version == compliance_cache_version,
+            path.string() << ": compliance cache version " << version << ", this brainshift reads "
+                          << compliance_cache_version << " (run prepare again)");
   (void)r.get<std::uint32_t>();
   constraints::ComplianceBlock b;
   b.fingerprint = r.get<std::uint64_t>();
@@ -116,15 +125,18 @@ constraints::ComplianceBlock read_compliance_cache(const std::filesystem::path& 
   const auto nb = static_cast<Eigen::Index>(3 * count);
   const std::size_t values = static_cast<std::size_t>(nb) * static_cast<std::size_t>(nb + 1) / 2;
   BS_VERIFY(r.remaining() == values * sizeof(double) + sizeof(std::uint64_t),
-            path.string() << ": truncated or corrupted compliance cache (" << r.remaining() << " bytes left, expected "
-                          << values * sizeof(double) + sizeof(std::uint64_t) << "; run prepare again)");
+            path.string() << ": truncated or corrupted compliance cache (" << r.remaining()
+                          << " bytes left, expected "
+                          << values * sizeof(double) + sizeof(std::uint64_t)
+                          << "; run prepare again)");
   b.matrix.resize(nb, nb);
   for (Eigen::Index j = 0; j < nb; ++j) {
     r.get(b.matrix.col(j).data() + j, sizeof(double) * static_cast<std::size_t>(nb - j));
     for (Eigen::Index i = j + 1; i < nb; ++i) b.matrix(j, i) = b.matrix(i, j);
   }
   const std::uint64_t expected = r.hash_before(r.position());
-  BS_VERIFY(r.get<std::uint64_t>() == expected, path.string() << ": corrupted compliance cache (checksum mismatch; run prepare again)");
+  BS_VERIFY(r.get<std::uint64_t>() == expected,
+            path.string() << ": corrupted compliance cache (checksum mismatch; run prepare again)");
   return b;
 }
 

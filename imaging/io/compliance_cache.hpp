@@ -13,9 +13,9 @@
 /// The file is a cache, not a source of truth: the compliance operator checks the fingerprint,
 /// the nodes and two columns against fresh solves before using it.
 
-#include <filesystem>
-
 #include "constraints/solver/compliance_operator.hpp"
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 
@@ -24,7 +24,8 @@ inline constexpr int compliance_cache_version = 1;
 /// Writes `block` to `path` atomically (temporary name, then rename).
 /// \throws brainshift::Error naming `path` when the block is not square 3|nodes| or the file
 /// cannot be written.
-void write_compliance_cache(const std::filesystem::path& path, const constraints::ComplianceBlock& block);
+void write_compliance_cache(const std::filesystem::path& path,
+                            const constraints::ComplianceBlock& block);
 
 /// Reads a compliance cache.
 /// \throws brainshift::Error, one line naming `path`: cannot read, not a compliance cache,

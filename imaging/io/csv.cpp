@@ -1,5 +1,8 @@
 #include "imaging/io/csv.hpp"
 
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -9,9 +12,6 @@
 #include <string_view>
 #include <system_error>
 #include <unordered_map>
-
-#include "core/error.hpp"
-#include "imaging/io/atomic_write.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -49,8 +49,8 @@ class CsvReader {
       if (!normalised.empty()) normalised += ',';
       normalised.append(f.data(), f.size());
     }
-    BS_VERIFY(normalised == header, where() << ": expected the header '" << header << "', got '"
-                                            << got << "'");
+    BS_VERIFY(normalised == header,
+              where() << ": expected the header '" << header << "', got '" << got << "'");
   }
 
   /// Next non-blank line, trimmed; false at the end of the file.
@@ -110,15 +110,15 @@ std::vector<index_t> read_node_list(const std::filesystem::path& path, index_t n
   std::vector<index_t> nodes;
   for (std::string_view line; csv.next(line);) {
     const auto fields = split_fields(line);
-    BS_VERIFY(fields.size() == 1,
-              csv.where() << ": expected one field (node), got " << fields.size());
+    BS_VERIFY(fields.size() == 1, csv.where()
+                                      << ": expected one field (node), got " << fields.size());
     nodes.push_back(csv.parse_node(fields[0], num_nodes));
   }
   return nodes;
 }
 
-std::vector<core::PrescribedDisplacement> read_node_displacements(
-    const std::filesystem::path& path, index_t num_nodes) {
+std::vector<core::PrescribedDisplacement> read_node_displacements(const std::filesystem::path& path,
+                                                                  index_t num_nodes) {
   CsvReader csv(path, "node,dx,dy,dz");
   std::vector<core::PrescribedDisplacement> result;
   std::unordered_map<index_t, std::string> seen;  // node → where it was first given
@@ -131,8 +131,8 @@ std::vector<core::PrescribedDisplacement> read_node_displacements(
     p.displacement = {csv.parse_number(fields[1], "dx"), csv.parse_number(fields[2], "dy"),
                       csv.parse_number(fields[3], "dz")};
     const auto [it, inserted] = seen.emplace(p.node, csv.where());
-    BS_VERIFY(inserted, csv.where() << ": node " << p.node << " is repeated (first at "
-                                    << it->second << ")");
+    BS_VERIFY(inserted,
+              csv.where() << ": node " << p.node << " is repeated (first at " << it->second << ")");
     result.push_back(p);
   }
   return result;
@@ -164,23 +164,27 @@ Landmarks read_landmarks(const std::filesystem::path& path) {
   std::unordered_map<std::string, std::string> seen;  // id → where it was first given
   for (std::string_view line; csv.next(line);) {
     const auto fields = split_fields(line);
-    BS_VERIFY(fields.size() == 4, csv.where() << ": expected 4 fields (id,x,y,z), got " << fields.size());
+    BS_VERIFY(fields.size() == 4, csv.where()
+                                      << ": expected 4 fields (id,x,y,z), got " << fields.size());
     std::string id(fields[0]);
     BS_VERIFY(!id.empty(), csv.where() << ": empty id");
     const auto [it, inserted] = seen.emplace(id, csv.where());
-    BS_VERIFY(inserted, csv.where() << ": id " << id << " is repeated (first at " << it->second << ")");
+    BS_VERIFY(inserted, csv.where()
+                            << ": id " << id << " is repeated (first at " << it->second << ")");
     points.emplace_back(csv.parse_number(fields[1], "x"), csv.parse_number(fields[2], "y"),
                         csv.parse_number(fields[3], "z"));
     result.ids.push_back(std::move(id));
   }
   result.points.resize(static_cast<Eigen::Index>(points.size()), 3);
-  for (std::size_t i = 0; i < points.size(); ++i) result.points.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
+  for (std::size_t i = 0; i < points.size(); ++i)
+    result.points.row(static_cast<Eigen::Index>(i)) = points[i].transpose();
   return result;
 }
 
 void write_landmarks(const std::filesystem::path& path, const Landmarks& landmarks) {
   BS_VERIFY(static_cast<Eigen::Index>(landmarks.ids.size()) == landmarks.points.rows(),
-            path.string() << ": " << landmarks.ids.size() << " ids for " << landmarks.points.rows() << " points");
+            path.string() << ": " << landmarks.ids.size() << " ids for " << landmarks.points.rows()
+                          << " points");
   std::ostringstream s;
   s.precision(std::numeric_limits<double>::max_digits10);
   s << "id,x,y,z\n";

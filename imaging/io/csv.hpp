@@ -7,12 +7,12 @@
 /// displacement (mm, world RAS) per line. Blank lines and surrounding spaces are ignored;
 /// Windows line ends are accepted.
 
+#include "core/config.hpp"
+#include "core/solver/static_solver.hpp"
+
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include "core/config.hpp"
-#include "core/solver/static_solver.hpp"
 
 namespace brainshift::imaging {
 
@@ -30,8 +30,8 @@ std::vector<index_t> read_node_list(const std::filesystem::path& path, index_t n
 /// @return one prescribed displacement (mm) per line, in file order.
 /// \throws brainshift::Error, one line naming the file and line: missing file, wrong header,
 /// wrong field count, a non-numeric or non-finite value, an id out of range, a repeated id.
-std::vector<core::PrescribedDisplacement> read_node_displacements(
-    const std::filesystem::path& path, index_t num_nodes = -1);
+std::vector<core::PrescribedDisplacement> read_node_displacements(const std::filesystem::path& path,
+                                                                  index_t num_nodes = -1);
 
 /// Writes a node-list CSV (atomically: complete or not at all).
 /// \throws brainshift::Error naming the path when it cannot be written.

@@ -1,6 +1,6 @@
 #include "imaging/io/gzip_file.hpp"
 
-#include <zlib.h>
+#include "core/error.hpp"
 
 #include <algorithm>
 #include <cstdint>
@@ -8,8 +8,7 @@
 #include <limits>
 #include <thread>
 #include <vector>
-
-#include "core/error.hpp"
+#include <zlib.h>
 
 namespace brainshift::imaging {
 namespace {
@@ -22,10 +21,12 @@ struct Chunk {
   std::string error;
 };
 
-void deflate_chunk(const unsigned char* in, std::size_t n, bool last, const GzipOptions& o, Chunk& c) {
+void deflate_chunk(const unsigned char* in, std::size_t n, bool last, const GzipOptions& o,
+                   Chunk& c) {
   c.crc = crc32_z(crc32_z(0L, Z_NULL, 0), in, n);
   z_stream z{};
-  if (deflateInit2(&z, o.level, Z_DEFLATED, -15, 8, o.run_length ? Z_RLE : Z_DEFAULT_STRATEGY) != Z_OK) {
+  if (deflateInit2(&z, o.level, Z_DEFLATED, -15, 8, o.run_length ? Z_RLE : Z_DEFAULT_STRATEGY) !=
+      Z_OK) {
     c.error = "deflateInit2 failed";
     return;
   }
@@ -35,14 +36,16 @@ void deflate_chunk(const unsigned char* in, std::size_t n, bool last, const Gzip
   z.next_out = c.out.data();
   z.avail_out = uInt(c.out.size());
   const int rc = deflate(&z, last ? Z_FINISH : Z_SYNC_FLUSH);
-  if ((last && rc != Z_STREAM_END) || (!last && rc != Z_OK) || z.avail_in != 0) c.error = "deflate failed";
+  if ((last && rc != Z_STREAM_END) || (!last && rc != Z_OK) || z.avail_in != 0)
+    c.error = "deflate failed";
   c.out.resize(c.out.size() - z.avail_out);
   deflateEnd(&z);
 }
 
 void put_le32(std::ofstream& f, std::uint32_t v) {
   const unsigned char b[4] = {static_cast<unsigned char>(v), static_cast<unsigned char>(v >> 8),
-                              static_cast<unsigned char>(v >> 16), static_cast<unsigned char>(v >> 24)};
+                              static_cast<unsigned char>(v >> 16),
+                              static_cast<unsigned char>(v >> 24)};
   f.write(reinterpret_cast<const char*>(b), 4);
 }
 
@@ -51,11 +54,12 @@ void put_le32(std::ofstream& f, std::uint32_t v) {
 void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path& target,
                  const GzipOptions& options) {
   BS_VERIFY(options.level >= 0 && options.level <= 9 && options.threads >= 1,
-            target.string() << ": gzip level must be 0-9 and threads >= 1, got " << options.level << " and "
-                            << options.threads);
+            target.string() << ": gzip level must be 0-9 and threads >= 1, got " << options.level
+                            << " and " << options.threads);
   // Chunks of at least 1 MiB, each below zlib's 32-bit avail_in.
   constexpr std::size_t min_chunk = std::size_t(1) << 20, max_chunk = std::size_t(1) << 30;
-  std::size_t chunks = std::max<std::size_t>(1, std::min<std::size_t>(options.threads, size / min_chunk));
+  std::size_t chunks =
+      std::max<std::size_t>(1, std::min<std::size_t>(options.threads, size / min_chunk));
   chunks = std::max(chunks, (size + max_chunk - 1) / max_chunk);
   const auto* in = static_cast<const unsigned char*>(data);
   std::vector<Chunk> out(chunks);
@@ -70,14 +74,16 @@ void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path
   uLong crc = out[0].crc;
   for (std::size_t c = 0; c < chunks; ++c) {
     BS_VERIFY(out[c].error.empty(), target.string() << ": cannot compress: " << out[c].error);
-    if (c > 0) crc = crc32_combine(crc, out[c].crc, z_off_t(size * (c + 1) / chunks - size * c / chunks));
+    if (c > 0)
+      crc = crc32_combine(crc, out[c].crc, z_off_t(size * (c + 1) / chunks - size * c / chunks));
   }
   std::ofstream f(target, std::ios::binary | std::ios::trunc);
   BS_VERIFY(f.good(), target.string() << ": cannot open for writing");
   // gzip header: magic, deflate, no flags, no mtime, no extra flags, OS unknown (reproducible).
   const unsigned char header[10] = {0x1f, 0x8b, 8, 0, 0, 0, 0, 0, 0, 255};
   f.write(reinterpret_cast<const char*>(header), sizeof header);
-  for (const Chunk& c : out) f.write(reinterpret_cast<const char*>(c.out.data()), std::streamsize(c.out.size()));
+  for (const Chunk& c : out)
+    f.write(reinterpret_cast<const char*>(c.out.data()), std::streamsize(c.out.size()));
   put_le32(f, std::uint32_t(crc));
   put_le32(f, std::uint32_t(size & 0xffffffffU));
   f.flush();

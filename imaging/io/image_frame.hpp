@@ -6,9 +6,9 @@
 /// LPS and RAS differ by a half-turn about the superior axis: (x, y, z)_RAS = (−x, −y, z)_LPS,
 /// the same map both ways (it is its own inverse).
 
-#include <string>
-
 #include "imaging/io/volume.hpp"
+
+#include <string>
 
 namespace brainshift::imaging {
 

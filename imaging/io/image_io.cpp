@@ -1,14 +1,12 @@
 #include "imaging/io/image_io.hpp"
 
-#include <algorithm>
-#include <cctype>
-#include <chrono>
-#include <cmath>
-#include <iostream>
-#include <sstream>
-#include <string>
-#include <system_error>
-#include <type_traits>
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/gzip_file.hpp"
+#include "imaging/io/image_frame.hpp"
+#include "imaging/io/nrrd_io.hpp"
+#include "imaging/io/vtk_error_capture.hpp"
 
 #include <vtkDataArray.h>
 #include <vtkFloatArray.h>
@@ -26,13 +24,15 @@
 #include <vtkXMLImageDataWriter.h>
 #include <vtkmetaio/metaImage.h>
 
-#include "core/error.hpp"
-#include "core/logger.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "imaging/io/gzip_file.hpp"
-#include "imaging/io/image_frame.hpp"
-#include "imaging/io/nrrd_io.hpp"
-#include "imaging/io/vtk_error_capture.hpp"
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <type_traits>
 
 namespace brainshift::imaging {
 namespace {
@@ -94,8 +94,10 @@ VolumeF read_nifti(const std::filesystem::path& path) {
   // VTK data coordinates x = origin + spacing·ijk map to the world by the 4×4 matrix.
   Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
   vtkMatrix4x4* form = nullptr;
-  if (header->GetSFormCode() > 0) form = reader->GetSFormMatrix();
-  else if (header->GetQFormCode() > 0) form = reader->GetQFormMatrix();
+  if (header->GetSFormCode() > 0)
+    form = reader->GetSFormMatrix();
+  else if (header->GetQFormCode() > 0)
+    form = reader->GetQFormMatrix();
   if (form != nullptr) {
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) m(r, c) = form->GetElement(r, c);
@@ -153,9 +155,8 @@ VolumeF read_metaimage(const std::filesystem::path& path) {
     const CerrCapture messages;
     const bool read = meta.Read(file.c_str(), true);
     const std::string problem = messages.last_line();
-    BS_VERIFY(read && problem.empty(),
-              file << ": not a readable MetaImage (" << (problem.empty() ? "bad header" : problem)
-                   << ")");
+    BS_VERIFY(read && problem.empty(), file << ": not a readable MetaImage ("
+                                            << (problem.empty() ? "bad header" : problem) << ")");
   }
   const int n = meta.NDims();
   BS_VERIFY(n == 2 || n == 3, file << ": MetaImage with " << n << " dimensions (2 or 3 supported)");
@@ -286,7 +287,8 @@ void write_nifti(const std::filesystem::path& target, const std::filesystem::pat
   });
   const auto t_gz = std::chrono::steady_clock::now();
   if (gz) gzip_file(raw, temporary);
-  logger().debug("write_nifti: VTK {:.3f} s, gzip {:.3f} s", std::chrono::duration<double>(t_gz - t_vtk).count(),
+  logger().debug("write_nifti: VTK {:.3f} s, gzip {:.3f} s",
+                 std::chrono::duration<double>(t_gz - t_vtk).count(),
                  std::chrono::duration<double>(std::chrono::steady_clock::now() - t_gz).count());
 }
 
@@ -314,8 +316,8 @@ void write_metaimage(const std::filesystem::path& target, const std::filesystem:
   meta.BinaryData(true);
   meta.CompressedData(true);
   write_with_extension(temporary, ".mha", [&](const std::filesystem::path& p) {
-    BS_VERIFY(meta.Write(p.string().c_str(), "LOCAL"),
-              target.string() << ": cannot write the MetaImage file");
+    BS_VERIFY(meta.Write(p.string().c_str(), "LOCAL"), target.string()
+                                                           << ": cannot write the MetaImage file");
   });
 }
 
@@ -345,10 +347,18 @@ void write_any(const std::filesystem::path& path, const Volume<T>& volume) {
   verify_geometry(volume.geometry, file);
   write_atomically(path, [&](const std::filesystem::path& temporary) {
     switch (format) {
-      case ImageFormat::NIFTI: write_nifti(path, temporary, volume); break;
-      case ImageFormat::METAIMAGE: write_metaimage(path, temporary, volume); break;
-      case ImageFormat::NRRD: write_nrrd(temporary, volume, NrrdSpace::RAS); break;
-      case ImageFormat::VTI: write_vti(path, temporary, volume); break;
+      case ImageFormat::NIFTI:
+        write_nifti(path, temporary, volume);
+        break;
+      case ImageFormat::METAIMAGE:
+        write_metaimage(path, temporary, volume);
+        break;
+      case ImageFormat::NRRD:
+        write_nrrd(temporary, volume, NrrdSpace::RAS);
+        break;
+      case ImageFormat::VTI:
+        write_vti(path, temporary, volume);
+        break;
     }
   });
 }
@@ -370,10 +380,14 @@ VolumeF read_volume(const std::filesystem::path& path, std::string* header_note)
   verify_readable(path);
   VolumeF volume = [&] {
     switch (format) {
-      case ImageFormat::NIFTI: return read_nifti(path);
-      case ImageFormat::METAIMAGE: return read_metaimage(path);
-      case ImageFormat::NRRD: return read_nrrd(path);
-      case ImageFormat::VTI: return read_vti(path);
+      case ImageFormat::NIFTI:
+        return read_nifti(path);
+      case ImageFormat::METAIMAGE:
+        return read_metaimage(path);
+      case ImageFormat::NRRD:
+        return read_nrrd(path);
+      case ImageFormat::VTI:
+        return read_vti(path);
     }
     BS_UNREACHABLE();
   }();
@@ -408,12 +422,12 @@ void write_volume(const std::filesystem::path& path, const VolumeF& volume) {
 }
 
 void write_labels(const std::filesystem::path& path, const LabelVolume& labels) {
-  BS_VERIFY(labels.components == 1, path.string() << ": a label volume has one component, got "
-                                                  << labels.components);
+  BS_VERIFY(labels.components == 1,
+            path.string() << ": a label volume has one component, got " << labels.components);
   const auto bad = std::find_if(labels.data.begin(), labels.data.end(),
                                 [](std::uint8_t v) { return v > VENTRICLES; });
-  BS_VERIFY(bad == labels.data.end(), path.string() << ": label value " << int(*bad)
-                                                    << " is not one of 0, 1, 2, 3");
+  BS_VERIFY(bad == labels.data.end(),
+            path.string() << ": label value " << int(*bad) << " is not one of 0, 1, 2, 3");
   write_any(path, labels);
 }
 
@@ -424,10 +438,11 @@ void write_displacement_for_slicer(const std::filesystem::path& path,
             file << ": a displacement field for Slicer is written as .nrrd");
   BS_VERIFY(displacement_ras.components == 3,
             file << ": a displacement field has 3 components, got " << displacement_ras.components);
-  BS_VERIFY(displacement_ras.data.size() == std::size_t(displacement_ras.geometry.voxel_count()) * 3 &&
-                !displacement_ras.empty(),
-            file << ": displacement field holds " << displacement_ras.data.size()
-                 << " values for " << displacement_ras.geometry.voxel_count() << " voxels × 3");
+  BS_VERIFY(
+      displacement_ras.data.size() == std::size_t(displacement_ras.geometry.voxel_count()) * 3 &&
+          !displacement_ras.empty(),
+      file << ": displacement field holds " << displacement_ras.data.size() << " values for "
+           << displacement_ras.geometry.voxel_count() << " voxels × 3");
   BS_VERIFY(std::all_of(displacement_ras.data.begin(), displacement_ras.data.end(),
                         [](float v) { return std::isfinite(v); }),
             file << ": displacement field has non-finite values");

@@ -24,10 +24,10 @@
 /// y components negated on reading and on writing, like the geometry. Other component counts
 /// are copied as they are.
 
+#include "imaging/io/volume.hpp"
+
 #include <filesystem>
 #include <string>
-
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::imaging {
 

@@ -1,10 +1,11 @@
 #include "imaging/io/mesh_io.hpp"
 
-#include <climits>
-#include <sstream>
-#include <string>
-#include <system_error>
+#include "core/error.hpp"
+#include "core/units.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/vtk_error_capture.hpp"
 
+#include <climits>
 #include <vtkCellData.h>
 #include <vtkCellType.h>
 #include <vtkCellTypes.h>
@@ -19,10 +20,9 @@
 #include <vtkXMLUnstructuredGridReader.h>
 #include <vtkXMLUnstructuredGridWriter.h>
 
-#include "core/error.hpp"
-#include "core/units.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "imaging/io/vtk_error_capture.hpp"
+#include <sstream>
+#include <string>
+#include <system_error>
 
 namespace brainshift::imaging {
 namespace {
@@ -42,8 +42,8 @@ Eigen::VectorXd read_cell_array(vtkUnstructuredGrid* grid, const char* name, dou
   return values;
 }
 
-vtkSmartPointer<vtkDoubleArray> to_vtk_array(const char* name, const double* data,
-                                             vtkIdType tuples, int components) {
+vtkSmartPointer<vtkDoubleArray> to_vtk_array(const char* name, const double* data, vtkIdType tuples,
+                                             int components) {
   auto array = vtkSmartPointer<vtkDoubleArray>::New();
   array->SetName(name);
   array->SetNumberOfComponents(components);
@@ -123,8 +123,8 @@ void write_tet_mesh(const std::filesystem::path& path, const core::TetMesh& mesh
                     const MatrixX3d* displacement) {
   const std::string file = path.string();
   BS_VERIFY(displacement == nullptr || displacement->rows() == mesh.num_nodes(),
-            "cannot write " << file << ": displacement has " << displacement->rows()
-                            << " rows for " << mesh.num_nodes() << " nodes");
+            "cannot write " << file << ": displacement has " << displacement->rows() << " rows for "
+                            << mesh.num_nodes() << " nodes");
 
   vtkNew<vtkUnstructuredGrid> grid;
   vtkNew<vtkPoints> points;

@@ -4,10 +4,10 @@
 /// 3D Slicer. Positions in mm, world RAS frame. Per-cell arrays `youngs_modulus` (kPa) and
 /// `poisson_ratio`; an optional per-point array `displacement` (mm, 3 components).
 
-#include <filesystem>
-
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 

@@ -1,5 +1,9 @@
 #include "imaging/io/nrrd_io.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "imaging/io/image_frame.hpp"
+
 #include <algorithm>
 #include <bit>
 #include <cctype>
@@ -14,12 +18,7 @@
 #include <string>
 #include <system_error>
 #include <vector>
-
 #include <zlib.h>
-
-#include "core/error.hpp"
-#include "core/logger.hpp"
-#include "imaging/io/image_frame.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -47,19 +46,32 @@ float convert(const unsigned char* p) {
 
 ElementType element_type(const std::string& name, const std::string& file) {
   static const std::map<std::string, ElementType> types = {
-      {"int8", {1, convert<std::int8_t>}},      {"signed char", {1, convert<std::int8_t>}},
-      {"int8_t", {1, convert<std::int8_t>}},    {"char", {1, convert<std::int8_t>}},
-      {"uchar", {1, convert<std::uint8_t>}},    {"unsigned char", {1, convert<std::uint8_t>}},
-      {"uint8", {1, convert<std::uint8_t>}},    {"uint8_t", {1, convert<std::uint8_t>}},
-      {"short", {2, convert<std::int16_t>}},    {"short int", {2, convert<std::int16_t>}},
-      {"signed short", {2, convert<std::int16_t>}}, {"int16", {2, convert<std::int16_t>}},
-      {"int16_t", {2, convert<std::int16_t>}},  {"ushort", {2, convert<std::uint16_t>}},
-      {"unsigned short", {2, convert<std::uint16_t>}}, {"uint16", {2, convert<std::uint16_t>}},
-      {"uint16_t", {2, convert<std::uint16_t>}}, {"int", {4, convert<std::int32_t>}},
-      {"signed int", {4, convert<std::int32_t>}}, {"int32", {4, convert<std::int32_t>}},
-      {"int32_t", {4, convert<std::int32_t>}},  {"uint", {4, convert<std::uint32_t>}},
-      {"unsigned int", {4, convert<std::uint32_t>}}, {"uint32", {4, convert<std::uint32_t>}},
-      {"uint32_t", {4, convert<std::uint32_t>}}, {"float", {4, convert<float>}},
+      {"int8", {1, convert<std::int8_t>}},
+      {"signed char", {1, convert<std::int8_t>}},
+      {"int8_t", {1, convert<std::int8_t>}},
+      {"char", {1, convert<std::int8_t>}},
+      {"uchar", {1, convert<std::uint8_t>}},
+      {"unsigned char", {1, convert<std::uint8_t>}},
+      {"uint8", {1, convert<std::uint8_t>}},
+      {"uint8_t", {1, convert<std::uint8_t>}},
+      {"short", {2, convert<std::int16_t>}},
+      {"short int", {2, convert<std::int16_t>}},
+      {"signed short", {2, convert<std::int16_t>}},
+      {"int16", {2, convert<std::int16_t>}},
+      {"int16_t", {2, convert<std::int16_t>}},
+      {"ushort", {2, convert<std::uint16_t>}},
+      {"unsigned short", {2, convert<std::uint16_t>}},
+      {"uint16", {2, convert<std::uint16_t>}},
+      {"uint16_t", {2, convert<std::uint16_t>}},
+      {"int", {4, convert<std::int32_t>}},
+      {"signed int", {4, convert<std::int32_t>}},
+      {"int32", {4, convert<std::int32_t>}},
+      {"int32_t", {4, convert<std::int32_t>}},
+      {"uint", {4, convert<std::uint32_t>}},
+      {"unsigned int", {4, convert<std::uint32_t>}},
+      {"uint32", {4, convert<std::uint32_t>}},
+      {"uint32_t", {4, convert<std::uint32_t>}},
+      {"float", {4, convert<float>}},
       {"double", {8, convert<double>}}};
   const auto it = types.find(name);
   BS_VERIFY(it != types.end(), file << ": unsupported NRRD type '" << name << "'");
@@ -80,7 +92,8 @@ Vector3d space_signs(const std::string& space, const std::string& file) {
 Vector3d parse_vector(const std::string& text, const std::string& file, const std::string& field) {
   if (trim(text) == "none") return Vector3d::Constant(std::nan(""));
   std::string s = text;
-  std::replace_if(s.begin(), s.end(), [](char c) { return c == '(' || c == ')' || c == ','; }, ' ');
+  std::replace_if(
+      s.begin(), s.end(), [](char c) { return c == '(' || c == ')' || c == ','; }, ' ');
   std::istringstream in(s);
   Vector3d v;
   for (int a = 0; a < 3; ++a) {
@@ -147,8 +160,8 @@ std::vector<unsigned char> gunzip(const std::vector<unsigned char>& in, std::siz
   BS_VERIFY(status == Z_STREAM_END || (status == Z_BUF_ERROR && produced == expected),
             file << ": corrupt or truncated gzip data (" << produced << " of " << expected
                  << " bytes decoded)");
-  BS_VERIFY(produced == expected, file << ": gzip data holds " << produced << " bytes, expected "
-                                       << expected);
+  BS_VERIFY(produced == expected,
+            file << ": gzip data holds " << produced << " bytes, expected " << expected);
   return out;
 }
 
@@ -175,8 +188,8 @@ void write_nrrd_impl(const std::filesystem::path& path, const Volume<T>& volume,
     h << " (" << axes(0, a) << ',' << axes(1, a) << ',' << axes(2, a) << ')';
   h << "\nkinds:";
   if (multi) h << (vector ? " vector" : " list");
-  h << " domain domain domain\nendian: little\nencoding: raw\nspace origin: (" << origin[0]
-    << ',' << origin[1] << ',' << origin[2] << ")\n\n";
+  h << " domain domain domain\nendian: little\nencoding: raw\nspace origin: (" << origin[0] << ','
+    << origin[1] << ',' << origin[2] << ")\n\n";
 
   std::vector<T> data = volume.data;
   if (vector && space == NrrdSpace::LPS) {
@@ -239,7 +252,8 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
             file << ": NRRD sizes has " << sizes.size() << " values, expected " << dimension);
   const int first_domain = dimension - 3;
   const int components = dimension == 4 ? int(sizes[0]) : 1;
-  BS_VERIFY(components >= 1, file << ": zero-size image (component axis of size " << components << ")");
+  BS_VERIFY(components >= 1,
+            file << ": zero-size image (component axis of size " << components << ")");
 
   ImageGeometry g;
   for (int a = 0; a < 3; ++a) {
@@ -251,9 +265,8 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
   if (has("space")) {
     signs = space_signs(fields["space"], file);
     const std::vector<Vector3d> dirs = parse_vectors(field("space directions"), file);
-    BS_VERIFY(int(dirs.size()) == dimension,
-              file << ": NRRD space directions has " << dirs.size() << " entries, expected "
-                   << dimension);
+    BS_VERIFY(int(dirs.size()) == dimension, file << ": NRRD space directions has " << dirs.size()
+                                                  << " entries, expected " << dimension);
     BS_VERIFY(dimension == 3 || dirs[0].hasNaN(),
               file << ": the first axis of a 4-D NRRD must be the component axis (none)");
     for (int a = 0; a < 3; ++a) {
@@ -268,9 +281,10 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
     logger().warn("{}: NRRD without 'space': taken as RAS with identity direction", file);
     if (has("spacings")) {
       const auto w = words(fields["spacings"]);
-      BS_VERIFY(int(w.size()) == dimension, file << ": NRRD spacings has " << w.size()
-                                                 << " values, expected " << dimension);
-      for (int a = 0; a < 3; ++a) g.spacing[a] = number<double>(w[first_domain + a], file, "spacings");
+      BS_VERIFY(int(w.size()) == dimension,
+                file << ": NRRD spacings has " << w.size() << " values, expected " << dimension);
+      for (int a = 0; a < 3; ++a)
+        g.spacing[a] = number<double>(w[first_domain + a], file, "spacings");
     }
   }
   g.origin = signs.cwiseProduct(g.origin);

@@ -11,9 +11,9 @@
 /// gzip; either endianness. Three-component volumes are vectors in the file's space and are
 /// converted with the geometry. Detached data (.nhdr), `byte skip` and `line skip` are refused.
 
-#include <filesystem>
-
 #include "imaging/io/volume.hpp"
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 

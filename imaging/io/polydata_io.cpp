@@ -1,15 +1,15 @@
 #include "imaging/io/polydata_io.hpp"
 
-#include <string>
-#include <system_error>
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/io/vtk_error_capture.hpp"
 
 #include <vtkNew.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 
-#include "core/error.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "imaging/io/vtk_error_capture.hpp"
+#include <string>
+#include <system_error>
 
 namespace brainshift::imaging {
 
@@ -37,7 +37,8 @@ void write_polydata(const std::filesystem::path& path, vtkPolyData* poly) {
     writer->SetDataModeToAppended();
     writer->EncodeAppendedDataOff();
     writer->SetFileName(temporary.string().c_str());
-    BS_VERIFY(writer->Write() == 1 && !errors.failed(), path.string() << ": cannot write: " << errors.message());
+    BS_VERIFY(writer->Write() == 1 && !errors.failed(),
+              path.string() << ": cannot write: " << errors.message());
   });
 }
 

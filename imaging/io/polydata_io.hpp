@@ -3,10 +3,10 @@
 /// @brief VTK XML polydata (.vtp) files, shared by the skeleton and surface readers/writers:
 /// one-line errors naming the file, binary appended data, atomic writes.
 
-#include <filesystem>
-
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 

@@ -1,11 +1,5 @@
 #include "imaging/io/scene_io.hpp"
 
-#include <fstream>
-#include <set>
-#include <sstream>
-
-#include <nlohmann/json.hpp>
-
 #include "core/error.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/mesh_io.hpp"
@@ -13,11 +7,17 @@
 #include "imaging/io/surface_io.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
 
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
 namespace brainshift::imaging {
 namespace {
 
-using nlohmann::json;
 using constraints::ConstraintSet;
+using nlohmann::json;
 
 /// A JSON object being read: checks keys against a known list, types and ranges, and names the
 /// file and the dotted key path in every error.
@@ -30,7 +30,8 @@ class Reader {
       if (!known.count(k)) {
         std::string list;
         for (const auto& s : known) list += (list.empty() ? "" : ", ") + s;
-        BS_VERIFY(false, m_file << ": unknown key '" << name(k) << "' (known here: " << list << ")");
+        BS_VERIFY(false,
+                  m_file << ": unknown key '" << name(k) << "' (known here: " << list << ")");
       }
   }
   [[nodiscard]] bool has(const std::string& k) const { return m_j.contains(k); }
@@ -40,20 +41,22 @@ class Reader {
   [[nodiscard]] std::string name(const std::string& k) const {
     return m_where.empty() ? k : (k.empty() ? m_where : m_where + "." + k);
   }
-  void number(const std::string& k, double& out, double lo, double hi, const char* unit = "") const {
+  void number(const std::string& k, double& out, double lo, double hi,
+              const char* unit = "") const {
     if (!has(k)) return;
-    BS_VERIFY(m_j[k].is_number(), m_file << ": '" << name(k) << "' must be a number" << unit_text(unit));
+    BS_VERIFY(m_j[k].is_number(),
+              m_file << ": '" << name(k) << "' must be a number" << unit_text(unit));
     const double v = m_j[k].get<double>();
-    BS_VERIFY(v >= lo && v <= hi,
-              m_file << ": '" << name(k) << "' = " << v << unit << " is out of range [" << lo << ", " << hi << "]");
+    BS_VERIFY(v >= lo && v <= hi, m_file << ": '" << name(k) << "' = " << v << unit
+                                         << " is out of range [" << lo << ", " << hi << "]");
     out = v;
   }
   void integer(const std::string& k, int& out, int lo, int hi) const {
     if (!has(k)) return;
     BS_VERIFY(m_j[k].is_number_integer(), m_file << ": '" << name(k) << "' must be an integer");
     const auto v = m_j[k].get<long long>();
-    BS_VERIFY(v >= lo && v <= hi, m_file << ": '" << name(k) << "' = " << v << " is out of range [" << lo << ", "
-                                         << hi << "]");
+    BS_VERIFY(v >= lo && v <= hi, m_file << ": '" << name(k) << "' = " << v << " is out of range ["
+                                         << lo << ", " << hi << "]");
     out = static_cast<int>(v);
   }
   void boolean(const std::string& k, bool& out) const {
@@ -61,7 +64,8 @@ class Reader {
     BS_VERIFY(m_j[k].is_boolean(), m_file << ": '" << name(k) << "' must be true or false");
     out = m_j[k].get<bool>();
   }
-  [[nodiscard]] std::string text(const std::string& k, const std::set<std::string>& allowed = {}) const {
+  [[nodiscard]] std::string text(const std::string& k,
+                                 const std::set<std::string>& allowed = {}) const {
     BS_VERIFY(m_j[k].is_string(), m_file << ": '" << name(k) << "' must be a string");
     const std::string v = m_j[k].get<std::string>();
     if (!allowed.empty() && !allowed.count(v)) {
@@ -73,13 +77,16 @@ class Reader {
   }
   [[nodiscard]] Vector3d vector3(const std::string& k) const {
     const json& a = m_j[k];
-    BS_VERIFY(a.is_array() && a.size() == 3 && a[0].is_number() && a[1].is_number() && a[2].is_number(),
-              m_file << ": '" << name(k) << "' must be an array of 3 numbers (mm)");
+    BS_VERIFY(
+        a.is_array() && a.size() == 3 && a[0].is_number() && a[1].is_number() && a[2].is_number(),
+        m_file << ": '" << name(k) << "' must be an array of 3 numbers (mm)");
     return {a[0].get<double>(), a[1].get<double>(), a[2].get<double>()};
   }
 
  private:
-  static std::string unit_text(const char* unit) { return *unit ? std::string(" (") + unit + ")" : ""; }
+  static std::string unit_text(const char* unit) {
+    return *unit ? std::string(" (") + unit + ")" : "";
+  }
   const json& m_j;
   std::string m_file;
   std::string m_where;
@@ -95,8 +102,8 @@ void read_filter(const Reader& r, constraints::FilterOptions& f) {
   r.integer("max_per_tet", f.max_per_tet, 0, 1000);
 }
 
-const std::set<std::string> kFilterKeys = {"one_per_feature", "median_threshold_mm", "min_distance_mm",
-                                           "max_angle_deg", "max_per_tet"};
+const std::set<std::string> kFilterKeys = {"one_per_feature", "median_threshold_mm",
+                                           "min_distance_mm", "max_angle_deg", "max_per_tet"};
 
 void read_solver(const Reader& r, Scene& s) {
   auto& o = s.options;
@@ -107,7 +114,7 @@ void read_solver(const Reader& r, Scene& s) {
   r.integer("pgs_max_iterations", o.step.pgs.max_iterations, 1, 1000000);
   if (r.has("constraint_solver")) {
     const std::string v = r.text("constraint_solver", {"auto", "active_set", "gauss_seidel"});
-    o.step.solver = v == "auto" ? constraints::ConstraintSolver::AUTO
+    o.step.solver = v == "auto"         ? constraints::ConstraintSolver::AUTO
                     : v == "active_set" ? constraints::ConstraintSolver::ACTIVE_SET
                                         : constraints::ConstraintSolver::GAUSS_SEIDEL;
   }
@@ -133,8 +140,10 @@ void read_solver(const Reader& r, Scene& s) {
 
 }  // namespace
 
-std::vector<index_t> nodes_below(const core::TetMesh& mesh, const Vector3d& direction, double height_mm) {
-  BS_VERIFY(direction.norm() > 0 && direction.allFinite(), "fixed region: the down direction must be non-zero");
+std::vector<index_t> nodes_below(const core::TetMesh& mesh, const Vector3d& direction,
+                                 double height_mm) {
+  BS_VERIFY(direction.norm() > 0 && direction.allFinite(),
+            "fixed region: the down direction must be non-zero");
   const Vector3d d = direction.normalized();
   const Eigen::VectorXd depth = mesh.nodes() * d;  // larger = lower
   const double lowest = depth.maxCoeff();
@@ -155,8 +164,8 @@ Scene read_scene(const std::filesystem::path& path) {
     BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
   }
   const Reader r(j, file, "",
-                 {"version", "mesh", "materials", "fixed", "collision_surface", "vessels", "craniotomy",
-                  "constraints", "rigid", "pairing", "filter", "solver"});
+                 {"version", "mesh", "materials", "fixed", "collision_surface", "vessels",
+                  "craniotomy", "constraints", "rigid", "pairing", "filter", "solver"});
   if (r.has("version")) {
     int version = 1;
     r.integer("version", version, 1, 1);
@@ -190,7 +199,8 @@ Scene read_scene(const std::filesystem::path& path) {
   // Fixed region: a node list, or the nodes near the bottom (default: 15 mm along −z, RAS).
   if (r.has("fixed")) {
     const Reader f = r.object("fixed", {"nodes", "below"});
-    BS_VERIFY(f.has("nodes") != f.has("below"), file << ": 'fixed' needs exactly one of 'nodes' or 'below'");
+    BS_VERIFY(f.has("nodes") != f.has("below"),
+              file << ": 'fixed' needs exactly one of 'nodes' or 'below'");
     if (f.has("nodes")) {
       const std::filesystem::path p = f.text("nodes");
       s.fixed_nodes = read_node_list(p.is_absolute() ? p : dir / p, s.mesh.num_nodes());
@@ -208,9 +218,12 @@ Scene read_scene(const std::filesystem::path& path) {
   BS_VERIFY(s.fixed_nodes.size() >= 3, file << ": the fixed region has " << s.fixed_nodes.size()
                                             << " nodes; at least 3 are needed to hold the model");
   if (r.has("collision_surface"))
-    s.surface = with_context("collision_surface", [](const std::filesystem::path& p) { return read_surface_vtp(p); });
+    s.surface = with_context("collision_surface",
+                             [](const std::filesystem::path& p) { return read_surface_vtp(p); });
   if (r.has("vessels"))
-    s.skeleton = with_context("vessels", [](const std::filesystem::path& p) { return to_skeleton(read_skeleton_vtp(p)); });
+    s.skeleton = with_context("vessels", [](const std::filesystem::path& p) {
+      return to_skeleton(read_skeleton_vtp(p));
+    });
 
   auto& o = s.options;
   if (r.has("craniotomy")) {
@@ -233,7 +246,8 @@ Scene read_scene(const std::filesystem::path& path) {
   BS_VERIFY(o.dura.mode == constraints::DuraOptions::Mode::NONE || s.surface.triangles.rows() > 0,
             file << ": dura contact needs a 'collision_surface'");
   if (r.has("rigid")) {
-    const Reader g = r.object("rigid", {"enabled", "loss", "loss_scale_mm", "max_pair_distance_mm"});
+    const Reader g =
+        r.object("rigid", {"enabled", "loss", "loss_scale_mm", "max_pair_distance_mm"});
     bool enabled = o.start == constraints::RigidStart::RIGID;
     g.boolean("enabled", enabled);
     o.start = enabled ? constraints::RigidStart::RIGID : constraints::RigidStart::IDENTITY;
@@ -257,9 +271,9 @@ Scene read_scene(const std::filesystem::path& path) {
     if (f.has("footprint")) read_filter(f.object("footprint", kFilterKeys), o.footprint_filter);
   }
   if (r.has("solver"))
-    read_solver(r.object("solver", {"max_iterations", "increment_tolerance_mm", "trust_region_mm", "pgs_tolerance",
-                                    "pgs_max_iterations", "constraint_solver", "mechanics", "compliance",
-                                    "compliance_budget_mib"}),
+    read_solver(r.object("solver", {"max_iterations", "increment_tolerance_mm", "trust_region_mm",
+                                    "pgs_tolerance", "pgs_max_iterations", "constraint_solver",
+                                    "mechanics", "compliance", "compliance_budget_mib"}),
                 s);
   const std::string invalid = o.validate();
   BS_VERIFY(invalid.empty(), file << ": " << invalid);

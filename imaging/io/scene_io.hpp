@@ -32,12 +32,12 @@
 /// }
 /// ```
 
+#include "constraints/registration/registration.hpp"
+#include "core/mesh/tet_mesh.hpp"
+
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include "constraints/registration/registration.hpp"
-#include "core/mesh/tet_mesh.hpp"
 
 namespace brainshift::imaging {
 
@@ -45,8 +45,8 @@ namespace brainshift::imaging {
 struct Scene {
   core::TetMesh mesh;
   std::vector<index_t> fixed_nodes;
-  constraints::Skeleton skeleton;      ///< empty when the scene names no vessels
-  constraints::SurfaceMesh surface;    ///< empty when the scene names no collision surface
+  constraints::Skeleton skeleton;    ///< empty when the scene names no vessels
+  constraints::SurfaceMesh surface;  ///< empty when the scene names no collision surface
   constraints::RegistrationOptions options;
   constraints::ComplianceOptions compliance;
 };
@@ -59,6 +59,7 @@ Scene read_scene(const std::filesystem::path& path);
 
 /// Nodes within `height_mm` of the lowest node along `direction` (pointing down; need not be
 /// unit): the default fixed (cerebellum-side) region.
-std::vector<index_t> nodes_below(const core::TetMesh& mesh, const Vector3d& direction, double height_mm);
+std::vector<index_t> nodes_below(const core::TetMesh& mesh, const Vector3d& direction,
+                                 double height_mm);
 
 }  // namespace brainshift::imaging

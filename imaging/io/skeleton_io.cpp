@@ -1,8 +1,8 @@
 #include "imaging/io/skeleton_io.hpp"
 
-#include <cmath>
-#include <map>
-#include <string>
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "imaging/io/polydata_io.hpp"
 
 #include <vtkCellArray.h>
 #include <vtkDataArray.h>
@@ -13,9 +13,9 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 
-#include "core/error.hpp"
-#include "core/logger.hpp"
-#include "imaging/io/polydata_io.hpp"
+#include <cmath>
+#include <map>
+#include <string>
 
 namespace brainshift::imaging {
 
@@ -57,8 +57,8 @@ VesselGraph read_skeleton_vtp(const std::filesystem::path& path) {
   if (radius == nullptr) logger().warn("{}: no 'radius' point array; radii set to 0", file);
   BS_VERIFY(radius == nullptr || (radius->GetNumberOfComponents() == 1 &&
                                   radius->GetNumberOfTuples() == poly->GetNumberOfPoints()),
-            file << ": the radius array has " << (radius ? radius->GetNumberOfTuples() : 0)
-                 << "×" << (radius ? radius->GetNumberOfComponents() : 0) << " values, expected "
+            file << ": the radius array has " << (radius ? radius->GetNumberOfTuples() : 0) << "×"
+                 << (radius ? radius->GetNumberOfComponents() : 0) << " values, expected "
                  << poly->GetNumberOfPoints() << "×1");
   const auto point = [&](vtkIdType id) {
     Vector3d p;

@@ -4,9 +4,9 @@
 /// 3D Slicer: one polyline cell per branch, node points shared by the branches that meet there,
 /// positions in mm in the world RAS frame, and a per-point array `radius` (mm).
 
-#include <filesystem>
-
 #include "imaging/vessels/skeleton_graph.hpp"
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 

@@ -1,5 +1,7 @@
 #include "imaging/io/surface_io.hpp"
 
+#include "core/error.hpp"
+#include "imaging/io/polydata_io.hpp"
 
 #include <vtkCellArray.h>
 #include <vtkIdList.h>
@@ -7,9 +9,6 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkTriangleFilter.h>
-
-#include "core/error.hpp"
-#include "imaging/io/polydata_io.hpp"
 
 namespace brainshift::imaging {
 
@@ -25,7 +24,8 @@ void write_surface_vtp(const std::filesystem::path& path, const constraints::Sur
     points->SetPoint(v, surface.vertices(v, 0), surface.vertices(v, 1), surface.vertices(v, 2));
   vtkNew<vtkCellArray> polys;
   for (Eigen::Index f = 0; f < surface.triangles.rows(); ++f) {
-    const vtkIdType ids[3] = {surface.triangles(f, 0), surface.triangles(f, 1), surface.triangles(f, 2)};
+    const vtkIdType ids[3] = {surface.triangles(f, 0), surface.triangles(f, 1),
+                              surface.triangles(f, 2)};
     polys->InsertNextCell(3, ids);
   }
   vtkNew<vtkPolyData> poly;
@@ -61,8 +61,9 @@ constraints::SurfaceMesh read_surface_vtp(const std::filesystem::path& path) {
   vtkNew<vtkIdList> ids;
   polys->InitTraversal();
   for (vtkIdType c = 0; polys->GetNextCell(ids); ++c) {
-    BS_VERIFY(ids->GetNumberOfIds() == 3,
-              file << ": polygon " << c << " has " << ids->GetNumberOfIds() << " points, expected a triangle");
+    BS_VERIFY(ids->GetNumberOfIds() == 3, file << ": polygon " << c << " has "
+                                               << ids->GetNumberOfIds()
+                                               << " points, expected a triangle");
     for (int k = 0; k < 3; ++k) s.triangles(c, k) = static_cast<index_t>(ids->GetId(k));
   }
   return s;

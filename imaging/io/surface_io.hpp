@@ -3,9 +3,9 @@
 /// @brief Triangle surfaces (collision surface, dura, ventricles) in VTK XML polydata files
 /// (.vtp), readable by ParaView and 3D Slicer. Positions in mm, world RAS frame.
 
-#include <filesystem>
-
 #include "constraints/registration/skeleton.hpp"
+
+#include <filesystem>
 
 namespace brainshift::imaging {
 

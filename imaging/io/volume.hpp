@@ -3,23 +3,23 @@
 /// @brief Voxel volumes with their world geometry. World = scanner frame, RAS, millimetres
 /// (the NIfTI convention); every reader converts into it and every writer converts out of it.
 ///
-/// Voxel (i, j, k) has its centre at world point  p = origin + direction · diag(spacing) · (i, j, k)ᵀ.
-/// Data are stored with i fastest, then j, then k (the NIfTI / VTK order).
-
-#include <cstdint>
-#include <vector>
+/// Voxel (i, j, k) has its centre at world point  p = origin + direction · diag(spacing) · (i, j,
+/// k)ᵀ. Data are stored with i fastest, then j, then k (the NIfTI / VTK order).
 
 #include "core/config.hpp"
 #include "core/error.hpp"
+
+#include <cstdint>
+#include <vector>
 
 namespace brainshift::imaging {
 
 /// Where a voxel grid sits in the world (RAS, mm).
 struct ImageGeometry {
-  Eigen::Vector3i size{0, 0, 0};                       ///< voxels along i, j, k
-  Vector3d origin = Vector3d::Zero();                  ///< world position of voxel (0,0,0)'s centre, mm
-  Vector3d spacing = Vector3d::Ones();                 ///< voxel size along i, j, k, mm, > 0
-  Matrix3d direction = Matrix3d::Identity();           ///< columns: world unit vectors of i, j, k
+  Eigen::Vector3i size{0, 0, 0};              ///< voxels along i, j, k
+  Vector3d origin = Vector3d::Zero();         ///< world position of voxel (0,0,0)'s centre, mm
+  Vector3d spacing = Vector3d::Ones();        ///< voxel size along i, j, k, mm, > 0
+  Matrix3d direction = Matrix3d::Identity();  ///< columns: world unit vectors of i, j, k
 
   [[nodiscard]] std::int64_t voxel_count() const {
     return std::int64_t(size[0]) * size[1] * size[2];
@@ -57,7 +57,8 @@ struct Volume {
 
   Volume() = default;
   explicit Volume(const ImageGeometry& g, int n_components = 1, T fill = T{})
-      : geometry(g), components(n_components),
+      : geometry(g),
+        components(n_components),
         data(std::size_t(g.voxel_count()) * std::size_t(n_components), fill) {
     BS_VERIFY(n_components >= 1, "a volume needs at least one component, got " << n_components);
   }
@@ -71,7 +72,7 @@ struct Volume {
   [[nodiscard]] bool empty() const { return data.empty(); }
 };
 
-using VolumeF = Volume<float>;          ///< intensities (MRI, MRA, Doppler, B-mode), displacement fields
+using VolumeF = Volume<float>;  ///< intensities (MRI, MRA, Doppler, B-mode), displacement fields
 using LabelVolume = Volume<std::uint8_t>;  ///< 0 background, 1 brain, 2 tumour, 3 ventricles (CSF)
 
 /// Label values used everywhere (phantoms, `prepare`, tests).

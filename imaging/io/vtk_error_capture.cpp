@@ -1,8 +1,8 @@
 #include "imaging/io/vtk_error_capture.hpp"
 
-#include <sstream>
-
 #include <vtkLogger.h>
+
+#include <sstream>
 
 namespace brainshift::imaging {
 namespace {

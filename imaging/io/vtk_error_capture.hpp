@@ -4,10 +4,10 @@
 /// alive, VTK errors and warnings are not printed (VTK prints several lines per error) and the
 /// first error is kept.
 
-#include <string>
-
 #include <vtkOutputWindow.h>
 #include <vtkSmartPointer.h>
+
+#include <string>
 
 namespace brainshift::imaging {
 

@@ -1,12 +1,12 @@
 #include "imaging/meshing/boundary_surface.hpp"
 
+#include "core/error.hpp"
+#include "core/mesh/boundary.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <numeric>
-
-#include "core/error.hpp"
-#include "core/mesh/boundary.hpp"
 
 namespace brainshift::imaging {
 
@@ -53,14 +53,16 @@ MeshSurface outer_boundary_surface(const core::TetMesh& mesh) {
   BS_VERIFY(mesh.num_tets() > 0, "the mesh has no tetrahedron: no boundary surface");
   const core::TriangleMatrix faces = core::boundary_faces(mesh);
   std::vector<Face> boundary(std::size_t(faces.rows()));
-  for (index_t f = 0; f < faces.rows(); ++f) boundary[std::size_t(f)] = {faces(f, 0), faces(f, 1), faces(f, 2)};
+  for (index_t f = 0; f < faces.rows(); ++f)
+    boundary[std::size_t(f)] = {faces(f, 0), faces(f, 1), faces(f, 2)};
   // Keep the component of the boundary node with the largest x (it must be on the outside).
   std::vector<index_t> parent(std::size_t(mesh.num_nodes()));
   std::iota(parent.begin(), parent.end(), 0);
   index_t extreme = boundary.front()[0];
   for (const Face& f : boundary) {
     for (int c = 0; c < 3; ++c) {
-      if (mesh.nodes()(f[std::size_t(c)], 0) > mesh.nodes()(extreme, 0)) extreme = f[std::size_t(c)];
+      if (mesh.nodes()(f[std::size_t(c)], 0) > mesh.nodes()(extreme, 0))
+        extreme = f[std::size_t(c)];
     }
     parent[std::size_t(find_root(parent, f[1]))] = find_root(parent, f[0]);
     parent[std::size_t(find_root(parent, f[2]))] = find_root(parent, f[0]);
@@ -81,7 +83,7 @@ std::vector<index_t> fixed_region_nodes(const MeshSurface& outer, const Vector3d
             "fixed region: height must be ≥ 0 mm, got " << height);
   BS_VERIFY(outer.node.size() == std::size_t(outer.surface.vertices.rows()),
             "fixed region: surface has " << outer.surface.vertices.rows() << " vertices but "
-            << outer.node.size() << " node indices");
+                                         << outer.node.size() << " node indices");
   if (outer.node.empty()) return {};
   const Eigen::VectorXd depth = outer.surface.vertices * down.normalized();  // larger = lower
   const double lowest = depth.maxCoeff();
@@ -101,7 +103,7 @@ MeshSurface dura_surface(const MeshSurface& outer, const Vector3d& centre, doubl
   const auto& F = outer.surface.triangles;
   BS_VERIFY(outer.node.size() == std::size_t(V.rows()),
             "dura surface: surface has " << V.rows() << " vertices but " << outer.node.size()
-            << " node indices");
+                                         << " node indices");
   // Work in node numbering so make_surface() renumbers the kept vertices.
   index_t max_node = -1;
   for (index_t n : outer.node) max_node = std::max(max_node, n);

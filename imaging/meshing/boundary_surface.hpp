@@ -4,10 +4,10 @@
 /// (collision surface), the default fixed region at the lowest part of the brain, and the dura
 /// surface (outer boundary minus the craniotomy). Positions in mm, world RAS frame.
 
-#include <vector>
-
 #include "constraints/registration/skeleton.hpp"
 #include "core/mesh/tet_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::imaging {
 

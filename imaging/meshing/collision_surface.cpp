@@ -1,17 +1,17 @@
 #include "imaging/meshing/collision_surface.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "core/mapping/tet_locator.hpp"
+#include "imaging/meshing/decimate_surface.hpp"
+#include "imaging/meshing/wrap_surface.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <sstream>
 #include <vector>
-
-#include "core/error.hpp"
-#include "core/logger.hpp"
-#include "core/mapping/tet_locator.hpp"
-#include "imaging/meshing/decimate_surface.hpp"
-#include "imaging/meshing/wrap_surface.hpp"
 
 namespace brainshift::imaging {
 
@@ -30,9 +30,12 @@ index_t find_root(std::vector<index_t>& parent, index_t v) {
 std::string CollisionSurfaceOptions::validate() const {
   std::ostringstream s;
   const auto positive = [](double x) { return std::isfinite(x) && x > 0.0; };
-  if (target_vertices < 4) s << "target_vertices must be ≥ 4, got " << target_vertices;
-  else if (!positive(wrap_alpha_mm)) s << "wrap_alpha_mm must be > 0 mm, got " << wrap_alpha_mm;
-  else if (!positive(wrap_offset_mm)) s << "wrap_offset_mm must be > 0 mm, got " << wrap_offset_mm;
+  if (target_vertices < 4)
+    s << "target_vertices must be ≥ 4, got " << target_vertices;
+  else if (!positive(wrap_alpha_mm))
+    s << "wrap_alpha_mm must be > 0 mm, got " << wrap_alpha_mm;
+  else if (!positive(wrap_offset_mm))
+    s << "wrap_offset_mm must be > 0 mm, got " << wrap_offset_mm;
   else if (!(max_outside_mm >= 0.0 && max_outside_mm < 2.0))
     s << "max_outside_mm must be in [0, 2) mm, got " << max_outside_mm;
   return s.str();
@@ -63,7 +66,9 @@ index_t count_non_manifold_vertices(const constraints::SurfaceMesh& surface) {
     std::vector<index_t> ids(link);
     std::sort(ids.begin(), ids.end());
     ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-    const auto id = [&](index_t w) { return index_t(std::lower_bound(ids.begin(), ids.end(), w) - ids.begin()); };
+    const auto id = [&](index_t w) {
+      return index_t(std::lower_bound(ids.begin(), ids.end(), w) - ids.begin());
+    };
     parent.resize(ids.size());
     std::iota(parent.begin(), parent.end(), 0);
     degree.assign(ids.size(), 0);
@@ -74,7 +79,8 @@ index_t count_non_manifold_vertices(const constraints::SurfaceMesh& surface) {
       parent[std::size_t(find_root(parent, p))] = find_root(parent, q);
     }
     bool ok = std::all_of(degree.begin(), degree.end(), [](index_t d) { return d == 2; });
-    for (std::size_t k = 0; ok && k < ids.size(); ++k) ok = find_root(parent, index_t(k)) == find_root(parent, 0);
+    for (std::size_t k = 0; ok && k < ids.size(); ++k)
+      ok = find_root(parent, index_t(k)) == find_root(parent, 0);
     bad += !ok;
   }
   return bad;
@@ -84,7 +90,8 @@ CollisionSurface make_collision_surface(const core::TetMesh& mesh, const MeshSur
                                         const CollisionSurfaceOptions& options) {
   const std::string bad = options.validate();
   BS_VERIFY(bad.empty(), "collision surface options: " << bad);
-  BS_VERIFY(outer.surface.triangles.rows() > 0, "collision surface: the mesh boundary has no triangle");
+  BS_VERIFY(outer.surface.triangles.rows() > 0,
+            "collision surface: the mesh boundary has no triangle");
   CollisionSurface out;
   out.boundary_vertices = outer.surface.vertices.rows();
   out.non_manifold_edges = count_non_manifold_edges(outer.surface);
@@ -93,8 +100,9 @@ CollisionSurface make_collision_surface(const core::TetMesh& mesh, const MeshSur
   if (out.wrapped) {
     logger().info("the mesh boundary is not a manifold ({} edges, {} vertices): wrapping it",
                   out.non_manifold_edges, out.non_manifold_vertices);
-    out.surface = decimate_surface(wrap_surface(outer.surface, options.wrap_alpha_mm, options.wrap_offset_mm),
-                                   options.target_vertices);
+    out.surface =
+        decimate_surface(wrap_surface(outer.surface, options.wrap_alpha_mm, options.wrap_offset_mm),
+                         options.target_vertices);
   } else {
     out.surface = decimate_surface(outer.surface, options.target_vertices);
   }
@@ -109,9 +117,11 @@ CollisionSurface make_collision_surface(const core::TetMesh& mesh, const MeshSur
       continue;
     }
     const auto loc = locator.locate(p, std::numeric_limits<double>::infinity());
-    BS_VERIFY(loc.has_value(), "internal error: collision surface vertex " << v << " is not near the mesh");
+    BS_VERIFY(loc.has_value(),
+              "internal error: collision surface vertex " << v << " is not near the mesh");
     Vector3d q = Vector3d::Zero();
-    for (int k = 0; k < 4; ++k) q += loc->barycentric(k) * mesh.nodes().row(mesh.tets()(loc->tet, k)).transpose();
+    for (int k = 0; k < 4; ++k)
+      q += loc->barycentric(k) * mesh.nodes().row(mesh.tets()(loc->tet, k)).transpose();
     out.max_outside_mm = std::max(out.max_outside_mm, loc->distance);
     V.row(v) = q.transpose();
     ++out.moved_vertices;

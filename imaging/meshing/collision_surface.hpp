@@ -7,11 +7,11 @@
 /// the mesh are then moved onto it, so every vertex maps into the mesh (the registration accepts
 /// up to 2 mm outside). Positions in mm, world RAS frame.
 
-#include <string>
-
 #include "constraints/registration/skeleton.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
+
+#include <string>
 
 namespace brainshift::imaging {
 
@@ -34,13 +34,13 @@ struct CollisionSurfaceOptions {
 
 /// The collision surface and how it was made.
 struct CollisionSurface {
-  constraints::SurfaceMesh surface;  ///< closed 2-manifold, outward normals, mm
-  index_t boundary_vertices = 0;     ///< of the mesh's outer boundary
-  index_t non_manifold_edges = 0;    ///< boundary edges shared by more than two triangles
-  index_t non_manifold_vertices = 0; ///< boundary vertices whose triangles do not form one fan
-  bool wrapped = false;              ///< the boundary was not a manifold and was alpha-wrapped
-  index_t moved_vertices = 0;        ///< vertices moved onto the mesh (were > max_outside_mm out)
-  double max_outside_mm = 0.0;       ///< largest distance of a vertex outside the mesh before moving, mm
+  constraints::SurfaceMesh surface;   ///< closed 2-manifold, outward normals, mm
+  index_t boundary_vertices = 0;      ///< of the mesh's outer boundary
+  index_t non_manifold_edges = 0;     ///< boundary edges shared by more than two triangles
+  index_t non_manifold_vertices = 0;  ///< boundary vertices whose triangles do not form one fan
+  bool wrapped = false;               ///< the boundary was not a manifold and was alpha-wrapped
+  index_t moved_vertices = 0;         ///< vertices moved onto the mesh (were > max_outside_mm out)
+  double max_outside_mm = 0.0;  ///< largest distance of a vertex outside the mesh before moving, mm
 };
 
 /// Builds the collision surface of `mesh` from its outer boundary `outer`.

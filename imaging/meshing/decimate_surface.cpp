@@ -1,5 +1,8 @@
 #include "imaging/meshing/decimate_surface.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_simplification/Policies/Edge_collapse/Bounded_normal_change_placement.h>
@@ -12,9 +15,6 @@
 #include <map>
 #include <utility>
 #include <vector>
-
-#include "core/error.hpp"
-#include "core/logger.hpp"
 
 namespace brainshift::imaging {
 
@@ -35,17 +35,21 @@ Mesh to_cgal(const constraints::SurfaceMesh& surface) {
   }
   for (index_t f = 0; f < F.rows(); ++f) {
     for (int c = 0; c < 3; ++c) {
-      BS_VERIFY(F(f, c) >= 0 && F(f, c) < V.rows(), "surface triangle " << f << " refers to vertex "
-                << F(f, c) << ", but there are " << V.rows() << " vertices");
+      BS_VERIFY(F(f, c) >= 0 && F(f, c) < V.rows(),
+                "surface triangle " << f << " refers to vertex " << F(f, c) << ", but there are "
+                                    << V.rows() << " vertices");
     }
     const auto face = sm.add_face(vertex[std::size_t(F(f, 0))], vertex[std::size_t(F(f, 1))],
                                   vertex[std::size_t(F(f, 2))]);
-    BS_VERIFY(face != Mesh::null_face(), "surface triangle " << f << " (" << F(f, 0) << ", "
-              << F(f, 1) << ", " << F(f, 2) << ") makes the surface non-manifold or inconsistently "
-              "oriented; decimation needs a closed manifold surface");
+    BS_VERIFY(face != Mesh::null_face(),
+              "surface triangle " << f << " (" << F(f, 0) << ", " << F(f, 1) << ", " << F(f, 2)
+                                  << ") makes the surface non-manifold or inconsistently "
+                                     "oriented; decimation needs a closed manifold surface");
   }
-  BS_VERIFY(CGAL::is_closed(sm), "surface of " << V.rows() << " vertices and " << F.rows()
-            << " triangles has open edges; decimation needs a closed manifold surface");
+  BS_VERIFY(
+      CGAL::is_closed(sm),
+      "surface of " << V.rows() << " vertices and " << F.rows()
+                    << " triangles has open edges; decimation needs a closed manifold surface");
   return sm;
 }
 
@@ -65,7 +69,8 @@ index_t count_non_manifold_edges(const constraints::SurfaceMesh& surface) {
 
 constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surface,
                                           index_t target_vertices) {
-  BS_VERIFY(target_vertices >= 4, "decimation target must be ≥ 4 vertices, got " << target_vertices);
+  BS_VERIFY(target_vertices >= 4,
+            "decimation target must be ≥ 4 vertices, got " << target_vertices);
   Mesh sm = to_cgal(surface);
   const auto euler = std::int64_t(sm.number_of_vertices()) - std::int64_t(sm.number_of_edges()) +
                      std::int64_t(sm.number_of_faces());
@@ -74,10 +79,11 @@ constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surfac
     const auto target_edges = std::max<std::int64_t>(6, 3 * (target_vertices - euler));
     SMS::Count_stop_predicate<Mesh> stop(std::size_t(target_edges) + 1);
     SMS::LindstromTurk_placement<Mesh> lt_placement;
-    SMS::Bounded_normal_change_placement<SMS::LindstromTurk_placement<Mesh>> placement(lt_placement);
-    SMS::edge_collapse(sm, stop,
-                       CGAL::parameters::get_cost(SMS::LindstromTurk_cost<Mesh>())
-                           .get_placement(placement));
+    SMS::Bounded_normal_change_placement<SMS::LindstromTurk_placement<Mesh>> placement(
+        lt_placement);
+    SMS::edge_collapse(
+        sm, stop,
+        CGAL::parameters::get_cost(SMS::LindstromTurk_cost<Mesh>()).get_placement(placement));
     sm.collect_garbage();
   }
   BS_VERIFY(CGAL::is_closed(sm), "internal error: decimated surface is not closed");

@@ -1,8 +1,10 @@
 #include "imaging/meshing/label_mesher.hpp"
 
+#include "core/logger.hpp"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-#include <CGAL/Image_3.h>
 #include <CGAL/ImageIO.h>
+#include <CGAL/Image_3.h>
 #include <CGAL/Labeled_mesh_domain_3.h>
 #include <CGAL/Mesh_complex_3_in_triangulation_3.h>
 #include <CGAL/Mesh_criteria_3.h>
@@ -17,8 +19,6 @@
 #include <cstring>
 #include <sstream>
 #include <unordered_map>
-
-#include "core/logger.hpp"
 
 namespace brainshift::imaging {
 
@@ -46,13 +46,14 @@ void check_labels(const LabelVolume& labels) {
     const int i = int(first % g.size[0]);
     const int j = int((first / g.size[0]) % g.size[1]);
     const int k = int(first / (std::int64_t(g.size[0]) * g.size[1]));
-    BS_THROW("label volume has label value " << v << " (" << count[std::size_t(v)]
-             << " voxels, first at voxel (" << i << ", " << j << ", " << k
-             << ")); allowed: 0 background, 1 brain, 2 tumour, 3 ventricles");
+    BS_THROW("label volume has label value "
+             << v << " (" << count[std::size_t(v)] << " voxels, first at voxel (" << i << ", " << j
+             << ", " << k << ")); allowed: 0 background, 1 brain, 2 tumour, 3 ventricles");
   }
-  BS_VERIFY(count[0] < labels.geometry.voxel_count(),
-            "label volume of " << labels.geometry.size.transpose()
-            << " voxels has no labelled voxel (all background): nothing to mesh");
+  BS_VERIFY(
+      count[0] < labels.geometry.voxel_count(),
+      "label volume of " << labels.geometry.size.transpose()
+                         << " voxels has no labelled voxel (all background): nothing to mesh");
 }
 
 /// The padded label image in CGAL's format.
@@ -61,10 +62,10 @@ CGAL::Image_3 make_image(const LabelVolume& labels) {
   const std::size_t nx = std::size_t(g.size[0] + 2 * kPad);
   const std::size_t ny = std::size_t(g.size[1] + 2 * kPad);
   const std::size_t nz = std::size_t(g.size[2] + 2 * kPad);
-  _image* im = ::_createImage(nx, ny, nz, 1, g.spacing[0], g.spacing[1], g.spacing[2], 1,
-                              WK_FIXED, SGN_UNSIGNED);
-  BS_VERIFY(im != nullptr, "could not allocate a " << nx << "×" << ny << "×" << nz
-                           << " label image for meshing");
+  _image* im = ::_createImage(nx, ny, nz, 1, g.spacing[0], g.spacing[1], g.spacing[2], 1, WK_FIXED,
+                              SGN_UNSIGNED);
+  BS_VERIFY(im != nullptr,
+            "could not allocate a " << nx << "×" << ny << "×" << nz << " label image for meshing");
   auto* out = static_cast<std::uint8_t*>(im->data);
   std::memset(out, 0, nx * ny * nz);
   for (int k = 0; k < g.size[2]; ++k) {
@@ -76,7 +77,7 @@ CGAL::Image_3 make_image(const LabelVolume& labels) {
     }
   }
   im->tx = im->ty = im->tz = 0.0F;  // CGAL point q = (padded index) · spacing
-  return CGAL::Image_3(im);        // takes ownership
+  return CGAL::Image_3(im);         // takes ownership
 }
 
 /// Deterministic surface seeds: along grid lines through every `stride`-th voxel (in the two
@@ -84,7 +85,8 @@ CGAL::Image_3 make_image(const LabelVolume& labels) {
 /// on the surface by the domain's intersection construction. Every structure wider than the
 /// stride gets seeds, which CGAL's default initialisation (rays from the centre) does not ensure
 /// for inner structures such as an off-centre tumour.
-void add_surface_seeds(Complex& c3t3, const Domain& domain, const CGAL::Image_3& image, int stride) {
+void add_surface_seeds(Complex& c3t3, const Domain& domain, const CGAL::Image_3& image,
+                       int stride) {
   const std::array<std::size_t, 3> n{image.xdim(), image.ydim(), image.zdim()};
   const std::array<double, 3> h{image.vx(), image.vy(), image.vz()};
   const auto* data = static_cast<const std::uint8_t*>(image.data());
@@ -135,7 +137,8 @@ void add_default_initial_points(Complex& c3t3, const Domain& domain) {
 }
 
 /// CGAL warnings go to the brainshift logger instead of std::cerr.
-void log_cgal_warning(const char* what, const char* expr, const char* file, int line, const char* msg) {
+void log_cgal_warning(const char* what, const char* expr, const char* file, int line,
+                      const char* msg) {
   logger().warn("CGAL warning ({}): {} at {}:{}: {}", what ? what : "", expr ? expr : "",
                 file ? file : "", line, msg ? msg : "");
 }
@@ -154,10 +157,14 @@ class CgalWarningsToLogger {
 
 double modulus_of(int label, const MeshingOptions& o) {
   switch (label) {
-    case BRAIN: return o.brain_youngs_modulus;
-    case TUMOUR: return o.tumour_youngs_modulus;
-    case VENTRICLES: return o.ventricle_youngs_modulus;
-    default: BS_THROW("internal error: sub-domain " << label << " is not a tissue label");
+    case BRAIN:
+      return o.brain_youngs_modulus;
+    case TUMOUR:
+      return o.tumour_youngs_modulus;
+    case VENTRICLES:
+      return o.ventricle_youngs_modulus;
+    default:
+      BS_THROW("internal error: sub-domain " << label << " is not a tissue label");
   }
 }
 
@@ -197,9 +204,11 @@ MeshingResult to_tet_mesh(const Complex& c3t3, const ImageGeometry& g,
     tets.push_back(t);
     labels.push_back(std::uint8_t(c3t3.subdomain_index(c)));
   }
-  BS_VERIFY(!tets.empty(), "meshing gave no tetrahedron: the labelled structures are too small "
-                           "for cell_size " << options.cell_size << " mm / facet_size "
-                           << options.facet_size << " mm; use smaller sizes");
+  BS_VERIFY(!tets.empty(),
+            "meshing gave no tetrahedron: the labelled structures are too small "
+            "for cell_size "
+                << options.cell_size << " mm / facet_size " << options.facet_size
+                << " mm; use smaller sizes");
 
   MeshingResult result;
   MatrixX3d X(index_t(nodes.size()), 3);
@@ -237,15 +246,24 @@ MeshingOptions MeshingOptions::refined(double refinement) {
 std::string MeshingOptions::validate() const {
   std::ostringstream s;
   auto positive = [](double x) { return std::isfinite(x) && x > 0.0; };
-  if (!positive(cell_size)) s << "cell_size must be > 0 mm, got " << cell_size;
-  else if (!(cell_radius_edge_ratio >= 2.0)) s << "cell_radius_edge_ratio must be ≥ 2, got " << cell_radius_edge_ratio;
-  else if (!positive(facet_size)) s << "facet_size must be > 0 mm, got " << facet_size;
-  else if (!positive(facet_distance)) s << "facet_distance must be > 0 mm, got " << facet_distance;
-  else if (!(facet_angle_deg > 0.0 && facet_angle_deg <= 30.0)) s << "facet_angle_deg must be in (0, 30], got " << facet_angle_deg;
-  else if (!positive(brain_youngs_modulus)) s << "brain_youngs_modulus must be > 0 kPa, got " << brain_youngs_modulus;
-  else if (!positive(tumour_youngs_modulus)) s << "tumour_youngs_modulus must be > 0 kPa, got " << tumour_youngs_modulus;
-  else if (!positive(ventricle_youngs_modulus)) s << "ventricle_youngs_modulus must be > 0 kPa, got " << ventricle_youngs_modulus;
-  else if (!(poisson_ratio > -1.0 && poisson_ratio < 0.5)) s << "poisson_ratio must be in (-1, 0.5), got " << poisson_ratio;
+  if (!positive(cell_size))
+    s << "cell_size must be > 0 mm, got " << cell_size;
+  else if (!(cell_radius_edge_ratio >= 2.0))
+    s << "cell_radius_edge_ratio must be ≥ 2, got " << cell_radius_edge_ratio;
+  else if (!positive(facet_size))
+    s << "facet_size must be > 0 mm, got " << facet_size;
+  else if (!positive(facet_distance))
+    s << "facet_distance must be > 0 mm, got " << facet_distance;
+  else if (!(facet_angle_deg > 0.0 && facet_angle_deg <= 30.0))
+    s << "facet_angle_deg must be in (0, 30], got " << facet_angle_deg;
+  else if (!positive(brain_youngs_modulus))
+    s << "brain_youngs_modulus must be > 0 kPa, got " << brain_youngs_modulus;
+  else if (!positive(tumour_youngs_modulus))
+    s << "tumour_youngs_modulus must be > 0 kPa, got " << tumour_youngs_modulus;
+  else if (!positive(ventricle_youngs_modulus))
+    s << "ventricle_youngs_modulus must be > 0 kPa, got " << ventricle_youngs_modulus;
+  else if (!(poisson_ratio > -1.0 && poisson_ratio < 0.5))
+    s << "poisson_ratio must be in (-1, 0.5), got " << poisson_ratio;
   return s.str();
 }
 
@@ -258,12 +276,14 @@ MeshingResult mesh_labels(const LabelVolume& labels, const MeshingOptions& optio
             "label volume is empty (size " << g.size.transpose() << "): nothing to mesh");
   BS_VERIFY(labels.components == 1,
             "label volume must have one component, got " << labels.components);
-  BS_VERIFY(labels.data.size() == std::size_t(g.voxel_count()),
-            "label volume has " << labels.data.size() << " values for " << g.voxel_count() << " voxels");
+  BS_VERIFY(
+      labels.data.size() == std::size_t(g.voxel_count()),
+      "label volume has " << labels.data.size() << " values for " << g.voxel_count() << " voxels");
   BS_VERIFY((g.direction.transpose() * g.direction - Matrix3d::Identity()).norm() < 1e-6,
             "label volume direction matrix is not orthonormal (|DᵀD − I| = "
-            << (g.direction.transpose() * g.direction - Matrix3d::Identity()).norm() << ")");
-  BS_VERIFY((g.spacing.array() > 0.0).all(), "label volume spacing must be > 0, got " << g.spacing.transpose());
+                << (g.direction.transpose() * g.direction - Matrix3d::Identity()).norm() << ")");
+  BS_VERIFY((g.spacing.array() > 0.0).all(),
+            "label volume spacing must be > 0, got " << g.spacing.transpose());
   check_labels(labels);
 
   const CGAL::Image_3 image = make_image(labels);
@@ -295,9 +315,10 @@ MeshingResult mesh_labels(const LabelVolume& labels, const MeshingOptions& optio
   core::validate(result.mesh, "label mesh");
   result.quality = core::quality_report(result.mesh);
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  logger().info("meshed labels {}×{}×{}: {} nodes, {} tets, min dihedral {:.1f}°, {} slivers, {:.2f} s",
-                g.size[0], g.size[1], g.size[2], result.mesh.num_nodes(), result.mesh.num_tets(),
-                result.quality.min_dihedral_deg, result.quality.sliver_count, result.seconds);
+  logger().info(
+      "meshed labels {}×{}×{}: {} nodes, {} tets, min dihedral {:.1f}°, {} slivers, {:.2f} s",
+      g.size[0], g.size[1], g.size[2], result.mesh.num_nodes(), result.mesh.num_tets(),
+      result.quality.min_dihedral_deg, result.quality.sliver_count, result.seconds);
   return result;
 }
 

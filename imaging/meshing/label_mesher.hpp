@@ -22,19 +22,20 @@
 /// in the same process (the choice depends on memory addresses): with `exude` on (the default)
 /// a few nodes and tetrahedra may differ between calls.
 
+#include "core/mesh/tet_mesh.hpp"
+#include "imaging/io/volume.hpp"
+
 #include <cstdint>
 #include <string>
 #include <vector>
-
-#include "core/mesh/tet_mesh.hpp"
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::imaging {
 
 /// What the ventricles (label 3) become.
 enum class VentricleModel {
-  SOFT_MATERIAL,  ///< meshed, with MeshingOptions::ventricle_youngs_modulus (CSF-filled, nearly free)
-  CAVITY,         ///< left out: a hole whose wall (resolved as a sub-domain interface) is mesh boundary
+  SOFT_MATERIAL,  ///< meshed, with MeshingOptions::ventricle_youngs_modulus (CSF-filled, nearly
+                  ///< free)
+  CAVITY,  ///< left out: a hole whose wall (resolved as a sub-domain interface) is mesh boundary
 };
 
 /// Sizing, materials and determinism of mesh_labels(). Lengths in mm, moduli in kPa.
@@ -43,8 +44,8 @@ struct MeshingOptions {
   double cell_radius_edge_ratio = 3.0;  ///< upper bound on circumradius / shortest edge (≥ 2)
   double facet_size = 9.0;              ///< upper bound on surface Delaunay-ball radius, mm
   double facet_distance = 1.5;          ///< upper bound on facet-centre to surface distance, mm
-  double facet_angle_deg = 25.0;        ///< lower bound on surface triangle angles, degrees (≤ 30)
-  bool exude = true;                    ///< sliver exudation (no time limit, deterministic)
+  double facet_angle_deg = 25.0;  ///< lower bound on surface triangle angles, degrees (≤ 30)
+  bool exude = true;              ///< sliver exudation (no time limit, deterministic)
   VentricleModel ventricles = VentricleModel::SOFT_MATERIAL;
   double brain_youngs_modulus = 1.5;      ///< kPa
   double tumour_youngs_modulus = 10.0;    ///< kPa
@@ -63,10 +64,10 @@ struct MeshingOptions {
 
 /// A mesh of a label volume.
 struct MeshingResult {
-  core::TetMesh mesh;                 ///< world RAS mm, positively oriented, no unused node
+  core::TetMesh mesh;                   ///< world RAS mm, positively oriented, no unused node
   std::vector<std::uint8_t> tet_label;  ///< #T label (1, 2 or 3) of the sub-domain of each tet
-  core::QualityReport quality;        ///< core::quality_report() of `mesh`
-  double seconds = 0.0;               ///< wall-clock time of the whole call, s
+  core::QualityReport quality;          ///< core::quality_report() of `mesh`
+  double seconds = 0.0;                 ///< wall-clock time of the whole call, s
 };
 
 /// Meshes the non-background labels of `labels`.
@@ -79,6 +80,7 @@ struct MeshingResult {
 /// its direction is not orthonormal, a voxel has a label other than 0–3 (the message names the
 /// value, the voxel and how many voxels have it), no voxel is labelled, or the structures are
 /// too small for the sizes (the mesh comes out empty).
-MeshingResult mesh_labels(const LabelVolume& labels, const MeshingOptions& options = MeshingOptions::coarse());
+MeshingResult mesh_labels(const LabelVolume& labels,
+                          const MeshingOptions& options = MeshingOptions::coarse());
 
 }  // namespace brainshift::imaging

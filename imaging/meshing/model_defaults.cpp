@@ -1,10 +1,10 @@
 #include "imaging/meshing/model_defaults.hpp"
 
-#include <cmath>
-#include <sstream>
-
 #include "core/error.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <cmath>
+#include <sstream>
 
 namespace brainshift::imaging {
 
@@ -12,7 +12,8 @@ FixedRegion default_fixed_region(const MeshSurface& outer, const Vector3d& down,
                                  double min_height_mm) {
   BS_VERIFY(down.allFinite() && down.norm() > 0.0,
             "fixed region: the down direction must be a non-zero vector, got " << down.transpose());
-  BS_VERIFY(fraction >= 0.0 && fraction <= 1.0, "fixed region: fraction must be in [0, 1], got " << fraction);
+  BS_VERIFY(fraction >= 0.0 && fraction <= 1.0,
+            "fixed region: fraction must be in [0, 1], got " << fraction);
   BS_VERIFY(std::isfinite(min_height_mm) && min_height_mm >= 0.0,
             "fixed region: minimum height must be ≥ 0 mm, got " << min_height_mm);
   FixedRegion r;
@@ -24,9 +25,10 @@ FixedRegion default_fixed_region(const MeshSurface& outer, const Vector3d& down,
   r.height_mm = std::max(min_height_mm, fraction * r.extent_mm);
   r.nodes = fixed_region_nodes(outer, r.down, r.height_mm);
   std::ostringstream s;
-  s << "boundary nodes within " << r.height_mm << " mm of the lowest point along (" << r.down.x() << ", "
-    << r.down.y() << ", " << r.down.z() << ") (max(" << min_height_mm << " mm, " << fraction * 100.0
-    << " % of the " << r.extent_mm << " mm extent)): the inferior part of the brain (on an adult brain the "
+  s << "boundary nodes within " << r.height_mm << " mm of the lowest point along (" << r.down.x()
+    << ", " << r.down.y() << ", " << r.down.z() << ") (max(" << min_height_mm << " mm, "
+    << fraction * 100.0 << " % of the " << r.extent_mm
+    << " mm extent)): the inferior part of the brain (on an adult brain the "
        "brain stem and the lower cerebellum)";
   r.rule = s.str();
   return r;
@@ -37,8 +39,10 @@ Craniotomy default_craniotomy(const constraints::SurfaceMesh& surface, const cor
   const auto& V = surface.vertices;
   BS_VERIFY(V.rows() > 0, "craniotomy: the collision surface has no vertex");
   BS_VERIFY(tet_label.empty() || index_t(tet_label.size()) == mesh.num_tets(),
-            "craniotomy: " << tet_label.size() << " tetrahedron labels for " << mesh.num_tets() << " tetrahedra");
-  BS_VERIFY(std::isfinite(radius_mm) && radius_mm > 0.0, "craniotomy: radius must be > 0 mm, got " << radius_mm);
+            "craniotomy: " << tet_label.size() << " tetrahedron labels for " << mesh.num_tets()
+                           << " tetrahedra");
+  BS_VERIFY(std::isfinite(radius_mm) && radius_mm > 0.0,
+            "craniotomy: radius must be > 0 mm, got " << radius_mm);
   Craniotomy c;
   c.radius_mm = radius_mm;
   // Volume-weighted centroid of the tumour tetrahedra.
@@ -56,8 +60,9 @@ Craniotomy default_craniotomy(const constraints::SurfaceMesh& surface, const cor
   if (volume > 0.0) {
     const Vector3d tumour = sum / volume;
     (V.rowwise() - tumour.transpose()).rowwise().squaredNorm().minCoeff(&best);
-    s << "over the tumour: the surface point nearest its centroid (" << tumour.x() << ", " << tumour.y() << ", "
-      << tumour.z() << ") mm, " << (V.row(best).transpose() - tumour).norm() << " mm away";
+    s << "over the tumour: the surface point nearest its centroid (" << tumour.x() << ", "
+      << tumour.y() << ", " << tumour.z() << ") mm, " << (V.row(best).transpose() - tumour).norm()
+      << " mm away";
   } else {
     V.col(2).maxCoeff(&best);
     s << "no tumour: the top of the brain (the highest surface point)";

@@ -6,13 +6,13 @@
 /// one, else at the top of the brain). Each comes with a one-line statement of the rule, for the
 /// model's manifest. Positions in mm, world RAS frame (S up).
 
-#include <cstdint>
-#include <string>
-#include <vector>
-
 #include "constraints/registration/skeleton.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
 
 namespace brainshift::imaging {
 
@@ -36,8 +36,9 @@ struct FixedRegion {
 /// @param[in] fraction       of the extent along `down`, in [0, 1].
 /// @param[in] min_height_mm  mm, ≥ 0.
 /// \throws brainshift::Error on a zero direction or out-of-range fraction or height.
-FixedRegion default_fixed_region(const MeshSurface& outer, const Vector3d& down = Vector3d(0, 0, -1),
-                                 double fraction = 0.16, double min_height_mm = 15.0);
+FixedRegion default_fixed_region(const MeshSurface& outer,
+                                 const Vector3d& down = Vector3d(0, 0, -1), double fraction = 0.16,
+                                 double min_height_mm = 15.0);
 
 /// The default craniotomy and the rule that chose it.
 struct Craniotomy {

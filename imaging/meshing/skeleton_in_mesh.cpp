@@ -1,16 +1,17 @@
 #include "imaging/meshing/skeleton_in_mesh.hpp"
 
+#include "core/error.hpp"
+#include "core/mapping/tet_locator.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <optional>
 #include <unordered_map>
 
-#include "core/error.hpp"
-#include "core/mapping/tet_locator.hpp"
-
 namespace brainshift::imaging {
 
-SkeletonFit fit_skeleton_to_mesh(const VesselGraph& graph, const core::TetMesh& mesh, double snap_distance_mm) {
+SkeletonFit fit_skeleton_to_mesh(const VesselGraph& graph, const core::TetMesh& mesh,
+                                 double snap_distance_mm) {
   BS_VERIFY(std::isfinite(snap_distance_mm) && snap_distance_mm >= 0.0,
             "vessel snap distance must be ≥ 0 mm, got " << snap_distance_mm);
   BS_VERIFY(mesh.num_tets() > 0, "the mesh has no tetrahedron: no vessel can be mapped into it");
@@ -23,7 +24,8 @@ SkeletonFit fit_skeleton_to_mesh(const VesselGraph& graph, const core::TetMesh& 
     if (!loc) return std::nullopt;
     if (loc->distance <= 0.0) return p;
     Vector3d q = Vector3d::Zero();
-    for (int k = 0; k < 4; ++k) q += loc->barycentric(k) * mesh.nodes().row(mesh.tets()(loc->tet, k)).transpose();
+    for (int k = 0; k < 4; ++k)
+      q += loc->barycentric(k) * mesh.nodes().row(mesh.tets()(loc->tet, k)).transpose();
     return q;
   };
   std::unordered_map<index_t, index_t> node_of;  // input node → output node (kept branch ends)

@@ -13,13 +13,13 @@ namespace brainshift::imaging {
 
 /// What fit_skeleton_to_mesh() did, point by point.
 struct SkeletonFit {
-  VesselGraph graph;            ///< the kept runs as branches (≥ 2 points each), all in the mesh
-  index_t points = 0;           ///< branch points of the input (shared end points counted per branch)
-  index_t inside = 0;           ///< kept where they were (inside the mesh)
-  index_t snapped = 0;          ///< outside but within the snap distance: moved onto the mesh
-  index_t dropped = 0;          ///< farther out than the snap distance, or left alone (a run of one)
-  double max_snap_mm = 0.0;     ///< largest move of a snapped point, mm
-  double mean_snap_mm = 0.0;    ///< mean move of the snapped points, mm (0 when none)
+  VesselGraph graph;          ///< the kept runs as branches (≥ 2 points each), all in the mesh
+  index_t points = 0;         ///< branch points of the input (shared end points counted per branch)
+  index_t inside = 0;         ///< kept where they were (inside the mesh)
+  index_t snapped = 0;        ///< outside but within the snap distance: moved onto the mesh
+  index_t dropped = 0;        ///< farther out than the snap distance, or left alone (a run of one)
+  double max_snap_mm = 0.0;   ///< largest move of a snapped point, mm
+  double mean_snap_mm = 0.0;  ///< mean move of the snapped points, mm (0 when none)
 };
 
 /// Fits `graph` to `mesh`: every branch point inside the mesh stays; one outside within
@@ -32,6 +32,7 @@ struct SkeletonFit {
 /// @param[in] snap_distance_mm  mm, ≥ 0.
 /// \throws brainshift::Error when snap_distance_mm is negative or not finite, or the mesh has no
 /// tetrahedron.
-SkeletonFit fit_skeleton_to_mesh(const VesselGraph& graph, const core::TetMesh& mesh, double snap_distance_mm = 5.0);
+SkeletonFit fit_skeleton_to_mesh(const VesselGraph& graph, const core::TetMesh& mesh,
+                                 double snap_distance_mm = 5.0);
 
 }  // namespace brainshift::imaging

@@ -1,5 +1,8 @@
 #include "imaging/meshing/wrap_surface.hpp"
 
+#include "core/error.hpp"
+#include "core/logger.hpp"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/alpha_wrap_3.h>
@@ -8,9 +11,6 @@
 #include <cmath>
 #include <vector>
 
-#include "core/error.hpp"
-#include "core/logger.hpp"
-
 namespace brainshift::imaging {
 
 namespace {
@@ -18,9 +18,12 @@ using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 }  // namespace
 
-constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, double alpha, double offset) {
-  BS_VERIFY(std::isfinite(alpha) && alpha > 0.0, "surface wrap: alpha must be > 0 mm, got " << alpha);
-  BS_VERIFY(std::isfinite(offset) && offset > 0.0, "surface wrap: offset must be > 0 mm, got " << offset);
+constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, double alpha,
+                                      double offset) {
+  BS_VERIFY(std::isfinite(alpha) && alpha > 0.0,
+            "surface wrap: alpha must be > 0 mm, got " << alpha);
+  BS_VERIFY(std::isfinite(offset) && offset > 0.0,
+            "surface wrap: offset must be > 0 mm, got " << offset);
   const auto& V = soup.vertices;
   const auto& F = soup.triangles;
   BS_VERIFY(F.rows() > 0, "surface wrap: the surface has no triangle");
@@ -34,8 +37,9 @@ constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, doub
   faces.reserve(std::size_t(F.rows()));
   for (index_t f = 0; f < F.rows(); ++f) {
     for (int c = 0; c < 3; ++c) {
-      BS_VERIFY(F(f, c) >= 0 && F(f, c) < V.rows(), "surface wrap: triangle " << f << " refers to vertex "
-                << F(f, c) << ", but there are " << V.rows() << " vertices");
+      BS_VERIFY(F(f, c) >= 0 && F(f, c) < V.rows(),
+                "surface wrap: triangle " << f << " refers to vertex " << F(f, c)
+                                          << ", but there are " << V.rows() << " vertices");
     }
     faces.push_back({std::size_t(F(f, 0)), std::size_t(F(f, 1)), std::size_t(F(f, 2))});
   }
@@ -57,15 +61,17 @@ constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, doub
   double volume = 0.0;
   for (auto f : wrap.faces()) {
     int c = 0;
-    for (auto v : CGAL::vertices_around_face(wrap.halfedge(f), wrap)) out.triangles(t, c++) = id[v.idx()];
-    const Vector3d a = out.vertices.row(out.triangles(t, 0)), b = out.vertices.row(out.triangles(t, 1)),
+    for (auto v : CGAL::vertices_around_face(wrap.halfedge(f), wrap))
+      out.triangles(t, c++) = id[v.idx()];
+    const Vector3d a = out.vertices.row(out.triangles(t, 0)),
+                   b = out.vertices.row(out.triangles(t, 1)),
                    d = out.vertices.row(out.triangles(t, 2));
     volume += a.dot(b.cross(d)) / 6.0;
     ++t;
   }
   if (volume < 0.0) out.triangles.col(1).swap(out.triangles.col(2));  // outward normals
-  logger().info("wrapped surface (alpha {} mm, offset {} mm): {} → {} vertices", alpha, offset, V.rows(),
-                out.vertices.rows());
+  logger().info("wrapped surface (alpha {} mm, offset {} mm): {} → {} vertices", alpha, offset,
+                V.rows(), out.vertices.rows());
   return out;
 }
 

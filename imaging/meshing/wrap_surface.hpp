@@ -21,6 +21,7 @@ namespace brainshift::imaging {
 /// enclosed volume), without self-intersections.
 /// \throws brainshift::Error when alpha or offset is not a positive number, an index is out of
 /// range, a vertex is not finite, or the soup has no triangle.
-constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, double alpha, double offset);
+constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, double alpha,
+                                      double offset);
 
 }  // namespace brainshift::imaging

@@ -1,19 +1,19 @@
 #include "imaging/overlay/overlay.hpp"
 
+#include "core/error.hpp"
+#include "imaging/io/atomic_write.hpp"
+#include "imaging/warping/warp_image.hpp"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
 #include <sstream>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
-#include "core/error.hpp"
-#include "imaging/io/atomic_write.hpp"
-#include "imaging/warping/warp_image.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -27,25 +27,32 @@ struct ViewAxes {
 
 ViewAxes axes_of(SliceView v) {
   switch (v) {
-    case SliceView::AXIAL: return {0, 1, 2};
-    case SliceView::CORONAL: return {0, 2, 1};
-    case SliceView::SAGITTAL: return {1, 2, 0};
+    case SliceView::AXIAL:
+      return {0, 1, 2};
+    case SliceView::CORONAL:
+      return {0, 2, 1};
+    case SliceView::SAGITTAL:
+      return {1, 2, 0};
   }
   BS_UNREACHABLE();
 }
 
-constexpr std::array<SliceView, 3> kViews{SliceView::AXIAL, SliceView::CORONAL, SliceView::SAGITTAL};
+constexpr std::array<SliceView, 3> kViews{SliceView::AXIAL, SliceView::CORONAL,
+                                          SliceView::SAGITTAL};
 constexpr std::array<const char*, 3> kViewNames{"axial", "coronal", "sagittal"};
 /// Screen-edge letters of each view: left, right, top, bottom.
 constexpr std::array<std::array<const char*, 4>, 3> kEdgeLetters{
     {{"R", "L", "A", "P"}, {"R", "L", "S", "I"}, {"A", "P", "S", "I"}}};
 constexpr std::array<char, 3> kAxisLetters{'R', 'A', 'S'};
 
-cv::Scalar bgr(const std::array<std::uint8_t, 3>& rgb) { return {double(rgb[2]), double(rgb[1]), double(rgb[0])}; }
+cv::Scalar bgr(const std::array<std::uint8_t, 3>& rgb) {
+  return {double(rgb[2]), double(rgb[1]), double(rgb[0])};
+}
 
 void verify_volume(const VolumeF& v, const char* which) {
-  BS_VERIFY(!v.empty() && v.geometry.size.minCoeff() > 0,
-            "overlay: the " << which << " volume is empty (size " << v.geometry.size.transpose() << ")");
+  BS_VERIFY(
+      !v.empty() && v.geometry.size.minCoeff() > 0,
+      "overlay: the " << which << " volume is empty (size " << v.geometry.size.transpose() << ")");
   BS_VERIFY(v.components == 1, "overlay: the " << which << " volume has " << v.components
                                                << " components, expected 1 (a scalar image)");
   BS_VERIFY(v.data.size() == std::size_t(v.geometry.voxel_count()),
@@ -55,7 +62,8 @@ void verify_volume(const VolumeF& v, const char* which) {
                 v.geometry.origin.allFinite() && v.geometry.direction.allFinite() &&
                 std::abs(v.geometry.direction.determinant()) > 1e-6,
             "overlay: the " << which << " volume has an invalid geometry (spacing "
-                            << v.geometry.spacing.transpose() << ", singular or non-finite direction)");
+                            << v.geometry.spacing.transpose()
+                            << ", singular or non-finite direction)");
 }
 
 /// Grows [lo, hi] by the world bounding box of the voxel corners of `g`.
@@ -84,18 +92,21 @@ std::pair<float, float> intensity_window(const VolumeF& v, double low_pct, doubl
   std::nth_element(values.begin(), lo_it, values.end());
   const float lo = *lo_it;
   const auto hi_it = rank(high_pct);
-  std::nth_element(lo_it, hi_it, values.end());  // hi_it ≥ lo_it: the high rank lies in [lo_it, end)
+  std::nth_element(lo_it, hi_it,
+                   values.end());  // hi_it ≥ lo_it: the high rank lies in [lo_it, end)
   return {lo, *hi_it};
 }
 
-/// Grey level of `value` in the window [lo, hi]; a window of zero width shows values above it white.
+/// Grey level of `value` in the window [lo, hi]; a window of zero width shows values above it
+/// white.
 std::uint8_t grey(float value, float lo, float hi) {
   if (!(hi > lo)) return value > lo ? 255 : 0;
   const double t = std::clamp((double(value) - lo) / (double(hi) - lo), 0.0, 1.0);
   return std::uint8_t(std::lround(255.0 * t));
 }
 
-void draw_text(cv::Mat& roi, const std::string& text, cv::Point at, double scale, const cv::Scalar& colour) {
+void draw_text(cv::Mat& roi, const std::string& text, cv::Point at, double scale,
+               const cv::Scalar& colour) {
   cv::putText(roi, text, at, cv::FONT_HERSHEY_SIMPLEX, scale, colour, 1, cv::LINE_AA);
 }
 
@@ -104,15 +115,16 @@ std::string caption(const std::string& label, SliceView v, const Vector3d& targe
   std::ostringstream s;
   s.setf(std::ios::fixed);
   s.precision(1);
-  s << label << (label.empty() ? "" : " ") << kViewNames[std::size_t(v)] << ' ' << kAxisLetters[std::size_t(n)]
-    << '=' << target[n];
+  s << label << (label.empty() ? "" : " ") << kViewNames[std::size_t(v)] << ' '
+    << kAxisLetters[std::size_t(n)] << '=' << target[n];
   return s.str();
 }
 
 /// Draws one volume's three panels (slices, captions, letters, points) into `image`.
 void draw_volume(cv::Mat& image, const OverlayLayout& layout, int c, const VolumeF& volume,
                  const std::string& label, const OverlayInput& input, const OverlayOptions& o) {
-  const auto [lo, hi] = intensity_window(volume, o.low_percentile, o.high_percentile, c == 0 ? "left" : "right");
+  const auto [lo, hi] =
+      intensity_window(volume, o.low_percentile, o.high_percentile, c == 0 ? "left" : "right");
   const float outside = std::numeric_limits<float>::quiet_NaN();
   for (const SliceView v : kViews) {
     const auto vi = std::size_t(v);
@@ -139,7 +151,8 @@ void draw_volume(cv::Mat& image, const OverlayLayout& layout, int c, const Volum
       draw_text(panel, letters[3], {size.x() / 2 - 3, size.y() - 3}, 0.35, colour);
     }
     if (o.label_height_px > 0) {
-      cv::Mat strip = image(cv::Rect(origin.x(), origin.y() - o.label_height_px, size.x(), o.label_height_px));
+      cv::Mat strip =
+          image(cv::Rect(origin.x(), origin.y() - o.label_height_px, size.x(), o.label_height_px));
       draw_text(strip, caption(label, v, input.target), {2, o.label_height_px - 4}, 0.4,
                 cv::Scalar(235, 235, 235));
     }
@@ -151,8 +164,8 @@ void draw_volume(cv::Mat& image, const OverlayLayout& layout, int c, const Volum
         if (std::abs(p[normal] - input.target[normal]) > o.slab_mm) continue;
         const Eigen::Vector2d xy = layout.world_to_pixel(v, c, p) - origin.cast<double>();
         if (!(xy.array().abs() < 1e6).all()) continue;  // far off the panel: nothing to draw
-        cv::circle(panel, cv::Point(int(std::lround(xy.x())), int(std::lround(xy.y()))), o.dot_radius_px,
-                   colour, cv::FILLED, cv::LINE_8);
+        cv::circle(panel, cv::Point(int(std::lround(xy.x())), int(std::lround(xy.y()))),
+                   o.dot_radius_px, colour, cv::FILLED, cv::LINE_8);
       }
     }
   }
@@ -208,12 +221,13 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
   BS_VERIFY(input.left != nullptr, "overlay: no left volume given (OverlayInput::left is null)");
   verify_volume(*input.left, "left");
   if (input.right != nullptr) verify_volume(*input.right, "right");
-  BS_VERIFY(input.target.allFinite(), "overlay: the target " << input.target.transpose() << " is not finite");
+  BS_VERIFY(input.target.allFinite(),
+            "overlay: the target " << input.target.transpose() << " is not finite");
   for (std::size_t s = 0; s < input.point_sets.size(); ++s) {
     const MatrixX3d& P = input.point_sets[s].points;
     for (Eigen::Index i = 0; i < P.rows(); ++i)
-      BS_VERIFY(P.row(i).allFinite(), "overlay: point " << i << " of point set " << s << " is not finite ("
-                                                         << P.row(i) << ")");
+      BS_VERIFY(P.row(i).allFinite(), "overlay: point " << i << " of point set " << s
+                                                        << " is not finite (" << P.row(i) << ")");
   }
 
   OverlayLayout L;
@@ -221,9 +235,11 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
   L.hi = -L.lo;
   add_bounds(input.left->geometry, L.lo, L.hi);
   if (input.right != nullptr) add_bounds(input.right->geometry, L.lo, L.hi);
-  BS_VERIFY((input.target.array() >= L.lo.array()).all() && (input.target.array() <= L.hi.array()).all(),
-            "overlay: the target (" << input.target.transpose() << ") mm lies outside the volumes' extent ["
-                                    << L.lo.transpose() << "] – [" << L.hi.transpose() << "] mm");
+  BS_VERIFY(
+      (input.target.array() >= L.lo.array()).all() && (input.target.array() <= L.hi.array()).all(),
+      "overlay: the target (" << input.target.transpose()
+                              << ") mm lies outside the volumes' extent [" << L.lo.transpose()
+                              << "] – [" << L.hi.transpose() << "] mm");
   L.pixel_size_mm = options.pixel_size_mm;
   L.target = input.target;
 
@@ -231,9 +247,10 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
   for (int d = 0; d < 3; ++d) {
     const double count = std::ceil((L.hi[d] - L.lo[d]) / L.pixel_size_mm - 1e-9);
     BS_VERIFY(count <= options.max_panel_px,
-              "overlay: a slice would be " << count << " pixels along " << kAxisLetters[std::size_t(d)]
-                                           << " (more than max_panel_px " << options.max_panel_px
-                                           << "); choose a larger pixel_size_mm than " << L.pixel_size_mm);
+              "overlay: a slice would be "
+                  << count << " pixels along " << kAxisLetters[std::size_t(d)]
+                  << " (more than max_panel_px " << options.max_panel_px
+                  << "); choose a larger pixel_size_mm than " << L.pixel_size_mm);
     n[d] = std::max(1, int(count));
   }
   for (const SliceView v : kViews) {
@@ -254,7 +271,8 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
       const auto [col, row] = grid(c, v);
       const Eigen::Vector2i s = L.panel_size[std::size_t(v)];
       col_width[std::size_t(col)] = std::max(col_width[std::size_t(col)], s.x());
-      row_height[std::size_t(row)] = std::max(row_height[std::size_t(row)], options.label_height_px + s.y());
+      row_height[std::size_t(row)] =
+          std::max(row_height[std::size_t(row)], options.label_height_px + s.y());
     }
   const int g = options.gap_px;
   std::vector<int> col_x(std::size_t(L.columns)), row_y(std::size_t(L.rows));
@@ -271,8 +289,8 @@ OverlayLayout overlay_layout(const OverlayInput& input, const OverlayOptions& op
   for (int c = 0; c < volumes; ++c)
     for (const SliceView v : kViews) {
       const auto [col, row] = grid(c, v);
-      L.panel_origin[std::size_t(c)][std::size_t(v)] = {col_x[std::size_t(col)],
-                                                        row_y[std::size_t(row)] + options.label_height_px};
+      L.panel_origin[std::size_t(c)][std::size_t(v)] = {
+          col_x[std::size_t(col)], row_y[std::size_t(row)] + options.label_height_px};
     }
   return L;
 }
@@ -281,7 +299,8 @@ void write_overlay_png(const std::filesystem::path& path, const OverlayInput& in
                        const OverlayOptions& options) {
   std::string extension = path.extension().string();
   for (char& ch : extension) ch = char(std::tolower(static_cast<unsigned char>(ch)));
-  BS_VERIFY(extension == ".png", "cannot write overlay " << path.string() << ": the file name must end in .png");
+  BS_VERIFY(extension == ".png",
+            "cannot write overlay " << path.string() << ": the file name must end in .png");
   const OverlayLayout layout = overlay_layout(input, options);
   const cv::Mat image = render(layout, input, options);
   write_atomically(path, [&](const std::filesystem::path& temporary) {
@@ -292,14 +311,15 @@ void write_overlay_png(const std::filesystem::path& path, const OverlayInput& in
     try {
       encoded = cv::imencode(".png", image, bytes);
     } catch (const cv::Exception& e) {
-      BS_THROW("cannot write overlay " << path.string() << ": PNG encoding failed (" << e.err << ")");
+      BS_THROW("cannot write overlay " << path.string() << ": PNG encoding failed (" << e.err
+                                       << ")");
     }
     BS_VERIFY(encoded, "cannot write overlay " << path.string() << ": PNG encoding failed");
     std::ofstream file(temporary, std::ios::binary);
     file.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
     file.close();
-    BS_VERIFY(file.good(), "cannot write overlay " << path.string() << ": writing "
-                                                   << bytes.size() << " bytes failed");
+    BS_VERIFY(file.good(), "cannot write overlay " << path.string() << ": writing " << bytes.size()
+                                                   << " bytes failed");
   });
 }
 

@@ -23,14 +23,14 @@
 /// screen's left or top) has its centre at world coordinate hi_a − (q + ½) h: every screen axis
 /// runs from the high world coordinate (R, A, S) to the low one.
 
+#include "core/config.hpp"
+#include "imaging/io/volume.hpp"
+
 #include <array>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include "core/config.hpp"
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::imaging {
 
@@ -62,8 +62,9 @@ enum class OverlayArrangement {
 /// Look of the overlay. Lengths in mm, sizes in pixels.
 struct OverlayOptions {
   double pixel_size_mm = 1.0;  ///< side of a (square) pixel, mm, > 0
-  double slab_mm = 1.5;        ///< a point is drawn on a slice when its distance to the plane is ≤ this, mm
-  int dot_radius_px = 3;       ///< radius of the filled dots, pixels, ≥ 1
+  double slab_mm =
+      1.5;  ///< a point is drawn on a slice when its distance to the plane is ≤ this, mm
+  int dot_radius_px = 3;  ///< radius of the filled dots, pixels, ≥ 1
   /// Intensity window: the low and high percentiles of the finite voxel values of each volume
   /// (computed per volume) map to black and white; 0 ≤ low < high ≤ 100.
   double low_percentile = 1.0;
@@ -71,12 +72,13 @@ struct OverlayOptions {
   std::string left_label = "pre-op";   ///< caption of the left volume's panels
   std::string right_label = "warped";  ///< caption of the right volume's panels
   OverlayArrangement arrangement = OverlayArrangement::VOLUMES_IN_COLUMNS;
-  int label_height_px = 16;        ///< caption strip above every panel, pixels, ≥ 0
-  int gap_px = 4;                  ///< space around and between panels, pixels, ≥ 0
-  bool orientation_letters = true; ///< R/L, A/P, S/I at the edges of every slice
+  int label_height_px = 16;         ///< caption strip above every panel, pixels, ≥ 0
+  int gap_px = 4;                   ///< space around and between panels, pixels, ≥ 0
+  bool orientation_letters = true;  ///< R/L, A/P, S/I at the edges of every slice
   /// Colour of pixels outside the volume and of the gaps and caption strips (red, green, blue).
   std::array<std::uint8_t, 3> background_rgb{0, 0, 0};
-  int max_panel_px = 4096;  ///< largest allowed panel side, pixels (guards against tiny pixel sizes)
+  int max_panel_px =
+      4096;  ///< largest allowed panel side, pixels (guards against tiny pixel sizes)
 
   /// Empty when valid, else one line naming the first bad field and its value.
   [[nodiscard]] std::string validate() const;
@@ -89,10 +91,10 @@ struct OverlayLayout {
   Vector3d hi = Vector3d::Zero();  ///< high corner of the shown world box, RAS mm
   double pixel_size_mm = 1.0;
   Vector3d target = Vector3d::Zero();  ///< world RAS mm
-  int columns = 0;  ///< panel columns of the image
-  int rows = 0;     ///< panel rows of the image
-  int width = 0;    ///< image width, pixels
-  int height = 0;   ///< image height, pixels
+  int columns = 0;                     ///< panel columns of the image
+  int rows = 0;                        ///< panel rows of the image
+  int width = 0;                       ///< image width, pixels
+  int height = 0;                      ///< image height, pixels
   /// Top-left pixel of the slice area (below its caption) of view v of volume c
   /// (0 left, 1 right): panel_origin[c][v].
   std::array<std::array<Eigen::Vector2i, 3>, 2> panel_origin{};

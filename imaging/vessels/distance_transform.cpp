@@ -29,7 +29,8 @@ void line_transform(const float* f, float* d, int n, double h, std::vector<int>&
     while (true) {
       const int p = v[std::size_t(k)];
       // Intersection of the parabolas rooted at q and p (in index units).
-      s = ((g[std::size_t(q)] + h2 * q * q) - (g[std::size_t(p)] + h2 * p * p)) / (2.0 * h2 * (q - p));
+      s = ((g[std::size_t(q)] + h2 * q * q) - (g[std::size_t(p)] + h2 * p * p)) /
+          (2.0 * h2 * (q - p));
       if (s <= z[std::size_t(k)] && k > 0) {
         --k;
         continue;
@@ -52,8 +53,8 @@ void line_transform(const float* f, float* d, int n, double h, std::vector<int>&
 }  // namespace
 
 VolumeF distance_to_background(const Volume<std::uint8_t>& mask) {
-  BS_VERIFY(mask.components == 1, "distance transform needs a one-component mask, got "
-                                      << mask.components);
+  BS_VERIFY(mask.components == 1,
+            "distance transform needs a one-component mask, got " << mask.components);
   const ImageGeometry& g = mask.geometry;
   const Eigen::Vector3i n = g.size;
   VolumeF out(g, 1);
@@ -78,7 +79,8 @@ VolumeF distance_to_background(const Volume<std::uint8_t>& mask) {
         }
         if (!any) continue;  // all background: stays 0
         line_transform(in.data(), res.data(), len, g.spacing[axis], vs, zs, gs);
-        for (int q = 0; q < len; ++q) out.data[std::size_t(base + q * stride[axis])] = res[std::size_t(q)];
+        for (int q = 0; q < len; ++q)
+          out.data[std::size_t(base + q * stride[axis])] = res[std::size_t(q)];
       }
   }
   for (float& d : out.data) d = std::sqrt(d);

@@ -5,9 +5,9 @@
 /// (P. Felzenszwalb, D. Huttenlocher, "Distance Transforms of Sampled Functions", Theory of
 /// Computing 8, 2012). Linear in the number of voxels.
 
-#include <cstdint>
-
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
 
 namespace brainshift::imaging {
 

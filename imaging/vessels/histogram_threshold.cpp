@@ -15,8 +15,8 @@ struct Histogram {
 };
 
 std::optional<Histogram> histogram(const VolumeF& image, const HistogramOptions& options) {
-  BS_VERIFY(image.components == 1, "a histogram threshold needs a one-component image, got "
-                                       << image.components);
+  BS_VERIFY(image.components == 1,
+            "a histogram threshold needs a one-component image, got " << image.components);
   BS_VERIFY(options.bins >= 2 && options.smoothing_half_width >= 0,
             "histogram needs ≥ 2 bins and a non-negative smoothing width, got "
                 << options.bins << " and " << options.smoothing_half_width);

@@ -2,23 +2,23 @@
 /// @file
 /// @brief Intensity thresholds for bright vessels (MRA, power Doppler) from the histogram.
 
-#include <optional>
-
 #include "imaging/io/volume.hpp"
+
+#include <optional>
 
 namespace brainshift::imaging {
 
 /// How a vessel threshold is chosen from the histogram.
 enum class ThresholdMethod {
   VESSEL_CONTRAST,  ///< from the tubes themselves (vessel_threshold.hpp), not the histogram
-  TISSUE_PEAK,  ///< just after the tissue peak (seed 002): see tissue_peak_threshold()
-  OTSU,         ///< Otsu's between-class-variance maximum (N. Otsu, IEEE SMC 9(1), 1979)
+  TISSUE_PEAK,      ///< just after the tissue peak (seed 002): see tissue_peak_threshold()
+  OTSU,             ///< Otsu's between-class-variance maximum (N. Otsu, IEEE SMC 9(1), 1979)
 };
 
 /// Histogram settings shared by the threshold rules.
 struct HistogramOptions {
-  int bins = 1024;              ///< over [min, max] of the finite voxel values
-  int smoothing_half_width = 5; ///< box filter of 2·w+1 bins before the peak search
+  int bins = 1024;               ///< over [min, max] of the finite voxel values
+  int smoothing_half_width = 5;  ///< box filter of 2·w+1 bins before the peak search
 };
 
 /// "Just after the tissue peak": the lower edge of the first histogram bin above the mode

@@ -22,7 +22,8 @@ void compact(VesselGraph& graph, const std::vector<bool>& dead_branch) {
     if (!dead_branch[b]) kept.push_back(std::move(graph.branches[b]));
   graph.branches = std::move(kept);
   std::vector<index_t> new_index(graph.nodes.size(), -1);
-  for (const auto& b : graph.branches) new_index[std::size_t(b.from)] = new_index[std::size_t(b.to)] = 0;
+  for (const auto& b : graph.branches)
+    new_index[std::size_t(b.from)] = new_index[std::size_t(b.to)] = 0;
   std::vector<VesselGraph::Node> nodes;
   for (std::size_t n = 0; n < graph.nodes.size(); ++n)
     if (new_index[n] == 0) {
@@ -123,7 +124,9 @@ VesselGraph graph_from_skeleton(const Volume<std::uint8_t>& skeleton, const Volu
           if (it != id.end()) adjacent[s].push_back(it->second);
         }
   }
-  const auto world = [&](int s) { return g.index_to_world(ijk(voxels[std::size_t(s)]).cast<double>()); };
+  const auto world = [&](int s) {
+    return g.index_to_world(ijk(voxels[std::size_t(s)]).cast<double>());
+  };
   const auto r = [&](int s) { return double(radius.data[std::size_t(voxels[std::size_t(s)])]); };
 
   // Node clusters: 26-connected groups of voxels with other than two neighbours.
@@ -206,8 +209,8 @@ int prune_spurs(VesselGraph& graph, const SpurPruning& rule) {
       if (degree[std::size_t(br.to)] == 1 && degree[std::size_t(br.from)] >= 3) junction = br.from;
       if (junction < 0) continue;
       const double length = polyline_length(br.points);
-      const double limit =
-          std::max(rule.min_length_mm, rule.radius_factor * graph.nodes[std::size_t(junction)].radius);
+      const double limit = std::max(rule.min_length_mm,
+                                    rule.radius_factor * graph.nodes[std::size_t(junction)].radius);
       if (length >= limit) continue;
       const auto it = shortest.find(junction);
       if (it == shortest.end() || length < it->second.first) shortest[junction] = {length, b};

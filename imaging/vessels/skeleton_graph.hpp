@@ -4,12 +4,12 @@
 /// (polylines), positions in world RAS mm, radii in mm. Built from a thinned voxel mask, pruned
 /// of short spurs, smoothed and resampled; convertible to constraints::Skeleton.
 
-#include <cstdint>
-#include <vector>
-
 #include "constraints/registration/skeleton.hpp"
 #include "core/config.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
+#include <vector>
 
 namespace brainshift::imaging {
 
@@ -22,10 +22,10 @@ struct VesselGraph {
   };
   /// A centreline between two nodes (the same node for a closed loop).
   struct Branch {
-    index_t from = 0;                 ///< node index of points.front()
-    index_t to = 0;                   ///< node index of points.back()
-    std::vector<Vector3d> points;     ///< world RAS mm, from node `from` to node `to`, ≥ 2
-    std::vector<double> radius;       ///< mm, one per point
+    index_t from = 0;              ///< node index of points.front()
+    index_t to = 0;                ///< node index of points.back()
+    std::vector<Vector3d> points;  ///< world RAS mm, from node `from` to node `to`, ≥ 2
+    std::vector<double> radius;    ///< mm, one per point
   };
   std::vector<Node> nodes;
   std::vector<Branch> branches;
@@ -55,10 +55,10 @@ VesselGraph graph_from_skeleton(const Volume<std::uint8_t>& skeleton, const Volu
 /// Spur pruning rule: a branch from an end point to a junction is a spur when its length is
 /// below max(min_length_mm, radius_factor × the junction's radius).
 struct SpurPruning {
-  double min_length_mm = 2.0;   ///< spurs shorter than this always go, mm
-  double radius_factor = 2.0;   ///< spurs shorter than this × junction radius go (a bump on the
-                                ///< wall yields a spur of one to two radii: the junction sits on
-                                ///< the axis, the spur reaches into the bump)
+  double min_length_mm = 2.0;  ///< spurs shorter than this always go, mm
+  double radius_factor = 2.0;  ///< spurs shorter than this × junction radius go (a bump on the
+                               ///< wall yields a spur of one to two radii: the junction sits on
+                               ///< the axis, the spur reaches into the bump)
 };
 
 /// Removes spurs, shortest first and at most one per junction per round, until none is left;

@@ -102,10 +102,12 @@ ThinningReport thin_to_curves(Volume<std::uint8_t>& mask) {
   const Neighbourhood& nb = neighbourhood();
   std::array<std::int64_t, 26> delta{};
   for (std::size_t b = 0; b < 26; ++b)
-    delta[b] = nb.offset[b][0] + std::int64_t(n[0]) * (nb.offset[b][1] + std::int64_t(n[1]) * nb.offset[b][2]);
+    delta[b] = nb.offset[b][0] +
+               std::int64_t(n[0]) * (nb.offset[b][1] + std::int64_t(n[1]) * nb.offset[b][2]);
 
   const auto neighbours = [&](std::int64_t v) {
-    const int i = int(v % n[0]), j = int((v / n[0]) % n[1]), k = int(v / (std::int64_t(n[0]) * n[1]));
+    const int i = int(v % n[0]), j = int((v / n[0]) % n[1]),
+              k = int(v / (std::int64_t(n[0]) * n[1]));
     const bool inside = i > 0 && j > 0 && k > 0 && i < n[0] - 1 && j < n[1] - 1 && k < n[2] - 1;
     std::uint32_t fg = 0;
     for (std::size_t b = 0; b < 26; ++b) {
@@ -136,8 +138,8 @@ ThinningReport thin_to_curves(Volume<std::uint8_t>& mask) {
       candidates.clear();
       for (const std::int64_t v : active) {
         const std::uint32_t fg = neighbours(v);
-        if ((fg & face_bit[d]) != 0) continue;           // not a border point in direction d
-        if (__builtin_popcount(fg) <= 1) continue;       // end point (or isolated): keep
+        if ((fg & face_bit[d]) != 0) continue;      // not a border point in direction d
+        if (__builtin_popcount(fg) <= 1) continue;  // end point (or isolated): keep
         if (is_simple(fg)) candidates.push_back(v);
       }
       for (const std::int64_t v : candidates) {

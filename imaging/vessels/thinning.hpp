@@ -14,17 +14,17 @@
 /// the exact test that Lee et al. evaluate with the Euler table and octree labelling. End point:
 /// exactly one 26-neighbour.
 
-#include <cstdint>
-
 #include "imaging/io/volume.hpp"
+
+#include <cstdint>
 
 namespace brainshift::imaging {
 
 /// Summary of a thinning run.
 struct ThinningReport {
-  int iterations = 0;              ///< full passes over the six directions
-  std::int64_t removed = 0;        ///< voxels deleted
-  std::int64_t remaining = 0;      ///< skeleton voxels
+  int iterations = 0;          ///< full passes over the six directions
+  std::int64_t removed = 0;    ///< voxels deleted
+  std::int64_t remaining = 0;  ///< skeleton voxels
 };
 
 /// Thins `mask` in place (non-zero = foreground → 1, else 0) to 26-connected curves; each

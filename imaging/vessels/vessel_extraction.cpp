@@ -1,5 +1,10 @@
 #include "imaging/vessels/vessel_extraction.hpp"
 
+#include "core/logger.hpp"
+#include "imaging/filters/gaussian.hpp"
+#include "imaging/vessels/distance_transform.hpp"
+#include "imaging/vessels/thinning.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -7,18 +12,14 @@
 #include <sstream>
 #include <vector>
 
-#include "core/logger.hpp"
-#include "imaging/filters/gaussian.hpp"
-#include "imaging/vessels/distance_transform.hpp"
-#include "imaging/vessels/thinning.hpp"
-
 namespace brainshift::imaging {
 namespace {
 
 using Mask = Volume<std::uint8_t>;
 
 /// The sub-grid [lo, hi] (inclusive voxel indices) of `g`.
-ImageGeometry crop_geometry(const ImageGeometry& g, const Eigen::Vector3i& lo, const Eigen::Vector3i& hi) {
+ImageGeometry crop_geometry(const ImageGeometry& g, const Eigen::Vector3i& lo,
+                            const Eigen::Vector3i& hi) {
   ImageGeometry c = g;
   c.size = hi - lo + Eigen::Vector3i::Ones();
   c.origin = g.index_to_world(lo.cast<double>());
@@ -42,7 +43,8 @@ std::vector<std::int64_t> label_components(const Mask& mask, std::vector<int>& l
       const std::int64_t v = stack.back();
       stack.pop_back();
       ++count;
-      const int i = int(v % n[0]), j = int((v / n[0]) % n[1]), k = int(v / (std::int64_t(n[0]) * n[1]));
+      const int i = int(v % n[0]), j = int((v / n[0]) % n[1]),
+                k = int(v / (std::int64_t(n[0]) * n[1]));
       for (int dz = -1; dz <= 1; ++dz)
         for (int dy = -1; dy <= 1; ++dy)
           for (int dx = -1; dx <= 1; ++dx) {
@@ -102,7 +104,8 @@ int remove_short_pieces(VesselGraph& graph, double min_length, double elongation
   std::vector<index_t> parent(graph.nodes.size());
   std::iota(parent.begin(), parent.end(), index_t(0));
   const auto find = [&](index_t a) {
-    while (parent[std::size_t(a)] != a) a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
+    while (parent[std::size_t(a)] != a)
+      a = parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
     return a;
   };
   for (const auto& b : graph.branches) parent[std::size_t(find(b.from))] = find(b.to);
@@ -116,8 +119,10 @@ int remove_short_pieces(VesselGraph& graph, double min_length, double elongation
   int removed = 0;
   for (std::size_t n = 0; n < graph.nodes.size(); ++n)
     if (find(index_t(n)) == index_t(n) && length[n] > 0.0) {
-      if (length[n] >= std::max(min_length, elongation * radius[n])) keep[n] = 1;
-      else ++removed;
+      if (length[n] >= std::max(min_length, elongation * radius[n]))
+        keep[n] = 1;
+      else
+        ++removed;
     }
   if (removed == 0) return 0;
   std::vector<index_t> new_index(graph.nodes.size(), -1);
@@ -161,7 +166,8 @@ std::string VesselExtractionOptions::validate() const {
     why << "noise_floor_k must be ≥ 0 and finite, got " << noise_floor_k << "; ";
   if (!(hysteresis_k >= 0.0) || std::isinf(hysteresis_k))
     why << "hysteresis_k must be ≥ 0 and finite, got " << hysteresis_k << "; ";
-  if (!(min_component_mm3 >= 0.0)) why << "min_component_mm3 must be ≥ 0, got " << min_component_mm3 << "; ";
+  if (!(min_component_mm3 >= 0.0))
+    why << "min_component_mm3 must be ≥ 0, got " << min_component_mm3 << "; ";
   if (max_components < 0) why << "max_components must be ≥ 0, got " << max_components << "; ";
   if (!(spurs.min_length_mm >= 0.0) || !(spurs.radius_factor >= 0.0))
     why << "spur pruning lengths must be ≥ 0; ";
@@ -175,7 +181,8 @@ std::string VesselExtractionOptions::validate() const {
   return text;
 }
 
-VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtractionOptions& options) {
+VesselExtractionResult extract_vessels(const VolumeF& image,
+                                       const VesselExtractionOptions& options) {
   const std::string invalid = options.validate();
   BS_VERIFY(invalid.empty(), "vessel extraction options: " << invalid);
   BS_VERIFY(image.components == 1,
@@ -185,8 +192,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
                                                << image.geometry.voxel_count() << " voxels");
   VesselExtractionResult result;
   if (image.empty()) return empty_result(result, "empty volume (no voxels)");
-  result.non_finite_voxels =
-      std::count_if(image.data.begin(), image.data.end(), [](float v) { return !std::isfinite(v); });
+  result.non_finite_voxels = std::count_if(image.data.begin(), image.data.end(),
+                                           [](float v) { return !std::isfinite(v); });
   if (result.non_finite_voxels > 0)
     logger().warn("vessel extraction: {} non-finite voxels treated as background",
                   result.non_finite_voxels);
@@ -198,7 +205,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
 
   double seed_threshold = -std::numeric_limits<double>::infinity();
   VesselContrast contrast;
-  if (!std::isfinite(options.threshold) && options.threshold_method == ThresholdMethod::VESSEL_CONTRAST) {
+  if (!std::isfinite(options.threshold) &&
+      options.threshold_method == ThresholdMethod::VESSEL_CONTRAST) {
     contrast = vessel_contrast_threshold(image, filtered, options.contrast);
     result.vessel_level = contrast.vessel_level;
     result.noise_median = contrast.background_level;
@@ -210,15 +218,18 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     result.threshold_rule = contrast.rule;
     if (!contrast.warning.empty()) result.warnings.push_back(contrast.warning);
     if (options.hysteresis_k > 0.0) {
-      seed_threshold = std::max(result.threshold, contrast.background_level + options.hysteresis_k * contrast.noise_sigma);
+      seed_threshold = std::max(result.threshold, contrast.background_level +
+                                                      options.hysteresis_k * contrast.noise_sigma);
       result.seed_threshold = seed_threshold;
       result.threshold_rule += " + hysteresis";
     }
   } else {
     std::tie(result.threshold, result.threshold_rule) = choose_threshold(image, options);
     if (!std::isfinite(result.threshold))
-      return empty_result(result, "no threshold: the image has fewer than two distinct finite values");
-    if (!std::isfinite(options.threshold) && (options.noise_floor_k > 0.0 || options.hysteresis_k > 0.0)) {
+      return empty_result(result,
+                          "no threshold: the image has fewer than two distinct finite values");
+    if (!std::isfinite(options.threshold) &&
+        (options.noise_floor_k > 0.0 || options.hysteresis_k > 0.0)) {
       if (auto noise = robust_noise(image)) {
         // Measured on the raw image (the filtered one has halos round every bright structure),
         // scaled to the filtered image as for white noise.
@@ -231,7 +242,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
           result.threshold_rule = "noise floor";
         }
         if (options.hysteresis_k > 0.0) {
-          seed_threshold = std::max(result.threshold, noise->first + options.hysteresis_k * noise->second);
+          seed_threshold =
+              std::max(result.threshold, noise->first + options.hysteresis_k * noise->second);
           result.seed_threshold = seed_threshold;
           result.threshold_rule += " + hysteresis";
         }
@@ -252,7 +264,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
         }
   if (result.foreground_voxels == 0) {
     std::ostringstream why;
-    why << "no voxel at or above the threshold " << result.threshold << " (" << result.threshold_rule << ")";
+    why << "no voxel at or above the threshold " << result.threshold << " ("
+        << result.threshold_rule << ")";
     return empty_result(result, why.str());
   }
   Mask mask(crop_geometry(g, lo, hi));
@@ -271,7 +284,9 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
       for (int j = lo[1]; j <= hi[1]; ++j)
         for (int i = lo[0]; i <= hi[0]; ++i)
           if (filtered.at(i, j, k) >= seed_threshold)
-            seeded[std::size_t(label[std::size_t(mask.geometry.linear_index(i - lo[0], j - lo[1], k - lo[2]))])] = 1;
+            seeded[std::size_t(
+                label[std::size_t(mask.geometry.linear_index(i - lo[0], j - lo[1], k - lo[2]))])] =
+                1;
     for (std::size_t c = 0; c < sizes.size(); ++c)
       if (seeded[c + 1] == 0) sizes[c] = 0;
   }
@@ -283,20 +298,25 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     for (int k = lo[2]; k <= hi[2]; ++k)
       for (int j = lo[1]; j <= hi[1]; ++j)
         for (int i = lo[0]; i <= hi[0]; ++i) {
-          const int c = label[std::size_t(mask.geometry.linear_index(i - lo[0], j - lo[1], k - lo[2]))];
-          if (c != 0 && v.at(i / contrast.factor[0], j / contrast.factor[1], k / contrast.factor[2]) >= level)
+          const int c =
+              label[std::size_t(mask.geometry.linear_index(i - lo[0], j - lo[1], k - lo[2]))];
+          if (c != 0 &&
+              v.at(i / contrast.factor[0], j / contrast.factor[1], k / contrast.factor[2]) >= level)
             ++tubular[std::size_t(c)];
         }
     for (std::size_t c = 0; c < sizes.size(); ++c)
-      if (sizes[c] > 0 && double(tubular[c + 1]) < options.min_tubular_fraction * double(sizes[c])) {
-        if (double(sizes[c]) * g.spacing.prod() >= options.min_component_mm3) ++result.components_not_tubular;
+      if (sizes[c] > 0 &&
+          double(tubular[c + 1]) < options.min_tubular_fraction * double(sizes[c])) {
+        if (double(sizes[c]) * g.spacing.prod() >= options.min_component_mm3)
+          ++result.components_not_tubular;
         sizes[c] = 0;
       }
   }
   const double voxel_mm3 = g.spacing.prod();
   std::vector<int> order(sizes.size());
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return sizes[std::size_t(a)] > sizes[std::size_t(b)]; });
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return sizes[std::size_t(a)] > sizes[std::size_t(b)]; });
   std::vector<std::uint8_t> keep(sizes.size() + 1, 0);
   for (const int c : order) {
     if (double(sizes[std::size_t(c)]) * voxel_mm3 < options.min_component_mm3) break;
@@ -309,7 +329,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
     std::ostringstream why;
     why << "no component of at least " << options.min_component_mm3 << " mm³ above the threshold "
         << result.threshold << " (" << result.components_found << " found";
-    if (result.components_not_tubular > 0) why << ", " << result.components_not_tubular << " large but not tubular";
+    if (result.components_not_tubular > 0)
+      why << ", " << result.components_not_tubular << " large but not tubular";
     why << ")";
     return empty_result(result, why.str());
   }
@@ -339,8 +360,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image, const VesselExtract
   result.status = VesselStatus::OK;
   if (result.total_length_mm < options.few_vessels_mm) {
     std::ostringstream few;
-    few << "few vessels: " << result.branch_count << " branches, " << result.total_length_mm << " mm in all (less than "
-        << options.few_vessels_mm << " mm)";
+    few << "few vessels: " << result.branch_count << " branches, " << result.total_length_mm
+        << " mm in all (less than " << options.few_vessels_mm << " mm)";
     result.warnings.push_back(few.str());
   }
   for (const std::string& w : result.warnings) logger().warn("vessel extraction: {}", w);

@@ -8,15 +8,15 @@
 /// (radii) → topological thinning → skeleton graph → spur pruning → removal of pieces too short
 /// for their calibre (blobs) → smoothing → resampling. Positions in world RAS mm, radii in mm.
 
-#include <cstdint>
-#include <limits>
-#include <string>
-#include <vector>
-
 #include "imaging/io/volume.hpp"
 #include "imaging/vessels/histogram_threshold.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
 #include "imaging/vessels/vessel_threshold.hpp"
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
 
 namespace brainshift::imaging {
 
@@ -85,30 +85,31 @@ enum class VesselStatus {
 /// The vessel graph and a report of each stage.
 struct VesselExtractionResult {
   VesselStatus status = VesselStatus::EMPTY;
-  std::string message;                          ///< why EMPTY; a one-line summary when OK
-  VesselGraph graph;                            ///< world RAS mm; empty when EMPTY
+  std::string message;  ///< why EMPTY; a one-line summary when OK
+  VesselGraph graph;    ///< world RAS mm; empty when EMPTY
   double threshold = std::numeric_limits<double>::quiet_NaN();  ///< intensity used
-  std::string threshold_rule;  ///< "given", "vessel contrast", "tissue peak", "Otsu", "Otsu (fallback)" or "noise floor"; "+ hysteresis" when seeded
+  std::string threshold_rule;  ///< "given", "vessel contrast", "tissue peak", "Otsu", "Otsu
+                               ///< (fallback)" or "noise floor"; "+ hysteresis" when seeded
   double noise_median = std::numeric_limits<double>::quiet_NaN();  ///< background level b
   double vessel_level = std::numeric_limits<double>::quiet_NaN();  ///< L (VESSEL_CONTRAST)
-  bool background_suppressed = false;           ///< VESSEL_CONTRAST found a suppressed background
-  double masked_fraction = 0.0;                 ///< share of finite voxels at the image minimum
-  int components_not_tubular = 0;               ///< dropped by the tubular-fraction rule
-  std::vector<std::string> warnings;            ///< weak but usable input (weak contrast, few vessels)
-  double noise_sigma = std::numeric_limits<double>::quiet_NaN();   ///< 1.4826 × MAD
+  bool background_suppressed = false;  ///< VESSEL_CONTRAST found a suppressed background
+  double masked_fraction = 0.0;        ///< share of finite voxels at the image minimum
+  int components_not_tubular = 0;      ///< dropped by the tubular-fraction rule
+  std::vector<std::string> warnings;   ///< weak but usable input (weak contrast, few vessels)
+  double noise_sigma = std::numeric_limits<double>::quiet_NaN();     ///< 1.4826 × MAD
   double seed_threshold = std::numeric_limits<double>::quiet_NaN();  ///< hysteresis seeds
-  std::int64_t non_finite_voxels = 0;           ///< NaN/inf voxels, treated as background
-  std::int64_t foreground_voxels = 0;           ///< voxels ≥ threshold
-  int components_found = 0;                     ///< 26-connected components above threshold
-  int components_kept = 0;                      ///< after the size rules
-  double kept_volume_mm3 = 0.0;                 ///< volume of the kept components
-  std::int64_t skeleton_voxels = 0;             ///< after thinning
+  std::int64_t non_finite_voxels = 0;  ///< NaN/inf voxels, treated as background
+  std::int64_t foreground_voxels = 0;  ///< voxels ≥ threshold
+  int components_found = 0;            ///< 26-connected components above threshold
+  int components_kept = 0;             ///< after the size rules
+  double kept_volume_mm3 = 0.0;        ///< volume of the kept components
+  std::int64_t skeleton_voxels = 0;    ///< after thinning
   int spurs_pruned = 0;
-  int pieces_removed = 0;                       ///< graph pieces failing the shape rule
-  int branch_count = 0;                         ///< branches of the final graph
-  int junction_count = 0;                       ///< nodes of degree ≥ 3
-  int endpoint_count = 0;                       ///< nodes of degree 1
-  double total_length_mm = 0.0;                 ///< sum of branch lengths
+  int pieces_removed = 0;        ///< graph pieces failing the shape rule
+  int branch_count = 0;          ///< branches of the final graph
+  int junction_count = 0;        ///< nodes of degree ≥ 3
+  int endpoint_count = 0;        ///< nodes of degree 1
+  double total_length_mm = 0.0;  ///< sum of branch lengths
 };
 
 /// Extracts vessel centrelines from a bright-vessel volume.

@@ -1,11 +1,11 @@
 #include "imaging/vessels/vessel_threshold.hpp"
 
+#include "imaging/filters/gaussian.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <vector>
-
-#include "imaging/filters/gaussian.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -22,7 +22,8 @@ std::string VesselContrastOptions::validate() const {
   std::ostringstream why;
   const std::string v = vesselness.validate();
   if (!v.empty()) why << "vesselness: " << v << "; ";
-  if (!(grid_mm > 0.0) || !std::isfinite(grid_mm)) why << "grid_mm must be > 0, got " << grid_mm << "; ";
+  if (!(grid_mm > 0.0) || !std::isfinite(grid_mm))
+    why << "grid_mm must be > 0, got " << grid_mm << "; ";
   if (!(seed_vesselness > 0.0 && seed_vesselness <= 1.0))
     why << "seed_vesselness must lie in (0, 1], got " << seed_vesselness << "; ";
   if (!(noise_floor_k >= 0.0) || !std::isfinite(noise_floor_k))
@@ -44,14 +45,16 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
   const VolumeF mean = filters::downsample(filtered, out.factor);
   const VolumeF peak = filters::downsample(filtered, out.factor, /*maximum=*/true);
   out.vesselness = filters::frangi_vesselness(mean, options.vesselness);
-  for (const float v : out.vesselness.data) out.vesselness_max = std::max(out.vesselness_max, double(v));
+  for (const float v : out.vesselness.data)
+    out.vesselness_max = std::max(out.vesselness_max, double(v));
   if (!(out.vesselness_max > 0.0)) {
     out.empty_reason = "no tubular structure at any scale (vesselness 0 everywhere)";
     return out;
   }
   std::vector<float> values;
   for (std::size_t c = 0; c < out.vesselness.data.size(); ++c)
-    if (out.vesselness.data[c] >= options.seed_vesselness * out.vesselness_max) values.push_back(peak.data[c]);
+    if (out.vesselness.data[c] >= options.seed_vesselness * out.vesselness_max)
+      values.push_back(peak.data[c]);
   out.seed_cells = std::int64_t(values.size());
   out.vessel_level = median_of(values);
 
@@ -66,7 +69,9 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
   for (const float v : image.data) at_low += v == low ? 1 : 0;
   out.masked_fraction = finite > 0 ? double(at_low) / double(finite) : 0.0;
   const bool masked = out.masked_fraction >= 0.5;
-  const auto reference = [&](std::size_t v) { return std::isfinite(image.data[v]) && (!masked || image.data[v] > low); };
+  const auto reference = [&](std::size_t v) {
+    return std::isfinite(image.data[v]) && (!masked || image.data[v] > low);
+  };
 
   // Background: the median of the cells around the vessels (2 to 4 cells from a seed, not
   // tubular themselves), else of all reference voxels.
@@ -89,7 +94,8 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
       }
   values.clear();
   for (std::size_t v = 0; v < near.size(); ++v)
-    if (near[v] == 1 && out.vesselness.data[v] < tubular_level && std::isfinite(mean.data[v])) values.push_back(mean.data[v]);
+    if (near[v] == 1 && out.vesselness.data[v] < tubular_level && std::isfinite(mean.data[v]))
+      values.push_back(mean.data[v]);
   const bool local = values.size() >= 16;
   if (!local) {
     values.clear();
@@ -105,9 +111,11 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
   // the vessels does not dilute it.
   const auto around = [&](std::size_t v) {
     if (!local) return true;
-    const auto ijk = Eigen::Vector3i(int(std::int64_t(v) % g.size[0]), int((std::int64_t(v) / g.size[0]) % g.size[1]),
+    const auto ijk = Eigen::Vector3i(int(std::int64_t(v) % g.size[0]),
+                                     int((std::int64_t(v) / g.size[0]) % g.size[1]),
                                      int(std::int64_t(v) / (std::int64_t(g.size[0]) * g.size[1])));
-    return near[std::size_t(c.linear_index(ijk[0] / out.factor[0], ijk[1] / out.factor[1], ijk[2] / out.factor[2]))] == 1;
+    return near[std::size_t(c.linear_index(ijk[0] / out.factor[0], ijk[1] / out.factor[1],
+                                           ijk[2] / out.factor[2]))] == 1;
   };
   values.clear();
   for (int a = 0; a < 3; ++a) {
@@ -119,8 +127,10 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
         for (int i = 0; i < g.size[0]; i += 2) {
           const int ijk[3] = {i, j, k};
           if (ijk[a] + lag >= g.size[a]) continue;
-          const auto v = std::size_t(g.linear_index(i, j, k)), w = std::size_t(std::int64_t(v) + lag * step);
-          if (reference(v) && reference(w) && around(v) && around(w)) values.push_back(filtered.data[v] - filtered.data[w]);
+          const auto v = std::size_t(g.linear_index(i, j, k)),
+                     w = std::size_t(std::int64_t(v) + lag * step);
+          if (reference(v) && reference(w) && around(v) && around(w))
+            values.push_back(filtered.data[v] - filtered.data[w]);
         }
   }
   double sigma = 0.0;
@@ -161,8 +171,9 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
     return out;
   }
   if (floor >= out.vessel_level) {
-    why << "no vessels above the noise: the most tubular structures (level " << out.vessel_level << ") are within "
-        << noise_floor_k << " σ̂ of the background (" << background << " ± " << sigma << ")";
+    why << "no vessels above the noise: the most tubular structures (level " << out.vessel_level
+        << ") are within " << noise_floor_k << " σ̂ of the background (" << background << " ± "
+        << sigma << ")";
     out.empty_reason = why.str();
     return out;
   }
@@ -172,8 +183,8 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
     out.threshold = floor;
     out.rule = "noise floor";
     why << "weak vessel contrast: the vessels (level " << out.vessel_level << ") stand only "
-        << (sigma > 0.0 ? contrast / sigma : 0.0) << " σ̂ above the background (" << background << " ± " << sigma
-        << "); the threshold was raised to the noise floor " << floor;
+        << (sigma > 0.0 ? contrast / sigma : 0.0) << " σ̂ above the background (" << background
+        << " ± " << sigma << "); the threshold was raised to the noise floor " << floor;
     out.warning = why.str();
   }
   return out;

@@ -23,21 +23,21 @@
 ///    no vessels above the noise (EMPTY); when it sets T above the half-maximum rule the contrast
 ///    is weak (a warning).
 
+#include "imaging/filters/vesselness.hpp"
+#include "imaging/io/volume.hpp"
+
 #include <cstdint>
 #include <limits>
 #include <string>
-
-#include "imaging/filters/vesselness.hpp"
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::imaging {
 
 /// Settings of the vessel-contrast threshold (see the file comment).
 struct VesselContrastOptions {
   filters::VesselnessOptions vesselness;  ///< scales 1 and 2 mm by default
-  double grid_mm = 1.0;             ///< vesselness grid spacing, mm (never finer than the image)
-  double seed_vesselness = 0.5;     ///< seed cells: vesselness ≥ this × its maximum, in (0, 1]
-  double contrast_fraction = 0.5;   ///< T = b + this × (L − b), in (0, 1)
+  double grid_mm = 1.0;            ///< vesselness grid spacing, mm (never finer than the image)
+  double seed_vesselness = 0.5;    ///< seed cells: vesselness ≥ this × its maximum, in (0, 1]
+  double contrast_fraction = 0.5;  ///< T = b + this × (L − b), in (0, 1)
   /// The noise floor b + noise_floor_k × σ̂ (σ̂ of the pre-filtered image, measured near the
   /// vessels): 4 σ̂ leaves ≈ 3e-5 of Gaussian background voxels above it, specks that the size
   /// and shape rules remove. ≥ 0.
@@ -48,16 +48,16 @@ struct VesselContrastOptions {
 
 /// Outcome of vessel_contrast_threshold().
 struct VesselContrast {
-  double threshold = std::numeric_limits<double>::quiet_NaN();   ///< image units; NaN when none
-  std::string rule;                 ///< "vessel contrast" or "noise floor"
-  std::string empty_reason;         ///< why no threshold (then threshold is NaN)
-  std::string warning;              ///< weak contrast, when the noise floor set T
+  double threshold = std::numeric_limits<double>::quiet_NaN();  ///< image units; NaN when none
+  std::string rule;          ///< "vessel contrast" or "noise floor"
+  std::string empty_reason;  ///< why no threshold (then threshold is NaN)
+  std::string warning;       ///< weak contrast, when the noise floor set T
   double vessel_level = std::numeric_limits<double>::quiet_NaN();      ///< L
   double background_level = std::numeric_limits<double>::quiet_NaN();  ///< b
   double noise_sigma = std::numeric_limits<double>::quiet_NaN();       ///< σ̂
-  double masked_fraction = 0.0;     ///< share of finite voxels at the minimum
+  double masked_fraction = 0.0;  ///< share of finite voxels at the minimum
   bool background_suppressed = false;
-  VolumeF vesselness;               ///< on the coarse grid (block factor `factor`)
+  VolumeF vesselness;                                ///< on the coarse grid (block factor `factor`)
   Eigen::Vector3i factor = Eigen::Vector3i::Ones();  ///< image voxels per vesselness cell
   double vesselness_max = 0.0;
   std::int64_t seed_cells = 0;

@@ -1,5 +1,8 @@
 #include "imaging/warping/warp_image.hpp"
 
+#include "core/logger.hpp"
+#include "core/mesh/boundary.hpp"
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -7,9 +10,6 @@
 #include <limits>
 #include <thread>
 #include <vector>
-
-#include "core/logger.hpp"
-#include "core/mesh/boundary.hpp"
 
 namespace brainshift::imaging {
 
@@ -30,9 +30,9 @@ struct PreparedTet {
   Vector4d c;
   Matrix3d G;
   Vector3d h;
-  Vector4d tol = Vector4d::Zero();  ///< voxel centres with λ_v ≥ −tol_v count as inside
+  Vector4d tol = Vector4d::Zero();         ///< voxel centres with λ_v ≥ −tol_v count as inside
   Vector4d inv_height = Vector4d::Zero();  ///< |∇λ_v| in world mm⁻¹ (1 / height from v)
-  Eigen::Vector3i lo, hi;  ///< inclusive voxel bounding box, clipped to the grid
+  Eigen::Vector3i lo, hi;                  ///< inclusive voxel bounding box, clipped to the grid
   bool empty = true;
 };
 
@@ -43,8 +43,8 @@ constexpr double kInsideTol = 1e-9;
 /// extension margin); `margin_mm` > 0 dilates the tetrahedron by that distance beyond each face
 /// plane and `margin_index` (≥ margin in index units along every axis) grows its bounding box.
 PreparedTet prepare(const std::array<Vector3d, 4>& q, const std::array<Vector3d, 4>& a,
-                    const std::array<Vector3d, 4>& w, const Eigen::Vector3i& size,
-                    double margin_mm, double margin_index) {
+                    const std::array<Vector3d, 4>& w, const Eigen::Vector3i& size, double margin_mm,
+                    double margin_index) {
   PreparedTet t;
   Matrix3d E;
   E << q[1] - q[0], q[2] - q[0], q[3] - q[0];
@@ -96,9 +96,12 @@ void rasterise(const PreparedTet& t, const Eigen::Vector3i& size, int k0, int k1
       const Vector4d b = t.L.col(1) * j + t.L.col(2) * k + t.c;  // λ at i = 0
       double ilo = t.lo[0], ihi = t.hi[0];
       for (int v = 0; v < 4; ++v) {  // λ_v(i) = b_v + s_v i ≥ −tol_v
-        if (s[v] > 0.0) ilo = std::max(ilo, (-t.tol[v] - b[v]) / s[v]);
-        else if (s[v] < 0.0) ihi = std::min(ihi, (-t.tol[v] - b[v]) / s[v]);
-        else if (b[v] < -t.tol[v]) ihi = -1.0;
+        if (s[v] > 0.0)
+          ilo = std::max(ilo, (-t.tol[v] - b[v]) / s[v]);
+        else if (s[v] < 0.0)
+          ihi = std::min(ihi, (-t.tol[v] - b[v]) / s[v]);
+        else if (b[v] < -t.tol[v])
+          ihi = -1.0;
       }
       if (!(ilo <= ihi)) continue;  // empty span (the bounds may be huge: test before int casts)
       const int ib = int(std::ceil(ilo));
@@ -106,7 +109,8 @@ void rasterise(const PreparedTet& t, const Eigen::Vector3i& size, int k0, int k1
       if (ib > ie) continue;
       const Vector3d row = t.G.col(1) * j + t.G.col(2) * k + t.h;
       const std::int64_t base = (std::int64_t(k) * size[1] + j) * size[0];
-      for (int i = ib; i <= ie; ++i) f(base + i, Vector3d(row + t.G.col(0) * i), Vector4d(b + s * i));
+      for (int i = ib; i <= ie; ++i)
+        f(base + i, Vector3d(row + t.G.col(0) * i), Vector4d(b + s * i));
     }
   }
 }
@@ -131,15 +135,15 @@ void for_slabs(int nk, int threads, F&& body) {
 void check_mesh_input(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
                       const Eigen::Matrix4d& rigid, int threads) {
   BS_VERIFY(displacement.rows() == mesh.num_nodes(),
-            "displacement has " << displacement.rows() << " rows, the mesh has "
-            << mesh.num_nodes() << " nodes");
+            "displacement has " << displacement.rows() << " rows, the mesh has " << mesh.num_nodes()
+                                << " nodes");
   BS_VERIFY(displacement.allFinite(), "displacement has a NaN or infinite value");
   const Matrix3d R = rigid.topLeftCorner<3, 3>();
   BS_VERIFY(rigid.allFinite() && (R.transpose() * R - Matrix3d::Identity()).norm() < 1e-6 &&
                 R.determinant() > 0.0 && rigid.row(3).isApprox(Eigen::RowVector4d(0, 0, 0, 1)),
             "the rigid transform outside the mesh is not a rotation + translation: |RᵀR − I| = "
-            << (R.transpose() * R - Matrix3d::Identity()).norm() << ", det R = " << R.determinant()
-            << ", last row " << rigid.row(3));
+                << (R.transpose() * R - Matrix3d::Identity()).norm()
+                << ", det R = " << R.determinant() << ", last row " << rigid.row(3));
   BS_VERIFY(threads >= 1, "threads must be ≥ 1, got " << threads);
 }
 
@@ -205,9 +209,9 @@ void check_extension(double extension_mm) {
 /// smallest over tetrahedra).
 /// With `exact` (and margin_mm > 0), the field without the extension (margin 0) is also
 /// stored there, from the same rasterisation: each slab is copied after the inside pass.
-VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world, const MatrixX3d& values,
-                         const Affine& outside, const ImageGeometry& g, double margin_mm, int threads,
-                         VolumeF* exact = nullptr) {
+VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world,
+                         const MatrixX3d& values, const Affine& outside, const ImageGeometry& g,
+                         double margin_mm, int threads, VolumeF* exact = nullptr) {
   VolumeF out(g, 3, 0.0F);
   if (exact) *exact = VolumeF(g, 3, 0.0F);
   const MatrixX3d q = map_rows(world_to_index(g), nodes_world);
@@ -217,10 +221,12 @@ VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world
   if (margin_mm > 0.0) {
     // Only tetrahedra touching the boundary can be nearest to a voxel outside the mesh (an inner
     // one's extension reaches only voxels inside other tetrahedra): dilate just those.
-    wide = prepare_all(mesh, q, values, nodes_world, g.size, margin_mm, margin_mm / g.spacing.minCoeff());
+    wide = prepare_all(mesh, q, values, nodes_world, g.size, margin_mm,
+                       margin_mm / g.spacing.minCoeff());
     std::vector<bool> on_boundary(std::size_t(mesh.num_nodes()), false);
     const core::TriangleMatrix faces = core::boundary_faces(mesh);
-    for (Eigen::Index f = 0; f < faces.size(); ++f) on_boundary[std::size_t(faces.data()[f])] = true;
+    for (Eigen::Index f = 0; f < faces.size(); ++f)
+      on_boundary[std::size_t(faces.data()[f])] = true;
     for (index_t t = 0; t < mesh.num_tets(); ++t) {
       bool touches = false;
       for (int a = 0; a < 4; ++a) touches = touches || on_boundary[std::size_t(mesh.tets()(t, a))];
@@ -255,17 +261,19 @@ VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world
     }
     for (const PreparedTet& tet : wide) {
       if (tet.empty || tet.hi[2] < k0 || tet.lo[2] >= k1) continue;
-      rasterise(tet, g.size, k0, k1, [&](std::int64_t v, const Vector3d& d, const Vector4d& lambda) {
-        float& best = outside_by[std::size_t(v)];
-        if (best == 0.0F) return;  // inside a tetrahedron: exact value already there
-        double dist = 0.0;  // distance beyond the farthest-violated face plane, mm
-        for (int a = 0; a < 4; ++a)
-          if (tet.inv_height[a] > 0.0) dist = std::max(dist, -lambda[a] / tet.inv_height[a]);
-        const float key = std::max(float(dist), std::numeric_limits<float>::min());
-        if (!(key < best)) return;
-        best = key;
-        for (int c = 0; c < 3; ++c) data[3 * v + c] = float(d[c]);
-      });
+      rasterise(tet, g.size, k0, k1,
+                [&](std::int64_t v, const Vector3d& d, const Vector4d& lambda) {
+                  float& best = outside_by[std::size_t(v)];
+                  if (best == 0.0F) return;  // inside a tetrahedron: exact value already there
+                  double dist = 0.0;         // distance beyond the farthest-violated face plane, mm
+                  for (int a = 0; a < 4; ++a)
+                    if (tet.inv_height[a] > 0.0)
+                      dist = std::max(dist, -lambda[a] / tet.inv_height[a]);
+                  const float key = std::max(float(dist), std::numeric_limits<float>::min());
+                  if (!(key < best)) return;
+                  best = key;
+                  for (int c = 0; c < 3; ++c) data[3 * v + c] = float(d[c]);
+                });
     }
   });
   return out;
@@ -273,7 +281,8 @@ VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world
 
 }  // namespace
 
-float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value, int component) {
+float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value,
+                       int component) {
   const auto& n = image.geometry.size;
   std::array<int, 3> i0{};
   std::array<double, 3> f{};
@@ -287,7 +296,8 @@ float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_
   }
   const std::int64_t sx = 1, sy = n[0], sz = std::int64_t(n[0]) * n[1];
   const std::int64_t dx = n[0] > 1 ? sx : 0, dy = n[1] > 1 ? sy : 0, dz = n[2] > 1 ? sz : 0;
-  const float* p = image.data.data() + (i0[2] * sz + i0[1] * sy + i0[0]) * image.components + component;
+  const float* p =
+      image.data.data() + (i0[2] * sz + i0[1] * sy + i0[0]) * image.components + component;
   const auto at = [&](std::int64_t off) { return double(p[off * image.components]); };
   const double wx = f[0], wy = f[1], wz = f[2];
   const double c00 = (1 - wx) * at(0) + wx * at(dx);
@@ -302,10 +312,11 @@ float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_
 VolumeF warp_image(const VolumeF& image, const core::TetMesh& mesh,
                    ConstRef<MatrixX3d> displacement, const WarpOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  BS_VERIFY(!image.empty() && image.geometry.size.minCoeff() > 0,
-            "warp_image: the input image is empty (size " << image.geometry.size.transpose() << ")");
-  BS_VERIFY(image.components == 1,
-            "warp_image: the input image must be scalar, it has " << image.components << " components");
+  BS_VERIFY(
+      !image.empty() && image.geometry.size.minCoeff() > 0,
+      "warp_image: the input image is empty (size " << image.geometry.size.transpose() << ")");
+  BS_VERIFY(image.components == 1, "warp_image: the input image must be scalar, it has "
+                                       << image.components << " components");
   check_mesh_input(mesh, displacement, options.rigid, options.threads);
   const ImageGeometry out_g = options.output_geometry.value_or(image.geometry);
   BS_VERIFY(out_g.size.minCoeff() > 0, "warp_image: the output grid is empty");
@@ -319,9 +330,9 @@ VolumeF warp_image(const VolumeF& image, const core::TetMesh& mesh,
       compose(world_to_index(image.geometry), compose(rigid_inverse, index_to_world(out_g)));
   // Inside: deformed nodes in output index space, rest nodes in input index space.
   const MatrixX3d deformed = mesh.nodes() + displacement;
-  const auto tets = prepare_all(mesh, map_rows(world_to_index(out_g), deformed),
-                                map_rows(world_to_index(image.geometry), mesh.nodes()), deformed,
-                                out_g.size);
+  const auto tets =
+      prepare_all(mesh, map_rows(world_to_index(out_g), deformed),
+                  map_rows(world_to_index(image.geometry), mesh.nodes()), deformed, out_g.size);
   const float fill = options.outside_value;
   for_slabs(out_g.size[2], options.threads, [&](int k0, int k1) {
     for (int k = k0; k < k1; ++k) {
@@ -354,17 +365,20 @@ VolumeF displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d> displa
   check_mesh_input(mesh, displacement, options.rigid, options.threads);
   check_extension(options.extension_mm);
   // Outside the mesh: u = T X − X = (R − I) X + t with X = index_to_world(ijk).
-  const Affine rigid_displacement{Matrix3d(options.rigid.topLeftCorner<3, 3>() - Matrix3d::Identity()),
-                                  options.rigid.topRightCorner<3, 1>()};
+  const Affine rigid_displacement{
+      Matrix3d(options.rigid.topLeftCorner<3, 3>() - Matrix3d::Identity()),
+      options.rigid.topRightCorner<3, 1>()};
   const MatrixX3d u = displacement;
-  VolumeF out = rasterised_field(mesh, mesh.nodes(), u, compose(rigid_displacement, index_to_world(geometry)),
-                                 geometry, options.extension_mm, options.threads);
+  VolumeF out =
+      rasterised_field(mesh, mesh.nodes(), u, compose(rigid_displacement, index_to_world(geometry)),
+                       geometry, options.extension_mm, options.threads);
   logger().debug("displacement_field: {}×{}×{} voxels, {} tets, {:.3f} s", geometry.size[0],
                  geometry.size[1], geometry.size[2], mesh.num_tets(), seconds_since(start));
   return out;
 }
 
-ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
+ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh,
+                                              ConstRef<MatrixX3d> displacement,
                                               const ImageGeometry& geometry,
                                               const DisplacementFieldOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -372,16 +386,19 @@ ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh, ConstRe
             "displacement_fields: the grid is empty (size " << geometry.size.transpose() << ")");
   check_mesh_input(mesh, displacement, options.rigid, options.threads);
   check_extension(options.extension_mm);
-  const Affine rigid_displacement{Matrix3d(options.rigid.topLeftCorner<3, 3>() - Matrix3d::Identity()),
-                                  options.rigid.topRightCorner<3, 1>()};
+  const Affine rigid_displacement{
+      Matrix3d(options.rigid.topLeftCorner<3, 3>() - Matrix3d::Identity()),
+      options.rigid.topRightCorner<3, 1>()};
   const MatrixX3d u = displacement;
   ForwardDisplacementFields f;
   if (options.extension_mm > 0.0) {
-    f.extended = rasterised_field(mesh, mesh.nodes(), u, compose(rigid_displacement, index_to_world(geometry)),
-                                  geometry, options.extension_mm, options.threads, &f.exact);
+    f.extended = rasterised_field(mesh, mesh.nodes(), u,
+                                  compose(rigid_displacement, index_to_world(geometry)), geometry,
+                                  options.extension_mm, options.threads, &f.exact);
   } else {
-    f.exact = rasterised_field(mesh, mesh.nodes(), u, compose(rigid_displacement, index_to_world(geometry)),
-                               geometry, 0.0, options.threads);
+    f.exact = rasterised_field(mesh, mesh.nodes(), u,
+                               compose(rigid_displacement, index_to_world(geometry)), geometry, 0.0,
+                               options.threads);
     f.extended = f.exact;
   }
   logger().debug("displacement_fields: {}×{}×{} voxels, {} tets, {:.3f} s", geometry.size[0],
@@ -393,20 +410,21 @@ VolumeF inverse_displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d
                                    const ImageGeometry& geometry,
                                    const DisplacementFieldOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  BS_VERIFY(geometry.size.minCoeff() > 0,
-            "inverse_displacement_field: the grid is empty (size " << geometry.size.transpose() << ")");
+  BS_VERIFY(geometry.size.minCoeff() > 0, "inverse_displacement_field: the grid is empty (size "
+                                              << geometry.size.transpose() << ")");
   check_mesh_input(mesh, displacement, options.rigid, options.threads);
   check_extension(options.extension_mm);
   // Outside the deformed mesh: v = T⁻¹ y − y = (Rᵀ − I) y − Rᵀ t.
   const Matrix3d R = options.rigid.topLeftCorner<3, 3>();
   const Vector3d t = options.rigid.topRightCorner<3, 1>();
-  const Affine rigid_inverse_displacement{Matrix3d(R.transpose() - Matrix3d::Identity()), -R.transpose() * t};
+  const Affine rigid_inverse_displacement{Matrix3d(R.transpose() - Matrix3d::Identity()),
+                                          -R.transpose() * t};
   // Inside: the deformed tetrahedra carry v = X − x, affine on each, −u_a at its vertices.
   const MatrixX3d deformed = mesh.nodes() + displacement;
   const MatrixX3d minus_u = -displacement;
   VolumeF out = rasterised_field(mesh, deformed, minus_u,
-                                 compose(rigid_inverse_displacement, index_to_world(geometry)), geometry,
-                                 options.extension_mm, options.threads);
+                                 compose(rigid_inverse_displacement, index_to_world(geometry)),
+                                 geometry, options.extension_mm, options.threads);
   logger().debug("inverse_displacement_field: {}×{}×{} voxels, {} tets, {:.3f} s", geometry.size[0],
                  geometry.size[1], geometry.size[2], mesh.num_tets(), seconds_since(start));
   return out;
@@ -414,9 +432,12 @@ VolumeF inverse_displacement_field(const core::TetMesh& mesh, ConstRef<MatrixX3d
 
 double trilinear_support_mm(const ImageGeometry& geometry) { return geometry.spacing.norm(); }
 
-ImageGeometry covering_grid(const ImageGeometry& like, ConstRef<MatrixX3d> points, double margin_mm) {
-  BS_VERIFY(points.rows() > 0 && points.allFinite(), "covering_grid: no points, or a non-finite one");
-  BS_VERIFY(margin_mm >= 0.0 && std::isfinite(margin_mm), "covering_grid: bad margin " << margin_mm);
+ImageGeometry covering_grid(const ImageGeometry& like, ConstRef<MatrixX3d> points,
+                            double margin_mm) {
+  BS_VERIFY(points.rows() > 0 && points.allFinite(),
+            "covering_grid: no points, or a non-finite one");
+  BS_VERIFY(margin_mm >= 0.0 && std::isfinite(margin_mm),
+            "covering_grid: bad margin " << margin_mm);
   const Affine to_index = world_to_index(like);
   Vector3d lo = Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   for (index_t r = 0; r < points.rows(); ++r) {

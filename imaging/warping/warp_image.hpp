@@ -16,11 +16,11 @@
 /// (the map is continuous). Where deformed tetrahedra overlap (an inverted element), the last one
 /// written wins; degenerate (flat) deformed tetrahedra are skipped.
 
-#include <optional>
-
 #include "core/config.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "imaging/io/volume.hpp"
+
+#include <optional>
 
 namespace brainshift::imaging {
 
@@ -88,7 +88,8 @@ struct ForwardDisplacementFields {
 /// tetrahedra are rasterised once; the extension is then added to a copy). Both are equal,
 /// voxel for voxel, to the two separate displacement_field() calls.
 /// \throws brainshift::Error as displacement_field().
-ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
+ForwardDisplacementFields displacement_fields(const core::TetMesh& mesh,
+                                              ConstRef<MatrixX3d> displacement,
                                               const ImageGeometry& geometry,
                                               const DisplacementFieldOptions& options);
 
@@ -115,13 +116,14 @@ double trilinear_support_mm(const ImageGeometry& geometry);
 /// covers `points` (world mm, #P×3) plus `margin_mm` along every axis.
 /// \throws brainshift::Error for no or non-finite points, a negative margin, or a grid of more
 /// than 2·10⁹ voxels.
-ImageGeometry covering_grid(const ImageGeometry& like, ConstRef<MatrixX3d> points, double margin_mm);
+ImageGeometry covering_grid(const ImageGeometry& like, ConstRef<MatrixX3d> points,
+                            double margin_mm);
 
 /// Trilinear sample of component `component` (0 … components − 1) of a volume at continuous index
 /// (i, j, k) (voxel centres at integers); the border value within half a voxel beyond the outer
 /// centres, `outside_value` farther out.
 /// Exact at voxel centres and for images linear in (i, j, k).
 float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value = 0.0F,
-                      int component = 0);
+                       int component = 0);
 
 }  // namespace brainshift::imaging

@@ -2,18 +2,17 @@
 /// @file
 /// @brief Running the real brainshift executable from tests: exit code, stdout, stderr.
 
-#include <sys/wait.h>
+#include "temp_folder.hpp"
+#include "tests/config.hpp"
+
+#include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
-
-#include <gtest/gtest.h>
-
-#include "temp_folder.hpp"
-#include "tests/config.hpp"
+#include <sys/wait.h>
 
 namespace brainshift {
 
@@ -40,7 +39,8 @@ inline std::string q(const std::filesystem::path& p) {
 }
 
 /// Runs `exe <args>` through the shell with stdout and stderr captured in files next to `dir`.
-inline CliRun run_exe(const tests::TempFolder& dir, const std::filesystem::path& exe, const std::string& args) {
+inline CliRun run_exe(const tests::TempFolder& dir, const std::filesystem::path& exe,
+                      const std::string& args) {
   const auto out = dir.path().parent_path() / (dir.path().filename().string() + ".stdout");
   const auto err = dir.path().parent_path() / (dir.path().filename().string() + ".stderr");
   const std::string command = q(exe) + " " + args + " >" + q(out) + " 2>" + q(err);
@@ -72,8 +72,10 @@ inline void expect_one_line_error(const CliRun& r, const std::string& needle) {
       ++errors;
       EXPECT_NE(line.find(needle), std::string::npos) << line;
     } else {
-      const bool progress = line.rfind("brainshift ", 0) == 0 && line.find(": [") != std::string::npos;
-      EXPECT_TRUE(progress || line.rfind("[warning]", 0) == 0) << "unexpected stderr line: " << line;
+      const bool progress =
+          line.rfind("brainshift ", 0) == 0 && line.find(": [") != std::string::npos;
+      EXPECT_TRUE(progress || line.rfind("[warning]", 0) == 0)
+          << "unexpected stderr line: " << line;
     }
   }
   EXPECT_EQ(errors, 1) << r.err;

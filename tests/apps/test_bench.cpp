@@ -1,15 +1,14 @@
 // `brainshift bench --quick` end to end (the CI smoke test of issue 8, < 2 min): every output
 // file, the CSV/JSON contract, finite figures, and the bad-argument contract.
 
+#include "cli_helpers.hpp"
+
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <fstream>
 #include <set>
 #include <string>
-
-#include <nlohmann/json.hpp>
-
-#include "cli_helpers.hpp"
 
 namespace brainshift {
 namespace {
@@ -24,22 +23,26 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
   const auto out = dir / "bench";
   const CliRun r = run_brainshift(dir, "bench --quick --out " + q(out));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  for (const char* f : {"results.csv", "results.json", "results.md", "pareto.png", "pareto.gp", "pareto.dat"})
+  for (const char* f :
+       {"results.csv", "results.json", "results.md", "pareto.png", "pareto.gp", "pareto.dat"})
     EXPECT_TRUE(std::filesystem::exists(out / f)) << f;
-  EXPECT_FALSE(std::filesystem::exists(out / "work")) << "work files are removed without --keep-work";
+  EXPECT_FALSE(std::filesystem::exists(out / "work"))
+      << "work files are removed without --keep-work";
 
   // CSV: the header names the columns scripts rely on; one line per run.
   std::ifstream csv(out / "results.csv");
   std::string header;
   std::getline(csv, header);
-  for (const char* col : {"suite", "case", "sweep", "value", "method", "nodes", "rows", "iterations", "stop",
-                          "registration_s", "peak_rss_mib", "tre_mean_mm", "tre_p95_mm", "shift_corrected_pct"})
+  for (const char* col :
+       {"suite", "case", "sweep", "value", "method", "nodes", "rows", "iterations", "stop",
+        "registration_s", "peak_rss_mib", "tre_mean_mm", "tre_p95_mm", "shift_corrected_pct"})
     EXPECT_NE(header.find(col), std::string::npos) << col;
   int lines = 0;
   for (std::string l; std::getline(csv, l);) ++lines;
 
   const auto j = read_json(out / "results.json");
-  EXPECT_EQ(j["machine"]["build_type"], "Release") << "figures are recorded from Release builds only";
+  EXPECT_EQ(j["machine"]["build_type"], "Release")
+      << "figures are recorded from Release builds only";
   ASSERT_EQ(static_cast<int>(j["runs"].size()), lines);
   std::set<std::string> methods, sweeps;
   for (const auto& run : j["runs"]) {
@@ -54,9 +57,10 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
     EXPECT_GT(run["peak_rss_mib"].get<double>(), 1.0);
     EXPECT_GT(run["nodes"].get<int>(), 500);
   }
-  EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "rigid_only", "prescribed_displacement"}));
-  EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "start", "vessel_sampling", "compliance", "pgs_tolerance",
-                                           "constraint_sets"}));
+  EXPECT_EQ(methods,
+            (std::set<std::string>{"constraint_icp", "rigid_only", "prescribed_displacement"}));
+  EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "start", "vessel_sampling", "compliance",
+                                           "pgs_tolerance", "constraint_sets"}));
   // Two mesh sizes give a growth exponent for the registration time.
   EXPECT_TRUE(j["fits"].contains("registration_s_vs_nodes")) << j["fits"].dump();
   // On `standard` our method must correct most of the shift (measured 75 %; asked ≥ 60 %, the
@@ -76,8 +80,10 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
 
 TEST(Bench, BadArgumentsAreOneLineErrors) {
   const tests::TempFolder dir;
-  expect_one_line_error(run_brainshift(dir, "bench --quick --cases nosuch --out " + q(dir / "b")), "nosuch");
-  expect_one_line_error(run_brainshift(dir, "bench --quick --out " + q(dir / "no/such/folder/b")), "no/such/folder");
+  expect_one_line_error(run_brainshift(dir, "bench --quick --cases nosuch --out " + q(dir / "b")),
+                        "nosuch");
+  expect_one_line_error(run_brainshift(dir, "bench --quick --out " + q(dir / "no/such/folder/b")),
+                        "no/such/folder");
   EXPECT_FALSE(std::filesystem::exists(dir / "b"));
 }
 

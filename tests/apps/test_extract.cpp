@@ -1,17 +1,17 @@
 // `brainshift extract vessels`: the skeleton, the report and the PNG from an angiogram; one-line
 // errors naming the file for no vessels, a missing image or folder; a warning for a weak input.
 
+#include "../imaging/vessels/angiogram_standins.hpp"
+#include "cli_helpers.hpp"
+
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/skeleton_io.hpp"
+
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <filesystem>
 #include <string>
-
-#include <nlohmann/json.hpp>
-
-#include "../imaging/vessels/angiogram_standins.hpp"
-#include "cli_helpers.hpp"
-#include "imaging/io/image_io.hpp"
-#include "imaging/io/skeleton_io.hpp"
 
 namespace brainshift {
 namespace {
@@ -20,9 +20,9 @@ TEST(ExtractVessels, WritesTheSkeletonReportAndProjection) {
   const tests::TempFolder dir;
   // The background-suppressed TOF stand-in, its float sform orthonormal only to 1.3e-6.
   imaging::write_volume(dir / "tof.nii.gz", tests::suppressed_tof().image);
-  const CliRun r = run_brainshift(dir, "extract vessels --image " + q(dir / "tof.nii.gz") + " --out " +
-                                           q(dir / "skeleton.vtp") + " --report " + q(dir / "report.json") +
-                                           " --png " + q(dir / "mip.png"));
+  const CliRun r = run_brainshift(dir, "extract vessels --image " + q(dir / "tof.nii.gz") +
+                                           " --out " + q(dir / "skeleton.vtp") + " --report " +
+                                           q(dir / "report.json") + " --png " + q(dir / "mip.png"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("extracted"), std::string::npos) << r.out;
   const nlohmann::json report = nlohmann::json::parse(read_all(dir / "report.json"));
@@ -32,10 +32,12 @@ TEST(ExtractVessels, WritesTheSkeletonReportAndProjection) {
   EXPECT_EQ(report["branches"].get<std::size_t>(), g.branches.size());
   // The file holds the graph as written: same length to float precision (0.01 mm).
   EXPECT_NEAR(report["length_mm"].get<double>(), g.total_length(), 1e-2);
-  EXPECT_GT(report["length_mm"].get<double>(), 200.0);  // the ≈ 277 mm circle of Willis, mostly found
+  EXPECT_GT(report["length_mm"].get<double>(),
+            200.0);  // the ≈ 277 mm circle of Willis, mostly found
   EXPECT_LT(report["threshold"].get<double>(), 254.0);
   ASSERT_EQ(report["header_notes"].size(), 1U);
-  EXPECT_NE(report["header_notes"][0].get<std::string>().find("re-orthonormalised"), std::string::npos);
+  EXPECT_NE(report["header_notes"][0].get<std::string>().find("re-orthonormalised"),
+            std::string::npos);
   const std::string png = read_all(dir / "mip.png");
   ASSERT_GT(png.size(), 8U);
   EXPECT_EQ(png.substr(1, 3), "PNG");
@@ -48,8 +50,9 @@ TEST(ExtractVessels, AnImageWithoutVesselsIsAOneLineErrorNamingIt) {
   imaging::VolumeF flat = tests::correlated_noise(g, 20.0, 1.0, 5);
   for (float& v : flat.data) v += 300.0F;
   imaging::write_volume(dir / "flat.nii.gz", flat);
-  const CliRun r = run_brainshift(dir, "extract vessels --image " + q(dir / "flat.nii.gz") + " --out " +
-                                           q(dir / "skeleton.vtp") + " --report " + q(dir / "report.json"));
+  const CliRun r =
+      run_brainshift(dir, "extract vessels --image " + q(dir / "flat.nii.gz") + " --out " +
+                              q(dir / "skeleton.vtp") + " --report " + q(dir / "report.json"));
   expect_one_line_error(r, "flat.nii.gz");
   EXPECT_NE(r.err.find("no vessels"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(dir / "skeleton.vtp"));
@@ -58,7 +61,8 @@ TEST(ExtractVessels, AnImageWithoutVesselsIsAOneLineErrorNamingIt) {
 
 TEST(ExtractVessels, MissingImageOrOutputFolderIsAOneLineError) {
   const tests::TempFolder dir;
-  CliRun r = run_brainshift(dir, "extract vessels --image " + q(dir / "absent.nii.gz") + " --out " + q(dir / "s.vtp"));
+  CliRun r = run_brainshift(
+      dir, "extract vessels --image " + q(dir / "absent.nii.gz") + " --out " + q(dir / "s.vtp"));
   expect_one_line_error(r, "absent.nii.gz");
   imaging::ImageGeometry g;
   g.size = {8, 8, 8};
@@ -76,9 +80,11 @@ TEST(ExtractVessels, AWeakInputWarnsInTheReportAndOnStderr) {
   imaging::ImageGeometry g;
   g.size = {48, 32, 32};
   g.spacing = {0.8, 0.8, 0.8};
-  imaging::write_volume(dir / "short.nii.gz", tests::draw_tubes(g, {{{8, 12, 12}, {28, 12, 12}}}, 1.6));
-  const CliRun r = run_brainshift(dir, "extract vessels --image " + q(dir / "short.nii.gz") + " --out " +
-                                           q(dir / "s.vtp") + " --report " + q(dir / "report.json"));
+  imaging::write_volume(dir / "short.nii.gz",
+                        tests::draw_tubes(g, {{{8, 12, 12}, {28, 12, 12}}}, 1.6));
+  const CliRun r =
+      run_brainshift(dir, "extract vessels --image " + q(dir / "short.nii.gz") + " --out " +
+                              q(dir / "s.vtp") + " --report " + q(dir / "report.json"));
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.err.find("brainshift: warning: "), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("few vessels"), std::string::npos) << r.err;

@@ -2,15 +2,16 @@
 // angiogram whose vessels all lie far from the brain. One line on stderr naming the file and the
 // problem, nothing written.
 
+#include "cli_helpers.hpp"
+
+#include "imaging/io/image_io.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
-
-#include "cli_helpers.hpp"
-#include "imaging/io/image_io.hpp"
 
 namespace brainshift {
 namespace {
@@ -43,7 +44,8 @@ TEST(PrepareInputs, LabelVolumesWithoutBrainAreOneLineErrorsNamingTheFile) {
   imaging::write_volume(mra, imaging::VolumeF(small_grid(), 1, 60.0F));
   const auto out = dir / "model";
   const auto prepare = [&](const std::filesystem::path& labels) {
-    return run_brainshift(dir, "prepare --labels " + q(labels) + " --mra " + q(mra) + " --out " + q(out));
+    return run_brainshift(
+        dir, "prepare --labels " + q(labels) + " --mra " + q(mra) + " --out " + q(out));
   };
   struct Case {
     const char* file;
@@ -86,7 +88,8 @@ TEST(PrepareInputs, AnAngiogramWhoseVesselsAllLieFarOutsideTheBrainIsAnErrorNami
         const Vector3d p = g.index_to_world(Vector3d(i, j, k));
         labels.at(i, j, k) = p.norm() < 40.0 ? 1 : 0;
         const double d = Vector2d(p.y(), p.z() - 55.0).norm();  // tube along x at z = 55 mm
-        mra.at(i, j, k) = float(60.0 + 240.0 * std::clamp(2.0 + 1.0 - d, 0.0, 1.0) + 8.0 * std::sin(7.1 * i + 3.3 * j + 1.7 * k));
+        mra.at(i, j, k) = float(60.0 + 240.0 * std::clamp(2.0 + 1.0 - d, 0.0, 1.0) +
+                                8.0 * std::sin(7.1 * i + 3.3 * j + 1.7 * k));
       }
   const tests::TempFolder dir;
   imaging::write_labels(dir / "ball.nii.gz", labels);

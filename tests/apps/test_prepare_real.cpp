@@ -4,20 +4,8 @@
 // upper cortex, some inside, on and just outside the brain, one well outside. Skips when the
 // shared data folder is absent.
 
-#include <gtest/gtest.h>
-
-#include <algorithm>
-#include <cmath>
-#include <functional>
-#include <limits>
-#include <numbers>
-#include <random>
-#include <string>
-#include <vector>
-
-#include <nlohmann/json.hpp>
-
 #include "cli_helpers.hpp"
+
 #include "core/mapping/tet_locator.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
@@ -27,6 +15,18 @@
 #include "imaging/meshing/collision_surface.hpp"
 #include "imaging/meshing/decimate_surface.hpp"
 #include "imaging/meshing/surface_checks.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <string>
+#include <vector>
 
 namespace brainshift {
 namespace {
@@ -58,10 +58,12 @@ struct Tube {
 /// The four tubes: inside (3 mm deep), on the boundary, just outside (2.5 mm) and well outside
 /// (10 mm: beyond the 5 mm snap distance, so dropped). Lengths ≈ 110, 110, 95 and 85 mm.
 std::vector<Tube> tubes() {
-  return {{[](double t) { return Vector2d(75 + 6 * std::sin(3 * PI * t), 70 + 100 * t); }, -3.0, 1.5},
-          {[](double t) { return Vector2d(122 + 6 * std::sin(3 * PI * t + 1), 70 + 100 * t); }, 0.0, 1.2},
-          {[](double t) { return Vector2d(55 + 90 * t, 125 + 8 * std::sin(2 * PI * t)); }, 2.5, 1.0},
-          {[](double t) { return Vector2d(60 + 80 * t, 90 + 6 * std::sin(2 * PI * t)); }, 10.0, 1.5}};
+  return {
+      {[](double t) { return Vector2d(75 + 6 * std::sin(3 * PI * t), 70 + 100 * t); }, -3.0, 1.5},
+      {[](double t) { return Vector2d(122 + 6 * std::sin(3 * PI * t + 1), 70 + 100 * t); }, 0.0,
+       1.2},
+      {[](double t) { return Vector2d(55 + 90 * t, 125 + 8 * std::sin(2 * PI * t)); }, 2.5, 1.0},
+      {[](double t) { return Vector2d(60 + 80 * t, 90 + 6 * std::sin(2 * PI * t)); }, 10.0, 1.5}};
 }
 
 /// Stand-in MRA on the label grid (1 mm): tissue 60, tubes 300 (partial volume over 1 mm at the
@@ -73,12 +75,14 @@ imaging::VolumeF stand_in_mra(const imaging::LabelVolume& labels, std::uint32_t 
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i)
-        if (labels.at(i, j, k) != 0) top[std::size_t(j) * std::size_t(g.size[0]) + std::size_t(i)] = k;
+        if (labels.at(i, j, k) != 0)
+          top[std::size_t(j) * std::size_t(g.size[0]) + std::size_t(i)] = k;
   const auto top_near = [&](int i, int j) {
     int best = -1;
     for (int dj = -2; dj <= 2; ++dj)
       for (int di = -2; di <= 2; ++di) {
-        const int a = std::clamp(i + di, 0, g.size[0] - 1), b = std::clamp(j + dj, 0, g.size[1] - 1);
+        const int a = std::clamp(i + di, 0, g.size[0] - 1),
+                  b = std::clamp(j + dj, 0, g.size[1] - 1);
         best = std::max(best, top[std::size_t(b) * std::size_t(g.size[0]) + std::size_t(a)]);
       }
     return best;
@@ -95,7 +99,8 @@ imaging::VolumeF stand_in_mra(const imaging::LabelVolume& labels, std::uint32_t 
       for (int k = int(c.z()) - reach; k <= int(c.z()) + reach; ++k)
         for (int j = int(c.y()) - reach; j <= int(c.y()) + reach; ++j)
           for (int i = int(c.x()) - reach; i <= int(c.x()) + reach; ++i) {
-            if (i < 0 || j < 0 || k < 0 || i >= g.size[0] || j >= g.size[1] || k >= g.size[2]) continue;
+            if (i < 0 || j < 0 || k < 0 || i >= g.size[0] || j >= g.size[1] || k >= g.size[2])
+              continue;
             const auto v = std::size_t(g.linear_index(i, j, k));
             const auto d = float((Vector3d(i, j, k) - c).norm());
             if (d - float(tube.radius_mm) < distance[v] - radius[v]) {
@@ -118,7 +123,8 @@ imaging::VolumeF stand_in_mra(const imaging::LabelVolume& labels, std::uint32_t 
 TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels) {
   const std::filesystem::path data = std::filesystem::path(tests::shared_data_dir) / "icbm152";
   if (!std::filesystem::exists(data / "labels.nii.gz"))
-    GTEST_SKIP() << "no real data: " << data << " is absent (the ICBM152 test needs ../shared/data/icbm152)";
+    GTEST_SKIP() << "no real data: " << data
+                 << " is absent (the ICBM152 test needs ../shared/data/icbm152)";
   const imaging::LabelVolume labels = imaging::read_labels(data / "labels.nii.gz");
   const auto& g = labels.geometry;
   // The tubes are laid out in voxel indices of the template's 1 mm axis-aligned grid.
@@ -130,8 +136,8 @@ TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels)
   const auto mra = dir / "mra.nii";
   imaging::write_volume(mra, stand_in_mra(labels, /*seed=*/7));
   const auto model = dir / "model";
-  const CliRun r = run_brainshift(dir, "prepare --labels " + q(data / "labels.nii.gz") + " --mra " + q(mra) +
-                                           " --out " + q(model));
+  const CliRun r = run_brainshift(dir, "prepare --labels " + q(data / "labels.nii.gz") + " --mra " +
+                                           q(mra) + " --out " + q(model));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   std::cout << r.out << r.err;
   const nlohmann::json m = nlohmann::json::parse(read_all(model / "model.json"));
@@ -154,9 +160,11 @@ TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels)
   for (auto v : labels.data) labelled += v != 0;
   const double label_ml = double(labelled) / 1000.0;
   const double surface_ml = imaging::enclosed_volume(surface) / 1000.0;
-  EXPECT_NEAR(surface_ml, label_ml, VOLUME_TOLERANCE * label_ml) << surface_ml << " mL vs " << label_ml << " mL";
-  std::cout << "ICBM152: " << mesh.num_nodes() << " nodes, surface " << surface.vertices.rows() << " vertices, "
-            << surface_ml << " mL (labels " << label_ml << " mL, mesh " << m["mesh"]["volume_ml"] << " mL)\n";
+  EXPECT_NEAR(surface_ml, label_ml, VOLUME_TOLERANCE * label_ml)
+      << surface_ml << " mL vs " << label_ml << " mL";
+  std::cout << "ICBM152: " << mesh.num_nodes() << " nodes, surface " << surface.vertices.rows()
+            << " vertices, " << surface_ml << " mL (labels " << label_ml << " mL, mesh "
+            << m["mesh"]["volume_ml"] << " mL)\n";
   EXPECT_EQ(m["surface"]["vertices"].get<index_t>(), surface.vertices.rows());
 
   // The fixed region: the inferior part only (max(15 mm, 16 % of the extent) of a 150 mm brain
@@ -165,7 +173,8 @@ TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels)
   EXPECT_GE(fixed.size(), 20u);
   const double lowest = mesh.nodes().col(2).minCoeff(), highest = mesh.nodes().col(2).maxCoeff();
   EXPECT_NEAR(m["fixed"]["height_mm"].get<double>(), 0.16 * (highest - lowest), 2.0);
-  for (index_t n : fixed) EXPECT_LE(mesh.nodes()(n, 2), lowest + m["fixed"]["height_mm"].get<double>() + 1e-9);
+  for (index_t n : fixed)
+    EXPECT_LE(mesh.nodes()(n, 2), lowest + m["fixed"]["height_mm"].get<double>() + 1e-9);
   // The craniotomy: no tumour in ICBM152, so the top of the brain (within a facet of it).
   EXPECT_GE(m["craniotomy"]["centre_mm"][2].get<double>(), highest - 9.0);
 
@@ -183,7 +192,8 @@ TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels)
   const core::TetLocator locator(mesh.nodes(), mesh.tets());
   // vessels.vtp is written in single precision: "in the mesh" to 1e-3 mm.
   for (const auto& b : skeleton.branches)
-    for (const Vector3d& p : b.points) ASSERT_LE(locator.locate(p, 1.0)->distance, 1e-3) << p.transpose();
+    for (const Vector3d& p : b.points)
+      ASSERT_LE(locator.locate(p, 1.0)->distance, 1e-3) << p.transpose();
   // Kept length: the three tubes within 5 mm are ≈ 315 mm long; LENGTH_RANGE allows for ends
   // shortened by a radius, splits where tubes cross and the far tube's fragments.
   const double kept = skeleton.total_length();

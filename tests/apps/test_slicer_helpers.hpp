@@ -4,11 +4,12 @@
 /// and reading the module description they print for `--xml` with VTK's XML parser into plain
 /// structs.
 
+#include "cli_helpers.hpp"
+
+#include <gtest/gtest.h>
 #include <vtkSmartPointer.h>
 #include <vtkXMLDataElement.h>
 #include <vtkXMLUtilities.h>
-
-#include <sys/wait.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -16,11 +17,8 @@
 #include <regex>
 #include <set>
 #include <string>
+#include <sys/wait.h>
 #include <vector>
-
-#include <gtest/gtest.h>
-
-#include "cli_helpers.hpp"
 
 namespace brainshift::tests {
 
@@ -73,8 +71,10 @@ inline XmlModule parse_module_xml(const std::string& xml) {
     for (int j = 0; j < e->GetNumberOfNestedElements(); ++j) {
       vtkXMLDataElement* p = e->GetNestedElement(j);
       const std::string ptag = p->GetName();
-      if (ptag == "label") g.label = trimmed(p->GetCharacterData());
-      else if (ptag == "description") g.description = trimmed(p->GetCharacterData());
+      if (ptag == "label")
+        g.label = trimmed(p->GetCharacterData());
+      else if (ptag == "description")
+        g.description = trimmed(p->GetCharacterData());
       else {
         XmlParameter par;
         par.tag = ptag;
@@ -84,12 +84,18 @@ inline XmlModule parse_module_xml(const std::string& xml) {
           vtkXMLDataElement* c = p->GetNestedElement(k);
           const std::string ctag = c->GetName();
           const std::string value = trimmed(c->GetCharacterData());
-          if (ctag == "name") par.name = value;
-          else if (ctag == "longflag") par.longflag = value;
-          else if (ctag == "index") par.index = value;
-          else if (ctag == "label") par.label = value;
-          else if (ctag == "description") par.description = value;
-          else if (ctag == "channel") par.channel = value;
+          if (ctag == "name")
+            par.name = value;
+          else if (ctag == "longflag")
+            par.longflag = value;
+          else if (ctag == "index")
+            par.index = value;
+          else if (ctag == "label")
+            par.label = value;
+          else if (ctag == "description")
+            par.description = value;
+          else if (ctag == "channel")
+            par.channel = value;
         }
         g.parameters.push_back(par);
       }
@@ -116,7 +122,8 @@ inline std::map<std::string, XmlParameter> parameters_by_name(const XmlModule& m
 }
 
 /// The command line Slicer would build: `--<longflag> <value>` for each parameter given a value.
-inline std::string slicer_command_line(const XmlModule& m, const std::map<std::string, std::filesystem::path>& values) {
+inline std::string slicer_command_line(const XmlModule& m,
+                                       const std::map<std::string, std::filesystem::path>& values) {
   std::string args;
   for (const auto& g : m.groups)
     for (const auto& p : g.parameters) {

@@ -2,13 +2,13 @@
 // Execution Model description, parsed here with VTK's XML parser) and declare exactly the flags
 // they accept (`--help`). Running them is tested in test_slicer_workflow.cpp.
 
+#include "test_slicer_helpers.hpp"
+
 #include <gtest/gtest.h>
 
 #include <regex>
 #include <set>
 #include <string>
-
-#include "test_slicer_helpers.hpp"
 
 namespace brainshift {
 namespace {
@@ -17,7 +17,9 @@ using tests::XmlModule;
 using tests::XmlParameter;
 
 /// Slicer's parser refuses names and long flags other than identifiers (ModuleDescriptionParser).
-bool valid_identifier(const std::string& s) { return std::regex_match(s, std::regex("[A-Za-z_][A-Za-z0-9_]*")); }
+bool valid_identifier(const std::string& s) {
+  return std::regex_match(s, std::regex("[A-Za-z_][A-Za-z0-9_]*"));
+}
 
 class SlicerModule : public ::testing::TestWithParam<const char*> {};
 
@@ -26,7 +28,8 @@ TEST_P(SlicerModule, XmlHasTheModuleFieldsAndEveryParameterIsNamedLabelledAndFla
   const XmlModule m = tests::module_xml(dir, GetParam());
   ASSERT_FALSE(m.fields.empty());
   EXPECT_EQ(m.fields.at("category"), "Registration.Brain shift");
-  for (const char* f : {"title", "description", "version", "documentation-url", "license", "contributor"}) {
+  for (const char* f :
+       {"title", "description", "version", "documentation-url", "license", "contributor"}) {
     ASSERT_TRUE(m.fields.count(f)) << f;
     EXPECT_FALSE(m.fields.at(f).empty()) << f;
   }
@@ -69,11 +72,13 @@ TEST_P(SlicerModule, DeclaresEveryFlagTheExecutableAcceptsAndNoOther) {
   EXPECT_EQ(declared, accepted) << help.out;
 }
 
-INSTANTIATE_TEST_SUITE_P(Modules, SlicerModule, ::testing::Values("BrainshiftPrepare", "BrainshiftRegister"));
+INSTANTIATE_TEST_SUITE_P(Modules, SlicerModule,
+                         ::testing::Values("BrainshiftPrepare", "BrainshiftRegister"));
 
 /// tag, channel and (for outputs Slicer must read back) the file extension of one parameter.
-void expect_parameter(const std::map<std::string, XmlParameter>& ps, const std::string& name, const std::string& tag,
-                      const std::string& channel, const std::string& extensions = "") {
+void expect_parameter(const std::map<std::string, XmlParameter>& ps, const std::string& name,
+                      const std::string& tag, const std::string& channel,
+                      const std::string& extensions = "") {
   SCOPED_TRACE(name);
   ASSERT_TRUE(ps.count(name));
   const XmlParameter& p = ps.at(name);
@@ -110,7 +115,8 @@ TEST(SlicerModules, RegisterTakesTheModelAndUltrasoundAndWritesImageTransformsAn
 
 TEST(SlicerModules, AMissingRequiredFlagIsOneErrorLineAndExitCodeOne) {
   const tests::TempFolder dir;
-  const CliRun r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"), "--doppler x.nrrd");
+  const CliRun r =
+      tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"), "--doppler x.nrrd");
   EXPECT_EQ(r.exit_code, 1);
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_EQ(r.err.rfind("BrainshiftRegister: error: ", 0), 0U) << r.err;

@@ -9,9 +9,12 @@
 // Both must map the truth landmarks within the registration's own TRE (brainshift evaluate) plus
 // 0.3 mm, and be each other's inverse.
 
-#include <gtest/gtest.h>
+#include "cli_helpers.hpp"
 
-#include <zlib.h>
+#include "imaging/io/csv.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
@@ -21,11 +24,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
-
-#include "cli_helpers.hpp"
-#include "imaging/io/csv.hpp"
+#include <zlib.h>
 
 namespace brainshift {
 namespace {
@@ -44,7 +43,8 @@ struct ItkField {
     std::array<long, 3> i0{};
     std::array<double, 3> w{};
     for (int a = 0; a < 3; ++a) {
-      if (!(c[a] >= 0.0 && c[a] <= double(size[std::size_t(a)] - 1))) return Eigen::Vector3d::Zero();
+      if (!(c[a] >= 0.0 && c[a] <= double(size[std::size_t(a)] - 1)))
+        return Eigen::Vector3d::Zero();
       i0[std::size_t(a)] = std::min(long(c[a]), size[std::size_t(a)] - 2);
       w[std::size_t(a)] = c[a] - double(i0[std::size_t(a)]);
     }
@@ -65,7 +65,8 @@ struct ItkField {
 };
 
 Eigen::Vector3d parse_tuple(std::string text) {
-  std::replace_if(text.begin(), text.end(), [](char c) { return c == '(' || c == ')' || c == ','; }, ' ');
+  std::replace_if(
+      text.begin(), text.end(), [](char c) { return c == '(' || c == ')' || c == ','; }, ' ');
   std::istringstream in(text);
   Eigen::Vector3d v;
   in >> v[0] >> v[1] >> v[2];
@@ -105,7 +106,8 @@ ItkField read_field(const std::filesystem::path& path) {
   f.origin = parse_tuple(f.fields["space origin"]);
   const std::size_t count = std::size_t(3 * f.size[0] * f.size[1] * f.size[2]);
   f.data.resize(count);
-  const std::vector<char> rest((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<char> rest((std::istreambuf_iterator<char>(in)),
+                               std::istreambuf_iterator<char>());
   if (f.fields["encoding"] == "raw") {
     EXPECT_EQ(rest.size(), count * sizeof(float)) << path;
     std::memcpy(f.data.data(), rest.data(), std::min(rest.size(), count * sizeof(float)));
@@ -129,7 +131,8 @@ Eigen::Vector3d ras_to_lps(const Eigen::Vector3d& p) { return {-p.x(), -p.y(), p
 std::pair<double, double> mapping_error(const ItkField& f, const imaging::Landmarks& from,
                                         const imaging::Landmarks& to) {
   std::map<std::string, Eigen::Vector3d> target;
-  for (std::size_t i = 0; i < to.ids.size(); ++i) target[to.ids[i]] = to.points.row(Eigen::Index(i)).transpose();
+  for (std::size_t i = 0; i < to.ids.size(); ++i)
+    target[to.ids[i]] = to.points.row(Eigen::Index(i)).transpose();
   double sum = 0.0, worst = 0.0;
   int n = 0;
   for (std::size_t i = 0; i < from.ids.size(); ++i) {
@@ -151,14 +154,15 @@ TEST(SlicerTransforms, BothFieldsMapThePhantomLandmarksAsWellAsTheRegistration) 
   const auto ph = dir / "phantom", model = dir / "model", res = dir / "res";
   CliRun r = run_brainshift(dir, "phantom --case standard --seed 1 --out " + q(ph));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  r = run_brainshift(dir, "prepare --labels " + q(ph / "preop/labels.nii.gz") + " --mra " + q(ph / "preop/mra.nii.gz") +
-                              " --out " + q(model));
+  r = run_brainshift(dir, "prepare --labels " + q(ph / "preop/labels.nii.gz") + " --mra " +
+                              q(ph / "preop/mra.nii.gz") + " --out " + q(model));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  r = run_brainshift(dir, "register --model " + q(model) + " --doppler " + q(ph / "intraop/doppler.nii.gz") +
-                              " --out " + q(res));
+  r = run_brainshift(dir, "register --model " + q(model) + " --doppler " +
+                              q(ph / "intraop/doppler.nii.gz") + " --out " + q(res));
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.out << r.err;
-  r = run_brainshift(dir, "evaluate --result " + q(res) + " --landmarks-pre " + q(ph / "truth/landmarks_preop.csv") +
-                              " --landmarks-intra " + q(ph / "truth/landmarks_intraop.csv"));
+  r = run_brainshift(dir, "evaluate --result " + q(res) + " --landmarks-pre " +
+                              q(ph / "truth/landmarks_preop.csv") + " --landmarks-intra " +
+                              q(ph / "truth/landmarks_intraop.csv"));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const auto ev = nlohmann::json::parse(read_all(res / "evaluation.json"));
   const double tre_mean = ev["tre_after_mm"]["mean"].get<double>();
@@ -171,10 +175,12 @@ TEST(SlicerTransforms, BothFieldsMapThePhantomLandmarksAsWellAsTheRegistration) 
   const ItkField to_pre = read_field(res / "intraop_to_preop.nrrd");
   const auto [to_intra_mean, to_intra_max] = mapping_error(to_intra, intra, pre);
   const auto [to_pre_mean, to_pre_max] = mapping_error(to_pre, pre, intra);
-  std::cout << "TRE after registration: mean " << tre_mean << " mm, max " << tre_max << " mm (before: mean "
-            << shift_mean << " mm)\npreop_to_intraop.nrrd on the intra-operative landmarks: mean " << to_intra_mean
-            << " mm, max " << to_intra_max << " mm\nintraop_to_preop.nrrd on the pre-operative landmarks: mean "
-            << to_pre_mean << " mm, max " << to_pre_max << " mm\n";
+  std::cout << "TRE after registration: mean " << tre_mean << " mm, max " << tre_max
+            << " mm (before: mean " << shift_mean
+            << " mm)\npreop_to_intraop.nrrd on the intra-operative landmarks: mean "
+            << to_intra_mean << " mm, max " << to_intra_max
+            << " mm\nintraop_to_preop.nrrd on the pre-operative landmarks: mean " << to_pre_mean
+            << " mm, max " << to_pre_max << " mm\n";
   // The bound: the registration's TRE + 0.3 mm (trilinear interpolation between voxel
   // centres on the 1 mm grid, and for the inverse the map's local stretch times the TRE).
   constexpr double SLACK_MM = 0.3;

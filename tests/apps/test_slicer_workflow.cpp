@@ -3,24 +3,24 @@
 // module descriptions the executables print. Then bad input through the module path: one error
 // line naming the file, nothing at the output paths.
 
-#include <gtest/gtest.h>
+#include "test_slicer_helpers.hpp"
 
-#include <zlib.h>
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/nrrd_io.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <fstream>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json.hpp>
-
-#include "imaging/io/image_io.hpp"
-#include "imaging/io/nrrd_io.hpp"
-#include "test_slicer_helpers.hpp"
+#include <zlib.h>
 
 namespace brainshift {
 namespace {
 
-/// Rewrites a raw NRRD file with gzip-compressed data (`encoding: gzip`), as Slicer saves by default.
+/// Rewrites a raw NRRD file with gzip-compressed data (`encoding: gzip`), as Slicer saves by
+/// default.
 void gzip_nrrd(const std::filesystem::path& path) {
   const std::string all = read_all(path);
   const auto end = all.find("\n\n");
@@ -46,14 +46,18 @@ void gzip_nrrd(const std::filesystem::path& path) {
 }
 
 /// The phantom's images as Slicer hands them to a module: NRRD, LPS.
-void to_slicer_nrrd(const std::filesystem::path& nifti, const std::filesystem::path& nrrd, bool labels, bool gzip) {
-  if (labels) imaging::write_nrrd(nrrd, imaging::read_labels(nifti), imaging::NrrdSpace::LPS);
-  else imaging::write_nrrd(nrrd, imaging::read_volume(nifti), imaging::NrrdSpace::LPS);
+void to_slicer_nrrd(const std::filesystem::path& nifti, const std::filesystem::path& nrrd,
+                    bool labels, bool gzip) {
+  if (labels)
+    imaging::write_nrrd(nrrd, imaging::read_labels(nifti), imaging::NrrdSpace::LPS);
+  else
+    imaging::write_nrrd(nrrd, imaging::read_volume(nifti), imaging::NrrdSpace::LPS);
   if (gzip) gzip_nrrd(nrrd);
 }
 
 std::size_t entries(const std::filesystem::path& dir) {
-  return std::size_t(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}));
+  return std::size_t(std::distance(std::filesystem::directory_iterator(dir),
+                                   std::filesystem::directory_iterator{}));
 }
 
 /// One error line, "<module>: error: …", naming `needle`.
@@ -108,8 +112,10 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
       {"reportFile", out / "report.json"},
       {"init", "scene"},
       {"resultDirectory", out / "res"}};
-  for (const auto& [name, p] : tests::parameters_by_name(reg)) EXPECT_TRUE(values.count(name)) << name << " untested";
-  r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"), tests::slicer_command_line(reg, values));
+  for (const auto& [name, p] : tests::parameters_by_name(reg))
+    EXPECT_TRUE(values.count(name)) << name << " untested";
+  r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"),
+                     tests::slicer_command_line(reg, values));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("<filter-progress>"), std::string::npos) << r.out;
   for (const auto& [name, p] : tests::parameters_by_name(reg))
@@ -119,7 +125,8 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
   const auto report = nlohmann::json::parse(read_all(out / "report.json"));
   EXPECT_TRUE(report.contains("converged"));
   EXPECT_TRUE(report["timing"].contains("total"));
-  for (const char* f : {"report.json", "deformed.vtu", "preop_to_intraop.nrrd", "intraop_to_preop.nrrd", "warped_mri.nii.gz"})
+  for (const char* f : {"report.json", "deformed.vtu", "preop_to_intraop.nrrd",
+                        "intraop_to_preop.nrrd", "warped_mri.nii.gz"})
     EXPECT_TRUE(std::filesystem::exists(out / "res" / f)) << f;
   // The warped MRI lies on the pre-operative MRI's grid (the LPS file read back into RAS).
   const imaging::VolumeF warped = imaging::read_volume(out / "warped.nrrd");
@@ -138,18 +145,22 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
   std::filesystem::create_directory(bad);
   std::map<std::string, std::filesystem::path> bad_values = values;
   bad_values["doppler"] = in / "broken.nrrd";
-  for (const char* o : {"warpedMRI", "preopToIntraop", "intraopToPreop", "reportFile", "resultDirectory"})
+  for (const char* o :
+       {"warpedMRI", "preopToIntraop", "intraopToPreop", "reportFile", "resultDirectory"})
     bad_values[o] = bad / values.at(o).filename();
-  r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"), tests::slicer_command_line(reg, bad_values));
+  r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"),
+                     tests::slicer_command_line(reg, bad_values));
   expect_one_error_line(r, "BrainshiftRegister", (in / "broken.nrrd").string());
   EXPECT_EQ(entries(bad), 0U) << "nothing written, not even a temporary";
 
   // The warped MRI without the MRI to warp: refused before any work.
   bad_values = values;
   bad_values.erase("preopMRI");
-  for (const char* o : {"warpedMRI", "preopToIntraop", "intraopToPreop", "reportFile", "resultDirectory"})
+  for (const char* o :
+       {"warpedMRI", "preopToIntraop", "intraopToPreop", "reportFile", "resultDirectory"})
     bad_values[o] = bad / values.at(o).filename();
-  r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"), tests::slicer_command_line(reg, bad_values));
+  r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"),
+                     tests::slicer_command_line(reg, bad_values));
   expect_one_error_line(r, "BrainshiftRegister", "preopMRI");
   EXPECT_EQ(entries(bad), 0U);
 
@@ -157,10 +168,10 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
   const auto foreign = dir / "my_documents";
   std::filesystem::create_directory(foreign);
   std::ofstream(foreign / "notes.txt") << "keep me\n";
-  r = tests::run_exe(dir, tests::slicer_module("BrainshiftPrepare"),
-                     tests::slicer_command_line(prepare, {{"labels", in / "labels.nrrd"},
-                                                          {"mra", in / "mra.nrrd"},
-                                                          {"model", foreign}}));
+  r = tests::run_exe(
+      dir, tests::slicer_module("BrainshiftPrepare"),
+      tests::slicer_command_line(
+          prepare, {{"labels", in / "labels.nrrd"}, {"mra", in / "mra.nrrd"}, {"model", foreign}}));
   expect_one_error_line(r, "BrainshiftPrepare", foreign.string());
   EXPECT_EQ(read_all(foreign / "notes.txt"), "keep me\n");
   EXPECT_EQ(entries(foreign), 1U);

@@ -3,22 +3,24 @@
 // bad input a new user might try. One test, because generating the phantom takes ≈ 10 s and
 // CTest runs each test in its own process.
 
+#include "cli_helpers.hpp"
+
+#include "imaging/io/image_io.hpp"
+
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <fstream>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
-#include "cli_helpers.hpp"
-#include "imaging/io/image_io.hpp"
-
 namespace brainshift {
 namespace {
 
-nlohmann::json read_json(const std::filesystem::path& p) { return nlohmann::json::parse(read_all(p)); }
+nlohmann::json read_json(const std::filesystem::path& p) {
+  return nlohmann::json::parse(read_all(p));
+}
 
 /// No temporary or partial folder next to `target` (the write-then-rename contract).
 void expect_nothing_half_written(const std::filesystem::path& target) {
@@ -33,21 +35,23 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   CliRun r = run_brainshift(dir, "phantom --case standard --seed 1 --frames 3 --out " + q(ph));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
 
-  r = run_brainshift(dir, "prepare --labels " + q(ph / "preop/labels.nii.gz") + " --mra " + q(ph / "preop/mra.nii.gz") +
-                              " --mri " + q(ph / "preop/mri.nii.gz") + " --out " + q(model));
+  r = run_brainshift(dir, "prepare --labels " + q(ph / "preop/labels.nii.gz") + " --mra " +
+                              q(ph / "preop/mra.nii.gz") + " --mri " + q(ph / "preop/mri.nii.gz") +
+                              " --out " + q(model));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
-  for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "vessels.vtp", "fixed.csv", "compliance.bin"})
+  for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "vessels.vtp",
+                        "fixed.csv", "compliance.bin"})
     EXPECT_TRUE(std::filesystem::exists(model / f)) << f;
   EXPECT_NE(r.err.find("brainshift prepare: ["), std::string::npos) << "progress lines on stderr";
 
-  const std::string reg = "register --model " + q(model) + " --doppler " + q(ph / "intraop/doppler.nii.gz") +
-                          " --mri " + q(ph / "preop/mri.nii.gz");
+  const std::string reg = "register --model " + q(model) + " --doppler " +
+                          q(ph / "intraop/doppler.nii.gz") + " --mri " + q(ph / "preop/mri.nii.gz");
   r = run_brainshift(dir, reg + " --out " + q(res));
   // 0 = converged, 2 = stopped without meeting the convergence test; both write the result.
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.out << r.err;
-  for (const char* f : {"report.json", "deformed.vtu", "displacement.nii.gz", "preop_to_intraop.nrrd",
-                        "intraop_to_preop.nrrd", "warped_mri.nii.gz", "overlay.png", "uncertainty.nii.gz",
-                        "overlay_uncertainty.png"})
+  for (const char* f : {"report.json", "deformed.vtu", "displacement.nii.gz",
+                        "preop_to_intraop.nrrd", "intraop_to_preop.nrrd", "warped_mri.nii.gz",
+                        "overlay.png", "uncertainty.nii.gz", "overlay_uncertainty.png"})
     EXPECT_TRUE(std::filesystem::exists(res / f)) << f;
   const auto report = read_json(res / "report.json");
   for (const char* k : {"timing", "iterations", "converged", "stop_reason", "constraints", "rigid"})
@@ -58,21 +62,24 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     EXPECT_TRUE(report["uncertainty"].contains(k)) << k << ": " << report["uncertainty"].dump();
   EXPECT_TRUE(report["uncertainty"]["estimated"].get<bool>()) << report["uncertainty"].dump();
   EXPECT_GT(report["uncertainty"]["median_mm"].get<double>(), 0.0);
-  EXPECT_GE(report["uncertainty"]["p95_mm"].get<double>(), report["uncertainty"]["median_mm"].get<double>());
+  EXPECT_GE(report["uncertainty"]["p95_mm"].get<double>(),
+            report["uncertainty"]["median_mm"].get<double>());
   EXPECT_GT(report["uncertainty"]["at_tumour_mm"].get<double>(), 0.0) << "the phantom has a tumour";
   EXPECT_EQ(report["converged"].get<bool>(), r.exit_code == 0);
   // prepare's compliance block is reloaded, not recomputed.
   EXPECT_EQ(report["model"]["compliance"]["strategy"], "dense_block") << report["model"].dump();
   EXPECT_EQ(report["model"]["compliance"]["cache"], "adopted") << report["model"].dump();
-  {  // Without the cache, with a stale one and with a damaged one: recomputed, said so, same answer.
+  {  // Without the cache, with a stale one and with a damaged one: recomputed, said so, same
+     // answer.
     auto copy_model = [&](const char* name) {
       const auto m = dir / name;
       std::filesystem::copy(model, m, std::filesystem::copy_options::recursive);
       return m;
     };
     auto cache_status_and_shift = [&](const std::filesystem::path& m, const char* out) {
-      const CliRun run = run_brainshift(dir, "register --model " + q(m) + " --doppler " +
-                                                 q(ph / "intraop/doppler.nii.gz") + " --out " + q(dir / out));
+      const CliRun run =
+          run_brainshift(dir, "register --model " + q(m) + " --doppler " +
+                                  q(ph / "intraop/doppler.nii.gz") + " --out " + q(dir / out));
       EXPECT_TRUE(run.exit_code == 0 || run.exit_code == 2) << run.out << run.err;
       const auto rep = read_json(dir / out / "report.json");
       return std::make_pair(rep["model"]["compliance"]["cache"].get<std::string>(),
@@ -97,18 +104,22 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
       std::ofstream o(stale / "fixed.csv");
       for (const auto& l : lines) o << l << '\n';
     }
-    EXPECT_NE(cache_status_and_shift(stale, "res_stale").first.find("rejected (made for another mesh"), std::string::npos);
+    EXPECT_NE(
+        cache_status_and_shift(stale, "res_stale").first.find("rejected (made for another mesh"),
+        std::string::npos);
 
     const auto damaged = copy_model("model_damaged");
-    std::filesystem::resize_file(damaged / "compliance.bin", std::filesystem::file_size(damaged / "compliance.bin") / 2);
+    std::filesystem::resize_file(damaged / "compliance.bin",
+                                 std::filesystem::file_size(damaged / "compliance.bin") / 2);
     const auto [unreadable, shift_damaged] = cache_status_and_shift(damaged, "res_damaged");
     EXPECT_NE(unreadable.find("unreadable"), std::string::npos) << unreadable;
     EXPECT_NE(unreadable.find("truncated"), std::string::npos) << unreadable;
     EXPECT_NEAR(shift_damaged, report["max_displacement_mm"].get<double>(), 1e-9);
   }
 
-  r = run_brainshift(dir, "evaluate --result " + q(res) + " --landmarks-pre " + q(ph / "truth/landmarks_preop.csv") +
-                              " --landmarks-intra " + q(ph / "truth/landmarks_intraop.csv") + " --surface-pre " +
+  r = run_brainshift(dir, "evaluate --result " + q(res) + " --landmarks-pre " +
+                              q(ph / "truth/landmarks_preop.csv") + " --landmarks-intra " +
+                              q(ph / "truth/landmarks_intraop.csv") + " --surface-pre " +
                               q(ph / "truth/ventricles_preop.vtp") + " --surface-intra " +
                               q(ph / "truth/ventricles_intraop.vtp"));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
@@ -135,7 +146,8 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   // Replay with a broken frame in the middle: it is reported and skipped, the others register.
   std::ofstream(ph / "intraop/frame_001/doppler.nii.gz") << "not an image";
   const auto rep = dir / "replay";
-  r = run_brainshift(dir, "replay --model " + q(model) + " --sequence " + q(ph / "intraop") + " --out " + q(rep));
+  r = run_brainshift(
+      dir, "replay --model " + q(model) + " --sequence " + q(ph / "intraop") + " --out " + q(rep));
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;  // some frames failed (or did not converge)
   const auto summary = read_json(rep / "replay.json");
   ASSERT_EQ(summary["frames"].size(), 3u);
@@ -143,26 +155,30 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   EXPECT_NE(summary["frames"][1]["error"].get<std::string>().find("frame_001"), std::string::npos);
   EXPECT_NE(summary["frames"][0]["status"], "failed");
   EXPECT_NE(summary["frames"][2]["status"], "failed");
-  for (const char* k : {"median", "p95", "max"}) EXPECT_GT(summary["latency_s"][k].get<double>(), 0.0) << k;
+  for (const char* k : {"median", "p95", "max"})
+    EXPECT_GT(summary["latency_s"][k].get<double>(), 0.0) << k;
   EXPECT_TRUE(std::filesystem::exists(rep / "frame_002" / "report.json"));
 
   // Bad inputs: one line naming the file and the problem, nothing half-written.
   const auto bad = dir / "bad_out";
-  expect_one_line_error(run_brainshift(dir, "prepare --labels " + q(dir / "none.nii.gz") + " --mra " +
-                                                q(ph / "preop/mra.nii.gz") + " --out " + q(bad)),
-                        "none.nii.gz");
+  expect_one_line_error(
+      run_brainshift(dir, "prepare --labels " + q(dir / "none.nii.gz") + " --mra " +
+                              q(ph / "preop/mra.nii.gz") + " --out " + q(bad)),
+      "none.nii.gz");
   expect_nothing_half_written(bad);
   std::ofstream(dir / "text.nii.gz") << "hello";
-  expect_one_line_error(run_brainshift(dir, "prepare --labels " + q(dir / "text.nii.gz") + " --mra " +
-                                                q(ph / "preop/mra.nii.gz") + " --out " + q(bad)),
-                        "text.nii.gz");
+  expect_one_line_error(
+      run_brainshift(dir, "prepare --labels " + q(dir / "text.nii.gz") + " --mra " +
+                              q(ph / "preop/mra.nii.gz") + " --out " + q(bad)),
+      "text.nii.gz");
   {  // an image with no brain in it
     imaging::LabelVolume empty = imaging::read_labels(ph / "preop/labels.nii.gz");
     std::fill(empty.data.begin(), empty.data.end(), 0);
     imaging::write_labels(dir / "empty_labels.nii.gz", empty);
-    expect_one_line_error(run_brainshift(dir, "prepare --labels " + q(dir / "empty_labels.nii.gz") + " --mra " +
-                                                  q(ph / "preop/mra.nii.gz") + " --out " + q(bad)),
-                          "no brain");
+    expect_one_line_error(
+        run_brainshift(dir, "prepare --labels " + q(dir / "empty_labels.nii.gz") + " --mra " +
+                                q(ph / "preop/mra.nii.gz") + " --out " + q(bad)),
+        "no brain");
     expect_nothing_half_written(bad);
   }
   imaging::VolumeF doppler = imaging::read_volume(ph / "intraop/doppler.nii.gz");
@@ -170,22 +186,22 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     imaging::VolumeF far = doppler;
     far.geometry.origin += Vector3d(500, 0, 0);
     imaging::write_volume(dir / "far.nii.gz", far);
-    expect_one_line_error(run_brainshift(dir, "register --model " + q(model) + " --doppler " + q(dir / "far.nii.gz") +
-                                                  " --out " + q(bad)),
+    expect_one_line_error(run_brainshift(dir, "register --model " + q(model) + " --doppler " +
+                                                  q(dir / "far.nii.gz") + " --out " + q(bad)),
                           "does not overlap");
   }
   {  // an empty Doppler volume, and one of NaN
     imaging::VolumeF zero = doppler;
     std::fill(zero.data.begin(), zero.data.end(), 0.0F);
     imaging::write_volume(dir / "zero.nii.gz", zero);
-    expect_one_line_error(run_brainshift(dir, "register --model " + q(model) + " --doppler " + q(dir / "zero.nii.gz") +
-                                                  " --out " + q(bad)),
+    expect_one_line_error(run_brainshift(dir, "register --model " + q(model) + " --doppler " +
+                                                  q(dir / "zero.nii.gz") + " --out " + q(bad)),
                           "no vessels found");
     imaging::VolumeF nan = doppler;
     std::fill(nan.data.begin(), nan.data.end(), std::numeric_limits<float>::quiet_NaN());
     imaging::write_volume(dir / "nan.nii.gz", nan);
-    expect_one_line_error(run_brainshift(dir, "register --model " + q(model) + " --doppler " + q(dir / "nan.nii.gz") +
-                                                  " --out " + q(bad)),
+    expect_one_line_error(run_brainshift(dir, "register --model " + q(model) + " --doppler " +
+                                                  q(dir / "nan.nii.gz") + " --out " + q(bad)),
                           "NaN");
     expect_nothing_half_written(bad);
   }
@@ -195,12 +211,14 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     auto manifest = read_json(old_model / "model.json");
     manifest["version"] = 0;
     std::ofstream(old_model / "model.json") << manifest.dump();
-    expect_one_line_error(run_brainshift(dir, "register --model " + q(old_model) + " --doppler " +
-                                                  q(ph / "intraop/doppler.nii.gz") + " --out " + q(bad)),
-                          "prepare again");
-    expect_one_line_error(run_brainshift(dir, "register --model " + q(ph) + " --doppler " +
-                                                  q(ph / "intraop/doppler.nii.gz") + " --out " + q(bad)),
-                          "not a brainshift model folder");
+    expect_one_line_error(
+        run_brainshift(dir, "register --model " + q(old_model) + " --doppler " +
+                                q(ph / "intraop/doppler.nii.gz") + " --out " + q(bad)),
+        "prepare again");
+    expect_one_line_error(
+        run_brainshift(dir, "register --model " + q(ph) + " --doppler " +
+                                q(ph / "intraop/doppler.nii.gz") + " --out " + q(bad)),
+        "not a brainshift model folder");
   }
   {  // an MRI from another patient (another grid) is refused before anything is written
     imaging::VolumeF mri = imaging::read_volume(ph / "preop/mri.nii.gz");
@@ -213,7 +231,8 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     expect_nothing_half_written(bad);
   }
   // An unwritable output folder is refused before the work starts.
-  expect_one_line_error(run_brainshift(dir, reg + " --out " + q(dir / "no/such/folder/res")), "no/such/folder");
+  expect_one_line_error(run_brainshift(dir, reg + " --out " + q(dir / "no/such/folder/res")),
+                        "no/such/folder");
 }
 
 }  // namespace

@@ -2,11 +2,11 @@
 /// @file
 /// @brief Shared scenes for the constraint tests: small box beams fixed at their base.
 
-#include <vector>
-
 #include "constraints/rows/constraint_rows.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
+
+#include <vector>
 
 namespace brainshift::tests {
 

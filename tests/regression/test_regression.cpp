@@ -8,16 +8,16 @@
 // recorded gap) + a stated noise margin). Issue 14's target is a gap of 0 on every case; it is
 // not reached yet (docs/BENCHMARKS.md), so the recorded shortfall is what the suite holds.
 
+#include "tests/config.hpp"
+
+#include "apps/cli_helpers.hpp"
+
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <fstream>
 #include <string>
-
-#include <nlohmann/json.hpp>
-
-#include "apps/cli_helpers.hpp"
-#include "tests/config.hpp"
 
 namespace brainshift {
 namespace {
@@ -28,7 +28,8 @@ nlohmann::json read_json(const std::filesystem::path& p) {
 }
 
 const nlohmann::json& thresholds() {
-  static const nlohmann::json t = read_json(std::filesystem::path(tests::source_dir) / "tests/regression/thresholds.json");
+  static const nlohmann::json t =
+      read_json(std::filesystem::path(tests::source_dir) / "tests/regression/thresholds.json");
   return t;
 }
 
@@ -45,15 +46,16 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
   const bool real = name.rfind("icbm_", 0) == 0;
   const std::filesystem::path real_data = tests::shared_data_dir;
   if (real && !std::filesystem::exists(real_data / "icbm152/labels.nii.gz"))
-    GTEST_SKIP() << "no real data: " << (real_data / "icbm152").string() << " is absent (case " << name << ")";
+    GTEST_SKIP() << "no real data: " << (real_data / "icbm152").string() << " is absent (case "
+                 << name << ")";
   const auto& t = thresholds();
   ASSERT_TRUE(t["cases"].contains(name)) << "no recorded figures for " << name;
   const auto& rec = t["cases"][name];
   const auto& margin = t["margin"];
 
   const tests::TempFolder dir;
-  const CliRun r = run_brainshift(dir, "bench --suite cases --cases " + name + " --real-data " + q(real_data) +
-                                          " --out " + q(dir / "b"));
+  const CliRun r = run_brainshift(dir, "bench --suite cases --cases " + name + " --real-data " +
+                                           q(real_data) + " --out " + q(dir / "b"));
   // 0: every run finite; 2 would mean a run failed or diverged.
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const auto j = read_json(dir / "b" / "results.json");
@@ -66,7 +68,8 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
     // The phantom's own shift (before registration) does not depend on the method or the mesh:
     // the recorded figure to its 3 printed decimals.
     if (rec.contains("tre_before_mean_mm")) {
-      EXPECT_NEAR(run["tre_before_mean_mm"].get<double>(), rec["tre_before_mean_mm"].get<double>(), 2e-3);
+      EXPECT_NEAR(run["tre_before_mean_mm"].get<double>(), rec["tre_before_mean_mm"].get<double>(),
+                  2e-3);
     }
     if (run["method"] == "constraint_icp") icp = &run;
     if (run["method"] == "rigid_only") rigid = &run;
@@ -77,23 +80,29 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndNeverWorseThanRigid) {
   const double limit = rec["tre_mean_mm"].get<double>() * margin["tre_factor"].get<double>() +
                        margin["tre_add_mm"].get<double>();
   EXPECT_LE(tre, limit) << name << ": mean TRE " << tre << " mm, recorded " << rec["tre_mean_mm"];
-  const double pct = (*icp)["shift_corrected_pct"].is_null() ? 0.0 : (*icp)["shift_corrected_pct"].get<double>();
-  EXPECT_GE(pct, rec["shift_corrected_pct"].get<double>() - margin["corrected_pct_drop"].get<double>())
+  const double pct =
+      (*icp)["shift_corrected_pct"].is_null() ? 0.0 : (*icp)["shift_corrected_pct"].get<double>();
+  EXPECT_GE(pct,
+            rec["shift_corrected_pct"].get<double>() - margin["corrected_pct_drop"].get<double>())
       << name << ": recorded " << rec["shift_corrected_pct"];
   // Against rigid alone (the same global start's rigid pose, no deformation): not further behind
   // than recorded, beyond the stated noise margin. The target (issue 14 item 3) is a recorded gap
   // of 0 everywhere; where it is positive that is a known shortfall, listed in docs/BENCHMARKS.md.
   const double rigid_tre = (*rigid)["tre_mean_mm"].get<double>();
-  const double recorded_gap = rec.contains("gap_to_rigid_mm") ? std::max(0.0, rec["gap_to_rigid_mm"].get<double>()) : 0.0;
+  const double recorded_gap =
+      rec.contains("gap_to_rigid_mm") ? std::max(0.0, rec["gap_to_rigid_mm"].get<double>()) : 0.0;
   EXPECT_LE(tre - rigid_tre, recorded_gap + rigid_margin_mm())
-      << name << ": mean TRE " << tre << " mm, rigid only " << rigid_tre << " mm (gap to rigid " << tre - rigid_tre
-      << " mm, recorded " << recorded_gap << " mm, margin " << rigid_margin_mm() << " mm)";
+      << name << ": mean TRE " << tre << " mm, rigid only " << rigid_tre << " mm (gap to rigid "
+      << tre - rigid_tre << " mm, recorded " << recorded_gap << " mm, margin " << rigid_margin_mm()
+      << " mm)";
 }
 
 INSTANTIATE_TEST_SUITE_P(Cases, PhantomCase,
-                         ::testing::Values("standard", "large_shift", "deep_tumour_one_side_vessels", "noisy_doppler",
-                                           "tracking_error", "sparse_vessels", "resection", "thin_structures",
-                                           "offset_12mm", "offset_20mm", "icbm_standard", "icbm_offset_20mm"),
+                         ::testing::Values("standard", "large_shift",
+                                           "deep_tumour_one_side_vessels", "noisy_doppler",
+                                           "tracking_error", "sparse_vessels", "resection",
+                                           "thin_structures", "offset_12mm", "offset_20mm",
+                                           "icbm_standard", "icbm_offset_20mm"),
                          [](const ::testing::TestParamInfo<std::string>& p) { return p.param; });
 
 }  // namespace

@@ -5,16 +5,16 @@
 /// at the top) that is the truth. Intra-operative vessel points are sampled along the deformed
 /// skeleton every 2.5 mm with Gaussian noise. Not built from the registration model.
 
+#include "constraints/registration/registration.hpp"
+#include "core/mesh/boundary.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <memory>
 #include <numbers>
 #include <random>
 #include <vector>
-
-#include "constraints/registration/registration.hpp"
-#include "core/mesh/boundary.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -35,19 +35,22 @@ Skeleton make_skeleton() {
     const int first = static_cast<int>(pts.size());
     for (int k = 0; k <= 12; ++k) {
       const double r = 3.0 + 2.2 * k;
-      const Vector3d p(r * std::cos(phi + 0.25 * std::sin(0.6 * k + b)), r * std::sin(phi + 0.25 * std::sin(0.6 * k + b)),
+      const Vector3d p(r * std::cos(phi + 0.25 * std::sin(0.6 * k + b)),
+                       r * std::sin(phi + 0.25 * std::sin(0.6 * k + b)),
                        12.0 - 0.012 * r * r + 4.0 * std::sin(0.3 * k + b));
       pts.push_back(p);
       if (k > 0) s.segments.push_back({first + k - 1, first + k});
     }
   }
   s.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
-  for (std::size_t i = 0; i < pts.size(); ++i) s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
   return s;
 }
 
 /// Intra-operative points every 2.5 mm along the deformed skeleton, with Gaussian noise.
-MatrixX3d sample_deformed(const Skeleton& s, double noise, unsigned seed, double shift_scale = 1.0) {
+MatrixX3d sample_deformed(const Skeleton& s, double noise, unsigned seed,
+                          double shift_scale = 1.0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> g(0.0, noise);
   std::vector<Vector3d> out;
@@ -60,7 +63,8 @@ MatrixX3d sample_deformed(const Skeleton& s, double noise, unsigned seed, double
     }
   }
   MatrixX3d m(static_cast<Eigen::Index>(out.size()), 3);
-  for (std::size_t i = 0; i < out.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
+  for (std::size_t i = 0; i < out.size(); ++i)
+    m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
   return m;
 }
 
@@ -73,7 +77,8 @@ struct Scene {
     for (index_t i = 0; i < mesh.num_nodes(); ++i)
       if (mesh.nodes()(i, 2) < -22) fixed.push_back(i);
     const core::BoundarySurface b = core::boundary_surface(mesh);
-    model = std::make_unique<RegistrationModel>(mesh, fixed, skeleton, SurfaceMesh{b.vertices, b.faces});
+    model = std::make_unique<RegistrationModel>(mesh, fixed, skeleton,
+                                                SurfaceMesh{b.vertices, b.faces});
   }
   /// Mean and max error (mm) at the skeleton points (vessel landmarks).
   std::pair<double, double> landmark_error(const MatrixX3d& x) const {

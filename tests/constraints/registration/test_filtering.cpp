@@ -1,15 +1,16 @@
+#include "tolerance.hpp"
+
 #include "constraints/registration/filtering.hpp"
 
 #include <gtest/gtest.h>
 
 #include <numbers>
 
-#include "tolerance.hpp"
-
 namespace brainshift::constraints {
 namespace {
 
-Pair make_pair(index_t point, index_t feature, double distance, Vector3d direction = Vector3d::UnitX()) {
+Pair make_pair(index_t point, index_t feature, double distance,
+               Vector3d direction = Vector3d::UnitX()) {
   Pair p;
   p.point = point;
   p.feature = feature;
@@ -33,7 +34,7 @@ TEST(Filtering, KeepsTheNearestPointPerFeature) {
 TEST(Filtering, DropsPairsBeyondMedianPlusThresholdAndBelowTheFloor) {
   std::vector<Pair> pairs;
   for (int i = 0; i < 9; ++i) pairs.push_back(make_pair(i, i, 2.0 + 0.1 * i));
-  pairs.push_back(make_pair(9, 9, 30.0));  // an outlier
+  pairs.push_back(make_pair(9, 9, 30.0));    // an outlier
   pairs.push_back(make_pair(10, 10, 0.01));  // already matched
   FilterOptions o;
   o.median_threshold_mm = 5.0;
@@ -52,7 +53,8 @@ TEST(Filtering, DropsVesselPairsWhoseDirectionsDisagree) {
   for (int i = 0; i < 8; ++i) pts.row(i) << 1.0 * i, 0.01 * (i % 2), 0;
   const auto dirs = local_directions(pts, 2.5);
   ASSERT_GT(std::abs(dirs[3].x()), 0.99);  // well-defined direction along x
-  std::vector<Pair> pairs = {make_pair(3, 0, 1.0, Vector3d::UnitX()), make_pair(4, 1, 1.0, Vector3d::UnitY()),
+  std::vector<Pair> pairs = {make_pair(3, 0, 1.0, Vector3d::UnitX()),
+                             make_pair(4, 1, 1.0, Vector3d::UnitY()),
                              make_pair(5, 2, 1.0, -Vector3d::UnitX())};  // sign does not matter
   FilterOptions o;
   o.max_angle_deg = 30;
@@ -64,7 +66,8 @@ TEST(Filtering, DropsVesselPairsWhoseDirectionsDisagree) {
 }
 
 TEST(Filtering, SubsamplesToAtMostOnePairPerTetrahedron) {
-  std::vector<Pair> pairs = {make_pair(0, 0, 3.0), make_pair(1, 1, 1.0), make_pair(2, 2, 2.0), make_pair(3, 3, 2.0)};
+  std::vector<Pair> pairs = {make_pair(0, 0, 3.0), make_pair(1, 1, 1.0), make_pair(2, 2, 2.0),
+                             make_pair(3, 3, 2.0)};
   const std::vector<index_t> tets = {5, 5, 5, 6};
   FilterOptions o;
   o.median_threshold_mm = 100;

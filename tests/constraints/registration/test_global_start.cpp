@@ -5,16 +5,16 @@
 // depth-graded bulk shift is told from a translation, and empty or tiny inputs give a clear,
 // finite answer.
 
+#include "constraints/registration/global_start.hpp"
+#include "constraints/registration/rigid_init.hpp"
+#include "core/error.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 #include <random>
 #include <vector>
-
-#include "constraints/registration/global_start.hpp"
-#include "constraints/registration/rigid_init.hpp"
-#include "core/error.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -25,7 +25,8 @@ constexpr double deg = std::numbers::pi / 180.0;
 void add_polyline(Skeleton& s, const std::vector<Vector3d>& line) {
   const auto first = static_cast<index_t>(s.points.rows());
   s.points.conservativeResize(first + static_cast<Eigen::Index>(line.size()), 3);
-  for (std::size_t k = 0; k < line.size(); ++k) s.points.row(first + static_cast<Eigen::Index>(k)) = line[k].transpose();
+  for (std::size_t k = 0; k < line.size(); ++k)
+    s.points.row(first + static_cast<Eigen::Index>(k)) = line[k].transpose();
   for (std::size_t k = 1; k < line.size(); ++k)
     s.segments.push_back({first + static_cast<index_t>(k) - 1, first + static_cast<index_t>(k)});
 }
@@ -87,7 +88,8 @@ Skeleton parallel_vessels(int count, double spacing) {
     add_polyline(s, line);
   }
   std::vector<Vector3d> cross;
-  for (double y = -0.5 * count * spacing; y <= 0.5 * count * spacing; y += 1.0) cross.push_back(sheet(-12.0 + 0.3 * y, y));
+  for (double y = -0.5 * count * spacing; y <= 0.5 * count * spacing; y += 1.0)
+    cross.push_back(sheet(-12.0 + 0.3 * y, y));
   add_polyline(s, cross);
   return s;
 }
@@ -102,18 +104,21 @@ MatrixX3d sample(const Skeleton& s, double step, double sigma, unsigned seed) {
     const Vector3d a = s.points.row(e[0]).transpose(), b = s.points.row(e[1]).transpose();
     const double len = (b - a).norm();
     double at = carry;
-    for (; at < len; at += step) out.push_back(a + (at / len) * (b - a) + Vector3d(noise(rng), noise(rng), noise(rng)));
+    for (; at < len; at += step)
+      out.push_back(a + (at / len) * (b - a) + Vector3d(noise(rng), noise(rng), noise(rng)));
     carry = at - len;
   }
   MatrixX3d m(static_cast<Eigen::Index>(out.size()), 3);
-  for (std::size_t i = 0; i < out.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
+  for (std::size_t i = 0; i < out.size(); ++i)
+    m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
   return m;
 }
 
 /// The tracking offset O (rotation `angle_deg` about a skew axis through `pivot`, then a
 /// translation of `mm` along a skew direction): intra-operative points are O·p_model, so the
 /// start must return O⁻¹.
-Eigen::Isometry3d offset(double mm, double angle_deg, const Vector3d& pivot, const Vector3d& dir = {0.5, 0.8, -0.33}) {
+Eigen::Isometry3d offset(double mm, double angle_deg, const Vector3d& pivot,
+                         const Vector3d& dir = {0.5, 0.8, -0.33}) {
   Eigen::Isometry3d O = Eigen::Isometry3d::Identity();
   O.translate(pivot);
   O.rotate(Eigen::AngleAxisd(angle_deg * deg, Vector3d(1.0, -2.0, 0.5).normalized()));
@@ -127,7 +132,8 @@ MatrixX3d apply(const Eigen::Isometry3d& T, const MatrixX3d& p) {
 }
 
 /// Largest distance between where the estimate and the truth put the model points (mm).
-double max_error(const Eigen::Isometry3d& est, const Eigen::Isometry3d& truth, const MatrixX3d& intra) {
+double max_error(const Eigen::Isometry3d& est, const Eigen::Isometry3d& truth,
+                 const MatrixX3d& intra) {
   return (apply(est, intra) - apply(truth, intra)).rowwise().norm().maxCoeff();
 }
 
@@ -157,7 +163,8 @@ TEST(GlobalStart, RecoversA25mmFiveDegreeOffset) {
   const GlobalStartResult r = global_start(tree, intra, {}, GlobalStartOptions{});
   ASSERT_TRUE(r.accepted) << r.message;
   EXPECT_LT(max_error(r.transform, O.inverse(), intra), tol_mm) << r.message;
-  EXPECT_NEAR(r.translation_mm, 25.0, 5.0);  // the offset is 25 mm at its pivot, the points' centroid
+  EXPECT_NEAR(r.translation_mm, 25.0,
+              5.0);  // the offset is 25 mm at its pivot, the points' centroid
 }
 
 TEST(GlobalStart, ADenseTreeOfParallelVesselsDoesNotFoolIt) {
@@ -174,7 +181,8 @@ TEST(GlobalStart, ADenseTreeOfParallelVesselsDoesNotFoolIt) {
   RigidInitOptions ro;
   ro.loss = RigidInitOptions::Loss::CAUCHY;
   const RigidInitResult icp = rigid_init(tree, intra, nullptr, nullptr, ro);
-  EXPECT_GT(max_error(icp.transform, O.inverse(), intra), 2.0) << "the scene should fool ICP: " << icp.stop_reason;
+  EXPECT_GT(max_error(icp.transform, O.inverse(), intra), 2.0)
+      << "the scene should fool ICP: " << icp.stop_reason;
 }
 
 TEST(GlobalStart, NoOffsetMeansNoMotion) {
@@ -195,10 +203,14 @@ TEST(GlobalStart, ThirtyPercentOutliersDoNotBreakIt) {
   MatrixX3d intra = apply(O, pts);
   // 30 % of the points replaced by uniform clutter over the points' bounding box (plus 10 mm).
   std::mt19937 rng(8);
-  const Vector3d lo = intra.colwise().minCoeff().transpose().array() - 10, hi = intra.colwise().maxCoeff().transpose().array() + 10;
+  const Vector3d lo = intra.colwise().minCoeff().transpose().array() - 10,
+                 hi = intra.colwise().maxCoeff().transpose().array() + 10;
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (Eigen::Index i = 0; i < intra.rows(); ++i)
-    if (u(rng) < 0.3) intra.row(i) = (lo.array() + (hi - lo).array() * Vector3d(u(rng), u(rng), u(rng)).array()).matrix().transpose();
+    if (u(rng) < 0.3)
+      intra.row(i) = (lo.array() + (hi - lo).array() * Vector3d(u(rng), u(rng), u(rng)).array())
+                         .matrix()
+                         .transpose();
   const GlobalStartResult r = global_start(tree, intra, {}, GlobalStartOptions{});
   ASSERT_TRUE(r.accepted) << r.message;
   // Error measured at the clean points' true positions.
@@ -214,13 +226,16 @@ TEST(GlobalStart, TellsADepthGradedBulkShiftFromATranslation) {
   const double z0 = pts.col(2).minCoeff(), z1 = pts.col(2).maxCoeff();
   auto alpha = [&](double z) { return 0.4 + 1.2 * (z - z0) / (z1 - z0); };
   double mean = 0;
-  for (Eigen::Index i = 0; i < pts.rows(); ++i) mean += alpha(pts(i, 2)) / static_cast<double>(pts.rows());
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    mean += alpha(pts(i, 2)) / static_cast<double>(pts.rows());
   const Vector3d s(8.0, -4.0, 0.0);  // horizontal: α(z) is the same at the rest and moved points
   MatrixX3d intra = pts;
-  for (Eigen::Index i = 0; i < pts.rows(); ++i) intra.row(i) += alpha(pts(i, 2)) / mean * s.transpose();
+  for (Eigen::Index i = 0; i < pts.rows(); ++i)
+    intra.row(i) += alpha(pts(i, 2)) / mean * s.transpose();
   const BasisAt basis = [&](ConstRef<MatrixX3d> x) {
     std::vector<Matrix3d> b(static_cast<std::size_t>(x.rows()));
-    for (Eigen::Index i = 0; i < x.rows(); ++i) b[static_cast<std::size_t>(i)] = alpha(x(i, 2)) / mean * Matrix3d::Identity();
+    for (Eigen::Index i = 0; i < x.rows(); ++i)
+      b[static_cast<std::size_t>(i)] = alpha(x(i, 2)) / mean * Matrix3d::Identity();
     return b;
   };
   const GlobalStartResult r = global_start(tree, intra, basis, GlobalStartOptions{});
@@ -231,7 +246,8 @@ TEST(GlobalStart, TellsADepthGradedBulkShiftFromATranslation) {
   EXPECT_LT((r.bulk_shift - s).norm(), 1.5) << r.message;
   MatrixX3d rest = apply(r.transform, intra);
   const std::vector<Matrix3d> b = basis(rest);
-  for (Eigen::Index i = 0; i < rest.rows(); ++i) rest.row(i) -= (b[static_cast<std::size_t>(i)] * r.bulk_shift).transpose();
+  for (Eigen::Index i = 0; i < rest.rows(); ++i)
+    rest.row(i) -= (b[static_cast<std::size_t>(i)] * r.bulk_shift).transpose();
   EXPECT_LT((rest - pts).rowwise().norm().maxCoeff(), 1.5) << r.message;
 }
 
@@ -245,7 +261,8 @@ TEST(GlobalStart, EmptyOrTooFewPointsGiveTheIdentityAndSaySo) {
     EXPECT_NE(r.message.find("fewer than"), std::string::npos) << r.message;
     EXPECT_TRUE(std::isfinite(r.score) && std::isfinite(r.rms_after_mm));
   }
-  const GlobalStartResult none = global_start(Skeleton{}, sample(tree, 1.0, 0.3, 10), {}, GlobalStartOptions{});
+  const GlobalStartResult none =
+      global_start(Skeleton{}, sample(tree, 1.0, 0.3, 10), {}, GlobalStartOptions{});
   EXPECT_FALSE(none.accepted);
   EXPECT_NE(none.message.find("no skeleton"), std::string::npos) << none.message;
 }
@@ -253,7 +270,8 @@ TEST(GlobalStart, EmptyOrTooFewPointsGiveTheIdentityAndSaySo) {
 TEST(GlobalStart, PointsFarFromEveryVesselKeepTheIdentity) {
   // Nothing within the searched range: no pose scores, the identity is kept with finite numbers.
   const Skeleton tree = cortical_tree(1);
-  const MatrixX3d far = (sample(tree, 1.0, 0.3, 11).rowwise() + Vector3d(0, 0, 200).transpose()).eval();
+  const MatrixX3d far =
+      (sample(tree, 1.0, 0.3, 11).rowwise() + Vector3d(0, 0, 200).transpose()).eval();
   const GlobalStartResult r = global_start(tree, far, {}, GlobalStartOptions{});
   EXPECT_FALSE(r.accepted) << r.message;
   EXPECT_TRUE(r.transform.isApprox(Eigen::Isometry3d::Identity()));

@@ -2,15 +2,15 @@
 // closed-form block leave-out residuals against brute-force refits, the choice on problems whose
 // answer is known (white noise: about σ²/τ; errors correlated within blocks: not chased), and the
 // skeleton's blocks (vessel_blocks.hpp).
-#include <gtest/gtest.h>
+#include "constraints/registration/noise_model.hpp"
+#include "constraints/registration/vessel_blocks.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
 #include <cmath>
 #include <random>
-
-#include "constraints/registration/noise_model.hpp"
-#include "constraints/registration/vessel_blocks.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -70,7 +70,8 @@ TEST(NoiseCv, BlockLeaveOutResidualsMatchBruteForceRefits) {
   Eigen::MatrixXd B(m, m);
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < m; ++j) B(i, j) = n(rng);
-  const Eigen::MatrixXd W = B * B.transpose() / m;  // a random positive semi-definite W, eigenvalues O(1)
+  const Eigen::MatrixXd W =
+      B * B.transpose() / m;  // a random positive semi-definite W, eigenvalues O(1)
   Eigen::VectorXd y(m);
   for (int i = 0; i < m; ++i) y[i] = n(rng);
   std::vector<std::vector<Eigen::Index>> blocks;
@@ -80,12 +81,14 @@ TEST(NoiseCv, BlockLeaveOutResidualsMatchBruteForceRefits) {
   std::shuffle(order.begin(), order.end(), rng);
   for (std::size_t at = 0; at < order.size();) {
     const auto k = std::min<std::size_t>(static_cast<std::size_t>(size(rng)), order.size() - at);
-    blocks.emplace_back(order.begin() + static_cast<std::ptrdiff_t>(at), order.begin() + static_cast<std::ptrdiff_t>(at + k));
+    blocks.emplace_back(order.begin() + static_cast<std::ptrdiff_t>(at),
+                        order.begin() + static_cast<std::ptrdiff_t>(at + k));
     at += k;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(W);
   for (double eps : {0.03, 0.5, 7.0}) {
-    const Eigen::VectorXd e = block_loo_residuals(es.eigenvalues(), es.eigenvectors(), y, blocks, eps);
+    const Eigen::VectorXd e =
+        block_loo_residuals(es.eigenvalues(), es.eigenvectors(), y, blocks, eps);
     for (const auto& b : blocks) {
       // Refit without block b: prediction W_bR (W_RR + ε I)⁻¹ y_R.
       std::vector<Eigen::Index> rest;
@@ -96,14 +99,18 @@ TEST(NoiseCv, BlockLeaveOutResidualsMatchBruteForceRefits) {
       Eigen::VectorXd yR(nr);
       for (Eigen::Index a = 0; a < nr; ++a) {
         yR[a] = y[rest[static_cast<std::size_t>(a)]];
-        for (Eigen::Index c = 0; c < nr; ++c) WRR(a, c) = W(rest[static_cast<std::size_t>(a)], rest[static_cast<std::size_t>(c)]);
-        for (std::size_t k = 0; k < b.size(); ++k) WbR(static_cast<Eigen::Index>(k), a) = W(b[k], rest[static_cast<std::size_t>(a)]);
+        for (Eigen::Index c = 0; c < nr; ++c)
+          WRR(a, c) = W(rest[static_cast<std::size_t>(a)], rest[static_cast<std::size_t>(c)]);
+        for (std::size_t k = 0; k < b.size(); ++k)
+          WbR(static_cast<Eigen::Index>(k), a) = W(b[k], rest[static_cast<std::size_t>(a)]);
       }
-      const Eigen::VectorXd pred = WbR * (WRR + eps * Eigen::MatrixXd::Identity(nr, nr)).ldlt().solve(yR);
+      const Eigen::VectorXd pred =
+          WbR * (WRR + eps * Eigen::MatrixXd::Identity(nr, nr)).ldlt().solve(yR);
       for (std::size_t k = 0; k < b.size(); ++k)
         // An identity, so exact up to rounding: the systems are well conditioned (ε ≥ 0.03 against
         // eigenvalues O(1)), 1e-9 is far above double-precision round-off and far below any error.
-        EXPECT_NEAR(e[b[k]], y[b[k]] - pred[static_cast<Eigen::Index>(k)], 1e-9) << "ε " << eps << ", row " << b[k];
+        EXPECT_NEAR(e[b[k]], y[b[k]] - pred[static_cast<Eigen::Index>(k)], 1e-9)
+            << "ε " << eps << ", row " << b[k];
     }
   }
 }
@@ -125,8 +132,8 @@ TEST(NoiseCv, WhiteNoisePicksAboutTheTrueRatio) {
       // moves to a smoother candidate, never a stiffer one.
       NoiseOptions at_minimum = wide();
       at_minimum.one_standard_error = false;
-      const NoiseEstimate e =
-          choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4), 1.0, 0.2, at_minimum);
+      const NoiseEstimate e = choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4),
+                                                       1.0, 0.2, at_minimum);
       ASSERT_TRUE(e.valid) << e.message;
       EXPECT_FALSE(e.keep_start) << e.message;
       const NoiseEstimate one_se =
@@ -172,8 +179,8 @@ TEST(NoiseCv, ErrorsCorrelatedWithinABlockAreNotChased) {
     const double err_cv = cv.keep_start ? signal.norm() : (fit(W, y, cv.ratio) - signal).norm();
     const double err_gcv = (fit(W, y, gcv.ratio) - signal).norm();
     if (err_cv < err_gcv) ++better;
-    std::cout << "[ cv ] seed " << seed << ": block CV ratio " << cv.ratio << " error " << err_cv << ", GCV ratio "
-              << gcv.ratio << " error " << err_gcv << "\n";
+    std::cout << "[ cv ] seed " << seed << ": block CV ratio " << cv.ratio << " error " << err_cv
+              << ", GCV ratio " << gcv.ratio << " error " << err_gcv << "\n";
   }
   // ... and its fit is nearer the truth on at least 4 of 5 draws (it was on all in development).
   EXPECT_GE(better, 4);
@@ -191,7 +198,8 @@ TEST(NoiseCv, PureCorrelatedNoiseKeepsTheStart) {
     if (i % 12 == 0) c = offset(rng);
     y[i] = c;
   }
-  const NoiseEstimate e = choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 12), 1.0, 0.2, wide());
+  const NoiseEstimate e =
+      choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 12), 1.0, 0.2, wide());
   ASSERT_TRUE(e.valid) << e.message;
   // Either ε → ∞ or a ratio so large that the fit follows fewer than 3 of the 240 degrees of
   // freedom (20 offsets do not average to zero: their smooth trend is fairly fitted; GCV on the
@@ -204,7 +212,8 @@ TEST(NoiseCv, OneBlockOrTooFewRowsKeepTheCurrentCompliance) {
   const int m = 30;
   const Eigen::MatrixXd W = kernel(m, 0.1);
   const Eigen::VectorXd y = Eigen::VectorXd::Ones(m);
-  const NoiseEstimate one = choose_vessel_compliance(W, y, all_rows(m), std::vector<index_t>(m, 0), 1.0, 0.2, wide());
+  const NoiseEstimate one =
+      choose_vessel_compliance(W, y, all_rows(m), std::vector<index_t>(m, 0), 1.0, 0.2, wide());
   EXPECT_FALSE(one.valid);
   EXPECT_EQ(one.ratio, 0.2);
   const NoiseEstimate few = choose_vessel_compliance(W.topLeftCorner(6, 6), y.head(6), all_rows(6),
@@ -213,7 +222,8 @@ TEST(NoiseCv, OneBlockOrTooFewRowsKeepTheCurrentCompliance) {
   EXPECT_EQ(few.ratio, 0.2);
   Eigen::VectorXd bad = y;
   bad[3] = std::numeric_limits<double>::quiet_NaN();
-  const NoiseEstimate nan = choose_vessel_compliance(W, bad, all_rows(m), consecutive_blocks(m, 3), 1.0, 0.2, wide());
+  const NoiseEstimate nan =
+      choose_vessel_compliance(W, bad, all_rows(m), consecutive_blocks(m, 3), 1.0, 0.2, wide());
   EXPECT_FALSE(nan.valid);
 }
 

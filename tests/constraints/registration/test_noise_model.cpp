@@ -50,7 +50,8 @@ TEST(NoiseModel, ReadsBackTheNoiseLevelAndSmoothsMoreWhenThereIsMoreNoise) {
   const Problem p;
   double previous_ratio = 0;
   for (double sigma : {0.05, 0.2, 0.5}) {
-    const NoiseEstimate e = estimate_vessel_noise(p.W, p.observed(sigma, 3), p.rows, 1.0, 0.2, wide());
+    const NoiseEstimate e =
+        estimate_vessel_noise(p.W, p.observed(sigma, 3), p.rows, 1.0, 0.2, wide());
     ASSERT_TRUE(e.valid) << e.message;
     // GCV's σ̂ from 120 samples: within 30 % of the truth (its sampling spread is ≈ 10 %).
     EXPECT_NEAR(e.sigma_mm, sigma, 0.3 * sigma) << e.message;
@@ -62,7 +63,8 @@ TEST(NoiseModel, ReadsBackTheNoiseLevelAndSmoothsMoreWhenThereIsMoreNoise) {
 
 TEST(NoiseModel, PureNoiseLeavesTheModelWhereItIs) {
   const Problem p;
-  const NoiseEstimate e = estimate_vessel_noise(p.W, p.observed(0.5, 4, 0.0), p.rows, 1.0, 0.2, wide());
+  const NoiseEstimate e =
+      estimate_vessel_noise(p.W, p.observed(0.5, 4, 0.0), p.rows, 1.0, 0.2, wide());
   ASSERT_TRUE(e.valid) << e.message;
   // Nothing to explain: the chosen compliance is high and the fit follows fewer than 5 of the
   // 120 degrees of freedom (an interpolation follows all of them).

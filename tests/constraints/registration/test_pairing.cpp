@@ -1,10 +1,10 @@
+#include "tolerance.hpp"
+
 #include "constraints/registration/pairing.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
-
-#include "tolerance.hpp"
 
 namespace brainshift::constraints {
 namespace {

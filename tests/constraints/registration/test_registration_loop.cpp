@@ -2,12 +2,13 @@
 // on a non-finite step, the trust region, the pairing freeze, warm-start settling and the
 // refusal to trust too few vessel points. Every other registration test is a converging happy
 // path; these make the decision logic fail visibly when it is broken.
+#include "sag_scene.hpp"
+
+#include "constraints/registration/registration_stage.hpp"
+
 #include <gtest/gtest.h>
 
 #include <limits>
-
-#include "constraints/registration/registration_stage.hpp"
-#include "sag_scene.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -57,11 +58,12 @@ TEST(RegistrationLoop, FreeThenSmoothStagesEachRecordedInTheHistory) {
     EXPECT_DOUBLE_EQ(r.history.back().vessel_compliance_ratio, r.noise.ratio);
     EXPECT_EQ(r.history.back().stage, StageKind::SMOOTH);
   } else {
-    EXPECT_NE(r.stop_reason.find("free stage's answer is kept"), std::string::npos) << r.stop_reason;
+    EXPECT_NE(r.stop_reason.find("free stage's answer is kept"), std::string::npos)
+        << r.stop_reason;
   }
   expect_consistent_stages(r);
-  std::cout << "[ loop ] " << r.stages.size() << " stages, " << r.iterations << " iterations; " << r.noise.message
-            << "\n";
+  std::cout << "[ loop ] " << r.stages.size() << " stages, " << r.iterations << " iterations; "
+            << r.noise.message << "\n";
 }
 
 TEST(RegistrationLoop, BlockCrossValidationChoosesTheCompliancePerBranch) {
@@ -94,8 +96,8 @@ TEST(RegistrationLoop, ANonFiniteStepInTheSmoothingStageEndsDiverged) {
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
   RegistrationOptions o = options();
   o.shift_search.enabled = false;
-  o.noise.change_factor = 1.0;      // always smooth at the chosen compliance
-  o.noise.consider_start = false;   // a SMOOTH stage with iterations, not the start kept
+  o.noise.change_factor = 1.0;     // always smooth at the chosen compliance
+  o.noise.consider_start = false;  // a SMOOTH stage with iterations, not the start kept
   const RegistrationResult clean = register_model(*s.model, d, o);
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
   ASSERT_EQ(clean.stages.size(), 2u);
@@ -143,7 +145,8 @@ TEST(RegistrationLoop, ABulkShiftIsFollowedByHeldPairsThenFreePairing) {
   d.vessel_points.rowwise() += Eigen::RowVector3d(0.0, 0.0, -6.0);
   const RegistrationResult r = register_model(*s.model, d, options());
   ASSERT_TRUE(r.positions.allFinite());
-  if (!r.shift.accepted) GTEST_SKIP() << "the shift search did not accept a bulk shift here: " << r.shift.message;
+  if (!r.shift.accepted)
+    GTEST_SKIP() << "the shift search did not accept a bulk shift here: " << r.shift.message;
   ASSERT_GE(r.stages.size(), 2u);
   EXPECT_EQ(r.stages[0].kind, StageKind::HELD);
   EXPECT_EQ(r.stages[1].kind, StageKind::FREE);
@@ -160,8 +163,10 @@ TEST(RegistrationLoop, ANonFiniteStepEndsDivergedWithTheLastFinitePositions) {
   int calls = 0;
   MatrixX3d last_finite;
   o.inspect_step = [&](StepResult& step) {
-    if (++calls == 3) step.x(0, 0) = std::numeric_limits<double>::quiet_NaN();  // one NaN, as a bad solve gives
-    else last_finite = step.x;
+    if (++calls == 3)
+      step.x(0, 0) = std::numeric_limits<double>::quiet_NaN();  // one NaN, as a bad solve gives
+    else
+      last_finite = step.x;
   };
   const RegistrationResult r = register_model(*s.model, d, o);
   EXPECT_EQ(r.stop, RegistrationStop::DIVERGED) << r.stop_reason;
@@ -203,7 +208,8 @@ Skeleton parallel_vessels() {
   const int n = 13;
   s.points.resize(2 * n, 3);
   for (int v = 0; v < 2; ++v)
-    for (int k = 0; k < n; ++k) s.points.row(v * n + k) << -15.0 + 2.5 * k, v == 0 ? -3.0 : 3.0, 10.0;
+    for (int k = 0; k < n; ++k)
+      s.points.row(v * n + k) << -15.0 + 2.5 * k, v == 0 ? -3.0 : 3.0, 10.0;
   for (int v = 0; v < 2; ++v)
     for (int k = 0; k + 1 < n; ++k) s.segments.push_back({v * n + k, v * n + k + 1});
   return s;
@@ -219,7 +225,8 @@ RegistrationResult register_between_parallel_vessels() {
   IntraopData d;
   const int n = 21;
   d.vessel_points.resize(n, 3);
-  for (int k = 0; k < n; ++k) d.vessel_points.row(k) << -12.5 + 1.25 * k, (k % 2 ? 0.05 : -0.05), 10.0;
+  for (int k = 0; k < n; ++k)
+    d.vessel_points.row(k) << -12.5 + 1.25 * k, (k % 2 ? 0.05 : -0.05), 10.0;
   RegistrationOptions o = options();
   o.shift_search.enabled = false;
   o.vessel_filter.max_angle_deg = 90.0;
@@ -241,7 +248,8 @@ TEST(RegistrationLoop, APairingThatCyclesIsFrozen) {
     }
   ASSERT_LT(first, r.history.size()) << "the pairing never froze: " << r.stop_reason;
   EXPECT_TRUE(r.history[first - 1].pairing_changed);
-  for (std::size_t i = first; i < r.history.size(); ++i) EXPECT_EQ(r.history[i].pairing, PairingMode::FROZEN);
+  for (std::size_t i = first; i < r.history.size(); ++i)
+    EXPECT_EQ(r.history[i].pairing, PairingMode::FROZEN);
 }
 
 TEST(RegistrationLoop, ContradictoryDataHalveTheTrustRegionAndEndNotSettling) {
@@ -251,7 +259,8 @@ TEST(RegistrationLoop, ContradictoryDataHalveTheTrustRegionAndEndNotSettling) {
   int halvings = 0;
   for (std::size_t i = 1; i < r.history.size(); ++i)
     if (r.history[i - 1].trust == TrustDecision::SHRINK) {
-      EXPECT_NEAR(r.history[i].trust_radius_mm, 0.5 * r.history[i - 1].trust_radius_mm, 1e-12) << "iteration " << i + 1;
+      EXPECT_NEAR(r.history[i].trust_radius_mm, 0.5 * r.history[i - 1].trust_radius_mm, 1e-12)
+          << "iteration " << i + 1;
       ++halvings;
     }
   EXPECT_GE(halvings, 9);  // from 5 mm to below 0.01 mm takes at least 9 halvings
@@ -283,7 +292,8 @@ TEST(RegistrationLoop, AWarmStartSettlesWhereAColdStartConverges) {
   const RegistrationResult retried = register_model(*s.model, frame2, o, &first);
   EXPECT_TRUE(retried.converged) << retried.stop_reason;
   EXPECT_TRUE(retried.cold_retry);
-  EXPECT_NE(retried.stop_reason.find("warm start ended diverged"), std::string::npos) << retried.stop_reason;
+  EXPECT_NE(retried.stop_reason.find("warm start ended diverged"), std::string::npos)
+      << retried.stop_reason;
 }
 
 TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {

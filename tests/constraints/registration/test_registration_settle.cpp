@@ -3,9 +3,9 @@
 // whose pairing is the one the step before used (or a frozen one): the pairing is a fixed point.
 // A first iteration can never confirm its own pairing, so even data that already match the model
 // take two iterations.
-#include <gtest/gtest.h>
-
 #include "sag_scene.hpp"
+
+#include <gtest/gtest.h>
 
 namespace brainshift::constraints {
 namespace {
@@ -22,10 +22,11 @@ void expect_settled_on_a_confirmed_pairing(const RegistrationResult& r) {
   for (const StageRecord& s : r.stages) {
     if (s.kind == StageKind::HELD || s.stop != StageStop::SETTLED) continue;
     ASSERT_GE(s.iterations, 1);
-    const IterationRecord& last = r.history.at(static_cast<std::size_t>(s.first_iteration + s.iterations - 2));
+    const IterationRecord& last =
+        r.history.at(static_cast<std::size_t>(s.first_iteration + s.iterations - 2));
     EXPECT_TRUE(!last.pairing_changed || last.pairing_frozen)
-        << "stage " << to_string(s.kind) << " settled on iteration " << s.first_iteration + s.iterations - 1
-        << " whose pairing had just changed";
+        << "stage " << to_string(s.kind) << " settled on iteration "
+        << s.first_iteration + s.iterations - 1 << " whose pairing had just changed";
     // The settling step is small (below the increment tolerance).
     EXPECT_LT(last.max_increment_mm, RegistrationOptions{}.increment_tolerance_mm);
   }

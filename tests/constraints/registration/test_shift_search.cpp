@@ -1,12 +1,11 @@
 // Bulk-shift search: a dense lattice of vessels closer together than the shift, so that the
 // nearest-feature pairing at the rest shape would pick the neighbouring vessel.
 #include "constraints/registration/shift_search.hpp"
+#include "core/error.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
-
-#include "core/error.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -29,7 +28,8 @@ Skeleton vessel_lattice() {
     line(Vector3d(x, -20, 3.0), Vector3d(x + 4.0, 20, 2.0 - i), 20);
   }
   s.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
-  for (std::size_t i = 0; i < pts.size(); ++i) s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
   return s;
 }
 
@@ -44,7 +44,8 @@ MatrixX3d seen(const Skeleton& s, const Vector3d& shift) {
     out.push_back(p + shift + Vector3d(g(rng), g(rng), g(rng)));
   }
   MatrixX3d m(static_cast<Eigen::Index>(out.size()), 3);
-  for (std::size_t i = 0; i < out.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
+  for (std::size_t i = 0; i < out.size(); ++i)
+    m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
   return m;
 }
 

@@ -2,7 +2,11 @@
 // computation on a small model, its limits (no data → the prior; many exact observations of a
 // node → ≈ 0 there), the coarse prior against the exact one, and on a registration: a handful
 // of vessel points predicts a larger error than the full set, far from the vessels more than near.
+#include "sag_scene.hpp"
+
+#include "constraints/registration/registration_model.hpp"
 #include "constraints/registration/uncertainty.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
@@ -10,10 +14,6 @@
 #include <chrono>
 #include <cstdio>
 #include <random>
-
-#include "constraints/registration/registration_model.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "sag_scene.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -83,7 +83,8 @@ TEST(Uncertainty, NodalTracesMatchTheDenseClosedForm) {
   const SparseMatrix G = random_rows(b, 30, 7);
   Eigen::VectorXd a(30);
   for (int j = 0; j < 30; ++j) a[j] = 1e-4 * (1 + j % 3);  // mm/mN, of the order of diag W here
-  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), G, a, exact_prior());
+  const NodalVariance nv =
+      nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), G, a, exact_prior());
   const auto [prior, post] = dense_traces(b, Eigen::MatrixXd(G), a);
   // Same algebra in another order (dense inverse vs Cholesky solves): agreement to round-off,
   // 1e-8 relative to the largest prior trace.
@@ -100,9 +101,11 @@ TEST(Uncertainty, NodalTracesMatchTheDenseClosedForm) {
 
 TEST(Uncertainty, WithoutDataThePosteriorIsThePriorAndFixedNodesHaveNone) {
   const Box b;
-  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(),
-                                          SparseMatrix(b.free_dofs(), 0), Eigen::VectorXd(), exact_prior());
-  EXPECT_EQ((nv.posterior - nv.prior).cwiseAbs().maxCoeff(), 0.0);  // nothing subtracted: exactly equal
+  const NodalVariance nv =
+      nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(),
+                     SparseMatrix(b.free_dofs(), 0), Eigen::VectorXd(), exact_prior());
+  EXPECT_EQ((nv.posterior - nv.prior).cwiseAbs().maxCoeff(),
+            0.0);  // nothing subtracted: exactly equal
   for (index_t i = 0; i < b.mesh.num_nodes(); ++i)
     if (b.model->dofs().is_fixed_node(i)) {
       EXPECT_EQ(nv.prior[i], 0.0) << "fixed node " << i;
@@ -117,19 +120,25 @@ TEST(Uncertainty, ManyExactObservationsOfANodeLeaveAlmostNoVarianceThere) {
   // 10 repeated observations of each of its 3 DOFs with a tiny noise (1e-6 of its prior variance).
   std::vector<Eigen::Triplet<double>> t;
   for (int r = 0; r < 10; ++r)
-    for (int c = 0; c < 3; ++c) t.emplace_back(b.model->dofs().free_index(3 * top + c), 3 * r + c, 1.0);
+    for (int c = 0; c < 3; ++c)
+      t.emplace_back(b.model->dofs().free_index(3 * top + c), 3 * r + c, 1.0);
   SparseMatrix G(b.free_dofs(), 30);
   G.setFromTriplets(t.begin(), t.end());
-  const NodalVariance p0 = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(),
-                                          SparseMatrix(b.free_dofs(), 0), Eigen::VectorXd(), exact_prior());
+  const NodalVariance p0 =
+      nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(),
+                     SparseMatrix(b.free_dofs(), 0), Eigen::VectorXd(), exact_prior());
   const Eigen::VectorXd a = Eigen::VectorXd::Constant(30, 1e-6 * p0.prior[top] / 3);
-  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), G, a, exact_prior());
-  // Posterior ≈ noise / 10 per DOF ≈ 1e-7 of the prior; asked < 1e-5 (round-off of the subtraction).
+  const NodalVariance nv =
+      nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), G, a, exact_prior());
+  // Posterior ≈ noise / 10 per DOF ≈ 1e-7 of the prior; asked < 1e-5 (round-off of the
+  // subtraction).
   EXPECT_LT(nv.posterior[top], 1e-5 * nv.prior[top]);
   // A node at the base's level keeps most of its (small) variance: it is not tied to the corner.
   index_t low = -1;
   for (index_t i = 0; i < b.mesh.num_nodes() && low < 0; ++i)
-    if (!b.model->dofs().is_fixed_node(i) && b.mesh.nodes()(i, 2) < b.mesh.nodes().col(2).minCoeff() + 6) low = i;
+    if (!b.model->dofs().is_fixed_node(i) &&
+        b.mesh.nodes()(i, 2) < b.mesh.nodes().col(2).minCoeff() + 6)
+      low = i;
   ASSERT_GE(low, 0);
   EXPECT_GT(nv.posterior[low], 0.5 * nv.prior[low]);
 }
@@ -138,18 +147,21 @@ TEST(Uncertainty, CoarsePriorIsCloseToTheExactOne) {
   const Scene scene;  // the 10 mm ellipsoid: ≈ 1,000 nodes, prior smooth away from the base
   const ConstrainedModel& m = scene.model->mechanics();
   const SparseMatrix none(m.dofs().num_free(), 0);
-  const NodalVariance exact = nodal_variance(m.factor(), m.dofs(), scene.mesh.nodes(), none, Eigen::VectorXd(), exact_prior());
+  const NodalVariance exact = nodal_variance(m.factor(), m.dofs(), scene.mesh.nodes(), none,
+                                             Eigen::VectorXd(), exact_prior());
   UncertaintyOptions coarse;
   coarse.coarse_spacing_mm = 15.0;
-  const NodalVariance c = nodal_variance(m.factor(), m.dofs(), scene.mesh.nodes(), none, Eigen::VectorXd(), coarse);
+  const NodalVariance c =
+      nodal_variance(m.factor(), m.dofs(), scene.mesh.nodes(), none, Eigen::VectorXd(), coarse);
   EXPECT_LT(c.exact_nodes, exact.exact_nodes / 3);  // really coarse
   std::vector<double> rel;
   for (index_t i = 0; i < scene.mesh.num_nodes(); ++i)
     if (exact.prior[i] > 0) rel.push_back(std::abs(std::sqrt(c.prior[i] / exact.prior[i]) - 1.0));
   std::sort(rel.begin(), rel.end());
-  std::printf("coarse prior: %lld of %lld nodes exact; relative error median %.3f, p90 %.3f, max %.3f\n",
-              static_cast<long long>(c.exact_nodes), static_cast<long long>(exact.exact_nodes), rel[rel.size() / 2],
-              rel[rel.size() * 9 / 10], rel.back());
+  std::printf(
+      "coarse prior: %lld of %lld nodes exact; relative error median %.3f, p90 %.3f, max %.3f\n",
+      static_cast<long long>(c.exact_nodes), static_cast<long long>(exact.exact_nodes),
+      rel[rel.size() / 2], rel[rel.size() * 9 / 10], rel.back());
   // The predicted error (sqrt of the trace) from the interpolated prior: median within 10 %,
   // 90th percentile within 25 % (measured: see the failure message); worst near the fixed base,
   // where the prior drops to 0 over one element.
@@ -168,8 +180,9 @@ TEST(Uncertainty, AHandfulOfVesselPointsPredictsALargerErrorThanTheFullSet) {
   const RegistrationResult r_few = register_model(*scene.model, few, o);
   const UncertaintyResult u_all = predict_uncertainty(*scene.model, r_all, o);
   const UncertaintyResult u_few = predict_uncertainty(*scene.model, r_few, o);
-  std::printf("all %lld pts: %s, %.3f s\nfew: %s\n", static_cast<long long>(all.vessel_points.rows()),
-              u_all.estimation.c_str(), u_all.seconds, u_few.estimation.c_str());
+  std::printf("all %lld pts: %s, %.3f s\nfew: %s\n",
+              static_cast<long long>(all.vessel_points.rows()), u_all.estimation.c_str(),
+              u_all.seconds, u_few.estimation.c_str());
   ASSERT_TRUE(u_all.estimated) << u_all.estimation;
   ASSERT_TRUE(u_all.node_sigma_mm.allFinite());
   ASSERT_TRUE(u_few.node_sigma_mm.allFinite());
@@ -185,7 +198,8 @@ TEST(Uncertainty, AHandfulOfVesselPointsPredictsALargerErrorThanTheFullSet) {
   EXPECT_GT(median(u_few.node_sigma_mm), 1.5 * median(u_all.node_sigma_mm))
       << u_few.estimation << " | " << u_all.estimation;
   // Near the vessels (their skeleton points) the full set predicts less than far from them.
-  const Eigen::VectorXd at_vessels = sigma_at(scene.mesh, u_all.node_variance, scene.skeleton.points);
+  const Eigen::VectorXd at_vessels =
+      sigma_at(scene.mesh, u_all.node_variance, scene.skeleton.points);
   MatrixX3d deep(1, 3);
   deep << 0.0, 0.0, -12.0;  // 10 mm below the lowest vessel, 10 mm above the fixed base
   EXPECT_LT(at_vessels.mean(), sigma_at(scene.mesh, u_all.node_variance, deep)[0] * 2.0);

@@ -4,14 +4,13 @@
 // the footprint's fallback) turns a contact that pushes the brain back into one that pulls it
 // through the skull or probe; these tests fail on exactly that.
 #include "constraints/registration/constraint_builders.hpp"
+#include "constraints/registration/pairing.hpp"
+#include "core/mesh/boundary.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <random>
-
-#include "constraints/registration/pairing.hpp"
-#include "core/mesh/boundary.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -22,13 +21,14 @@ struct Cube {
   core::BarycentricMapping map;
   std::unique_ptr<FeatureIndex> rest;
   MatrixX3d normals;
-  index_t top = -1;        ///< surface vertex at the centre of the top face (0.5, 0.5, 1)
-  index_t top_node = -1;   ///< its mesh node
+  index_t top = -1;       ///< surface vertex at the centre of the top face (0.5, 0.5, 1)
+  index_t top_node = -1;  ///< its mesh node
   Cube() {
     const core::BoundarySurface b = core::boundary_surface(mesh);
     surface = {b.vertices, b.faces};
     map = core::BarycentricMapping(mesh, surface.vertices);
-    rest = std::make_unique<FeatureIndex>(FeatureIndex::triangles(surface.vertices, surface.triangles));
+    rest = std::make_unique<FeatureIndex>(
+        FeatureIndex::triangles(surface.vertices, surface.triangles));
     normals = vertex_normals(surface);
     for (index_t v = 0; v < surface.vertices.rows(); ++v)
       if ((surface.vertices.row(v) - Eigen::RowVector3d(0.5, 0.5, 1.0)).norm() < 1e-12) top = v;
@@ -59,7 +59,8 @@ void expect_jacobian_matches_differences(const ConstraintRows& rows, const Matri
   for (Eigen::Index i = 0; i < dx.size(); ++i) dx.data()[i] = n(rng);
   const MatrixX3d x1 = x + dx;
   const Eigen::VectorXd fd = rows.values(x1) - rows.values(x);
-  const Eigen::VectorXd h = rows.jacobian(x.rows()) * Eigen::Map<const Eigen::VectorXd>(dx.data(), dx.size());
+  const Eigen::VectorXd h =
+      rows.jacobian(x.rows()) * Eigen::Map<const Eigen::VectorXd>(dx.data(), dx.size());
   EXPECT_LT((fd - h).cwiseAbs().maxCoeff(), 1e-12);  // linear rows: rounding only
   EXPECT_LT((rows.values(x) - rows.violations()).cwiseAbs().maxCoeff(), 1e-12);
 }
@@ -69,7 +70,7 @@ TEST(Builders, SlidingDuraRowPointsOutwardAndMeasuresTheDistanceOutside) {
   DuraOptions o;
   o.mode = DuraOptions::Mode::SLIDING;
   o.craniotomy_centre = Vector3d(10, 10, 10);  // far: every vertex gets a row
-  for (double dz : {0.1, -0.1}) {  // outside, then inside the cube
+  for (double dz : {0.1, -0.1}) {              // outside, then inside the cube
     ConstraintRows rows;
     const MatrixX3d x = c.moved(dz);
     add_dura_rows(rows, o, c.surface, *c.rest, c.normals, c.mapped(), x);
@@ -137,7 +138,9 @@ void check_footprint(bool given_normals) {
 }
 
 TEST(Builders, FootprintRowWithGivenNormalsPointsIntoTheTissue) { check_footprint(true); }
-TEST(Builders, FootprintRowWithTheTriangleFallbackNormalPointsIntoTheTissue) { check_footprint(false); }
+TEST(Builders, FootprintRowWithTheTriangleFallbackNormalPointsIntoTheTissue) {
+  check_footprint(false);
+}
 
 TEST(Builders, VesselRowsAreNormalToTheVesselAndMeasureTheDistanceToThePoint) {
   const Cube c;
@@ -162,7 +165,8 @@ TEST(Builders, VesselRowsAreNormalToTheVesselAndMeasureTheDistanceToThePoint) {
     }
     // The first normal points from the point towards the model's vessel (−z here), and the
     // violation is the distance; the second row is met.
-    EXPECT_LT((rows[0].direction + Vector3d::UnitZ()).norm(), 1e-12) << rows[0].direction.transpose();
+    EXPECT_LT((rows[0].direction + Vector3d::UnitZ()).norm(), 1e-12)
+        << rows[0].direction.transpose();
     EXPECT_NEAR(rows[0].violation, z - 0.5, 1e-12);
     EXPECT_NEAR(rows[1].violation, 0.0, 1e-12);
     expect_jacobian_matches_differences(rows, c.mesh.nodes());

@@ -1,9 +1,9 @@
+#include "tolerance.hpp"
+
 #include "constraints/rows/constraint_rows.hpp"
+#include "core/error.hpp"
 
 #include <gtest/gtest.h>
-
-#include "core/error.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -32,12 +32,23 @@ TEST(ConstraintRows, BilateralPointHasThreeRowsWithTheOffsetAsViolation) {
 TEST(ConstraintRows, SlidingLineRowsAreNormalToTheTangentAndFreeAlongIt) {
   const MatrixX3d x = three_nodes();
   Stencil s = Stencil::interpolate(
-      [] { Stencil a; a.add(0, 1.0); return a; }(), [] { Stencil b; b.add(1, 1.0); return b; }(), 0.25);
+      [] {
+        Stencil a;
+        a.add(0, 1.0);
+        return a;
+      }(),
+      [] {
+        Stencil b;
+        b.add(1, 1.0);
+        return b;
+      }(),
+      0.25);
   ConstraintRows rows;
   const Vector3d tangent(1, 1, 0);
   rows.add_sliding_line(s, x, Vector3d(0, 3, 4), tangent, ConstraintSet::VESSELS);
   ASSERT_EQ(rows.size(), 2);
-  for (index_t i = 0; i < 2; ++i) EXPECT_TRUE(tests::near(rows[i].direction.dot(tangent), 0, 1e-15, 0));
+  for (index_t i = 0; i < 2; ++i)
+    EXPECT_TRUE(tests::near(rows[i].direction.dot(tangent), 0, 1e-15, 0));
   // Moving the point along the tangent does not change g; moving it normally does.
   MatrixX3d y = x;
   y.row(0) += 4 * tangent.transpose();
@@ -68,8 +79,11 @@ TEST(ConstraintRows, BadInputIsRejectedWithAMessage) {
   EXPECT_THROW(rows.add_bilateral_point(s, x, Vector3d::Zero(), ConstraintSet::LANDMARK), Error);
   Stencil ok;
   ok.add(0, 1.0);
-  EXPECT_THROW(rows.add_sliding_line(ok, x, Vector3d::Zero(), Vector3d::Zero(), ConstraintSet::VESSELS), Error);
-  EXPECT_THROW(rows.add_bilateral_point(ok, x, Vector3d(NAN, 0, 0), ConstraintSet::LANDMARK), Error);
+  EXPECT_THROW(
+      rows.add_sliding_line(ok, x, Vector3d::Zero(), Vector3d::Zero(), ConstraintSet::VESSELS),
+      Error);
+  EXPECT_THROW(rows.add_bilateral_point(ok, x, Vector3d(NAN, 0, 0), ConstraintSet::LANDMARK),
+               Error);
 }
 
 }  // namespace

@@ -4,9 +4,9 @@
 // shows a wrong one — and one test per fallback.
 #include "constraints/solver/active_set.hpp"
 
+#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
-#include <Eigen/Cholesky>
 #include <limits>
 #include <optional>
 #include <random>
@@ -20,7 +20,8 @@ ConstraintRows mixed_rows(int nb, int nu) {
   const MatrixX3d x = MatrixX3d::Zero(1, 3);
   Stencil s;
   s.add(0, 1.0);
-  for (int i = 0; i < nb; ++i) rows.add_sliding_plane(s, x, Vector3d::Zero(), Vector3d::UnitX(), ConstraintSet::LANDMARK);
+  for (int i = 0; i < nb; ++i)
+    rows.add_sliding_plane(s, x, Vector3d::Zero(), Vector3d::UnitX(), ConstraintSet::LANDMARK);
   for (int i = 0; i < nu; ++i)
     rows.add_unilateral_plane(s, x, Vector3d::Zero(), Vector3d::UnitX(), ConstraintSet::FOOTPRINT);
   return rows;
@@ -29,7 +30,8 @@ ConstraintRows mixed_rows(int nb, int nu) {
 /// The LCP's solution by enumeration: for every subset S of the unilateral rows, solve the rows
 /// (bilateral ∪ S) exactly and keep the λ with λ_S ≥ 0 and g ≥ 0 on the other unilateral rows.
 /// Unique for a positive definite W.
-std::optional<Eigen::VectorXd> enumerated_lcp(const Eigen::MatrixXd& W, const Eigen::VectorXd& d, int nb) {
+std::optional<Eigen::VectorXd> enumerated_lcp(const Eigen::MatrixXd& W, const Eigen::VectorXd& d,
+                                              int nb) {
   const int m = static_cast<int>(d.size()), nu = m - nb;
   for (int mask = 0; mask < (1 << nu); ++mask) {
     std::vector<int> A;
@@ -72,7 +74,8 @@ TEST(ActiveSet, MatchesTheEnumeratedLcpOnRandomMixedProblemsAndPgsConfirmsInOneS
     ASSERT_TRUE(truth.has_value()) << "trial " << trial;
     PgsOptions o;
     o.tolerance = 1e-8;
-    const PgsResult r = solve_constraints(W, d, rows, Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET);
+    const PgsResult r =
+        solve_constraints(W, d, rows, Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET);
     SCOPED_TRACE("trial " + std::to_string(trial));
     EXPECT_EQ(r.active_set, ActiveSetOutcome::SOLVED);
     // Same λ as the independent solution, to the 1e-12 regularisation of the active block
@@ -98,7 +101,8 @@ TEST(ActiveSet, FallbackWhenTheActiveBlockCannotBeFactorised) {
   PgsOptions o;
   o.max_iterations = 20;
   PgsResult r;
-  EXPECT_NO_THROW(r = solve_constraints(W, d, mixed_rows(3, 0), Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET));
+  EXPECT_NO_THROW(r = solve_constraints(W, d, mixed_rows(3, 0), Eigen::VectorXd(), o,
+                                        ConstraintSolver::ACTIVE_SET));
   EXPECT_EQ(r.active_set, ActiveSetOutcome::LDLT_FAILED);
 }
 
@@ -109,7 +113,8 @@ TEST(ActiveSet, FallbackWhenTheSolveIsNotFinite) {
   PgsOptions o;
   o.max_iterations = 5;
   PgsResult r;
-  EXPECT_NO_THROW(r = solve_constraints(W, d, mixed_rows(2, 0), Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET));
+  EXPECT_NO_THROW(r = solve_constraints(W, d, mixed_rows(2, 0), Eigen::VectorXd(), o,
+                                        ConstraintSolver::ACTIVE_SET));
   EXPECT_EQ(r.active_set, ActiveSetOutcome::NON_FINITE);
 }
 
@@ -127,15 +132,18 @@ struct Chain {
 TEST(ActiveSet, FallbackWhenTheSetDoesNotSettleWithinTheAllowedChanges) {
   const Chain c;
   PgsOptions o;
-  const PgsResult full = solve_constraints(c.W, c.d, mixed_rows(0, 4), Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET);
+  const PgsResult full = solve_constraints(c.W, c.d, mixed_rows(0, 4), Eigen::VectorXd(), o,
+                                           ConstraintSolver::ACTIVE_SET);
   ASSERT_EQ(full.active_set, ActiveSetOutcome::SOLVED);
   EXPECT_GE(full.active_set_changes, 2);  // the chain does need two changes
   o.active_set_max_changes = 1;
-  const PgsResult capped = solve_constraints(c.W, c.d, mixed_rows(0, 4), Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET);
+  const PgsResult capped = solve_constraints(c.W, c.d, mixed_rows(0, 4), Eigen::VectorXd(), o,
+                                             ConstraintSolver::ACTIVE_SET);
   EXPECT_EQ(capped.active_set, ActiveSetOutcome::NO_SETTLING);
   // PGS finishes it from the warm start (zero): the same answer, with more sweeps.
   EXPECT_EQ(capped.stop, PgsStop::CONVERGED);
-  EXPECT_LT((capped.lambda - full.lambda).norm(), 1e-4 * full.lambda.norm());  // PGS tolerance 1e-6 relative, conditioned by W
+  EXPECT_LT((capped.lambda - full.lambda).norm(),
+            1e-4 * full.lambda.norm());  // PGS tolerance 1e-6 relative, conditioned by W
   EXPECT_GT(capped.iterations, 1);
 }
 
@@ -147,7 +155,8 @@ TEST(ActiveSet, FallbackWhenTheActiveRowsContradictEachOther) {
   const Eigen::VectorXd d = Eigen::Vector2d(-1.0, 1.0);
   PgsOptions o;
   o.max_iterations = 300;
-  const PgsResult r = solve_constraints(W, d, mixed_rows(2, 0), Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET);
+  const PgsResult r =
+      solve_constraints(W, d, mixed_rows(2, 0), Eigen::VectorXd(), o, ConstraintSolver::ACTIVE_SET);
   EXPECT_EQ(r.active_set, ActiveSetOutcome::INCONSISTENT);
   EXPECT_NE(r.stop, PgsStop::CONVERGED);
   EXPECT_TRUE(r.lambda.allFinite());

@@ -1,16 +1,16 @@
+#include "random_rotation.hpp"
+#include "tolerance.hpp"
+
+#include "constraints/fixtures.hpp"
 #include "constraints/solver/compliance_operator.hpp"
+#include "constraints/solver/constrained_step.hpp"
+#include "core/error.hpp"
 
 #include <gtest/gtest.h>
 
 #include <limits>
 #include <memory>
 #include <random>
-
-#include "constraints/solver/constrained_step.hpp"
-#include "core/error.hpp"
-#include "constraints/fixtures.hpp"
-#include "random_rotation.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -36,9 +36,11 @@ ConstraintRows random_rows(const core::TetMesh& mesh, int points, unsigned seed)
     const Stencil s = Stencil::interpolate(a, b, 0.4);
     const Vector3d target = s.position(mesh.nodes()) + Vector3d(u(rng), u(rng), u(rng));
     if (p % 2 == 0)
-      rows.add_sliding_line(s, mesh.nodes(), target, Vector3d(u(rng), u(rng), 1), ConstraintSet::VESSELS);
+      rows.add_sliding_line(s, mesh.nodes(), target, Vector3d(u(rng), u(rng), 1),
+                            ConstraintSet::VESSELS);
     else
-      rows.add_unilateral_plane(s, mesh.nodes(), target, Vector3d(0, 0, -1), ConstraintSet::FOOTPRINT);
+      rows.add_unilateral_plane(s, mesh.nodes(), target, Vector3d(0, 0, -1),
+                                ConstraintSet::FOOTPRINT);
   }
   return rows;
 }
@@ -88,7 +90,8 @@ TEST(ComplianceOperator, TheBlockIsTheSameBitForBitWithOneOrSeveralPrecomputeThr
     const ConstrainedModel parallel(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), o);
     const Eigen::MatrixXd block = parallel.compliance().block().matrix;
     ASSERT_EQ(block.rows(), reference.rows());
-    EXPECT_TRUE((block.array() == reference.array()).all()) << threads << " threads";  // exactly equal
+    EXPECT_TRUE((block.array() == reference.array()).all())
+        << threads << " threads";  // exactly equal
   }
 }
 
@@ -101,7 +104,8 @@ TEST(ComplianceOperator, AutoPicksTheSparseSolveWhenTheBlockExceedsTheBudget) {
   EXPECT_EQ(model.compliance().block_bytes(), 0u);
   ComplianceOptions forced = tiny;
   forced.strategy = ComplianceStrategy::DENSE_BLOCK;
-  EXPECT_THROW(ConstrainedModel(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), forced), Error);
+  EXPECT_THROW(ConstrainedModel(mesh, tests::nodes_below(mesh, 0), tests::all_nodes(mesh), forced),
+               Error);
 }
 
 TEST(ComplianceOperator, RowsOutsideTheBlockFallBackToSparseSolves) {
@@ -111,8 +115,10 @@ TEST(ComplianceOperator, RowsOutsideTheBlockFallBackToSparseSolves) {
   ComplianceOperator& C = model.compliance();
   ASSERT_EQ(C.strategy(), ComplianceStrategy::DENSE_BLOCK);
   ConstraintRows rows;
-  rows.add_bilateral_point(tests::node_stencil(top[0]), mesh.nodes(), Vector3d::Zero(), ConstraintSet::LANDMARK);
-  rows.add_bilateral_point(tests::node_stencil(20), mesh.nodes(), Vector3d::Zero(), ConstraintSet::LANDMARK);
+  rows.add_bilateral_point(tests::node_stencil(top[0]), mesh.nodes(), Vector3d::Zero(),
+                           ConstraintSet::LANDMARK);
+  rows.add_bilateral_point(tests::node_stencil(20), mesh.nodes(), Vector3d::Zero(),
+                           ConstraintSet::LANDMARK);
   const SparseMatrix H = rows.jacobian(mesh.num_nodes());
   const Eigen::MatrixXd W = C.delassus(H);
   EXPECT_EQ(C.fallback_count(), 1);
@@ -139,7 +145,8 @@ TEST(ComplianceOperator, APrecomputedBlockIsAdoptedOnlyWhenItBelongsToTheModel) 
   EXPECT_EQ(cached.compliance().cache_status(), "adopted");
   ConstraintRows rows;
   for (index_t n : {top[0], top[3], top.back()})
-    rows.add_bilateral_point(tests::node_stencil(n), mesh.nodes(), Vector3d::Zero(), ConstraintSet::LANDMARK);
+    rows.add_bilateral_point(tests::node_stencil(n), mesh.nodes(), Vector3d::Zero(),
+                             ConstraintSet::LANDMARK);
   const SparseMatrix H = rows.jacobian(mesh.num_nodes());
   EXPECT_EQ(cached.compliance().delassus(H), fresh.compliance().delassus(H));
 
@@ -147,10 +154,12 @@ TEST(ComplianceOperator, APrecomputedBlockIsAdoptedOnlyWhenItBelongsToTheModel) 
   auto fixed2 = fixed;
   fixed2.pop_back();
   ConstrainedModel other_fixed(mesh, fixed2, top, with(std::make_shared<ComplianceBlock>(saved)));
-  EXPECT_NE(other_fixed.compliance().cache_status().find("rejected (made for another mesh"), std::string::npos)
+  EXPECT_NE(other_fixed.compliance().cache_status().find("rejected (made for another mesh"),
+            std::string::npos)
       << other_fixed.compliance().cache_status();
   // Other block nodes (the vessels or surface changed).
-  ConstrainedModel other_nodes(mesh, fixed, tests::nodes_above(mesh, 30), with(std::make_shared<ComplianceBlock>(saved)));
+  ConstrainedModel other_nodes(mesh, fixed, tests::nodes_above(mesh, 30),
+                               with(std::make_shared<ComplianceBlock>(saved)));
   EXPECT_NE(other_nodes.compliance().cache_status().find("other block nodes"), std::string::npos);
   // Right fingerprint and nodes, wrong values (a corrupted or hand-edited cache): the spot check
   // of two columns against fresh solves catches a 1 % error (solves agree to ≈1e-14).
@@ -171,7 +180,8 @@ TEST(ComplianceOperator, ExactComplianceEqualsWarpedAtRest) {
   ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), {});
   const ConstraintRows rows = random_rows(mesh, 10, 3);
   const SparseMatrix H = rows.jacobian(mesh.num_nodes());
-  const std::vector<Matrix3d> identity(static_cast<std::size_t>(mesh.num_tets()), Matrix3d::Identity());
+  const std::vector<Matrix3d> identity(static_cast<std::size_t>(mesh.num_tets()),
+                                       Matrix3d::Identity());
   const Eigen::MatrixXd We = exact_delassus(model.model(), model.dofs(), identity, H);
   EXPECT_LT(tests::relative_difference(We, model.compliance().delassus_sparse(H)), 1e-10);
 }

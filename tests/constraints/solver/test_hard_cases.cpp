@@ -1,10 +1,11 @@
 // Hard cases of the constraint solver (issue 3 §5): each ends with a finite answer and a
 // diagnosis — never NaN, a hang or a crash.
-#include <gtest/gtest.h>
-
-#include "constraints/solver/constrained_step.hpp"
-#include "constraints/fixtures.hpp"
 #include "tolerance.hpp"
+
+#include "constraints/fixtures.hpp"
+#include "constraints/solver/constrained_step.hpp"
+
+#include <gtest/gtest.h>
 
 namespace brainshift::constraints {
 namespace {
@@ -40,8 +41,10 @@ TEST(HardCases, OnePointPulledTwoOppositeWaysStallsWithADiagnosis) {
   Beam b;
   const Vector3d p = b.X().row(b.tip()).transpose();
   ConstraintRows rows;
-  rows.add_bilateral_point(tests::node_stencil(b.tip()), b.X(), p + Vector3d(5, 0, 0), ConstraintSet::LANDMARK);
-  rows.add_bilateral_point(tests::node_stencil(b.tip()), b.X(), p - Vector3d(5, 0, 0), ConstraintSet::LANDMARK);
+  rows.add_bilateral_point(tests::node_stencil(b.tip()), b.X(), p + Vector3d(5, 0, 0),
+                           ConstraintSet::LANDMARK);
+  rows.add_bilateral_point(tests::node_stencil(b.tip()), b.X(), p - Vector3d(5, 0, 0),
+                           ConstraintSet::LANDMARK);
   const StepResult s = b.model.step(b.X(), rows, options());
   ASSERT_TRUE(s.x.allFinite());
   ASSERT_TRUE(s.lambda.allFinite());
@@ -63,7 +66,8 @@ TEST(HardCases, MoreRowsThanFreeDofsAndRankDeficientW) {
   ConstraintRows rows;
   for (int k = 0; k < 3; ++k)
     rows.add_bilateral_point(tests::node_stencil(3), X, target, ConstraintSet::LANDMARK);
-  rows.add_sliding_line(tests::node_stencil(3), X, target, Vector3d::UnitZ(), ConstraintSet::VESSELS);
+  rows.add_sliding_line(tests::node_stencil(3), X, target, Vector3d::UnitZ(),
+                        ConstraintSet::VESSELS);
   ASSERT_GT(rows.size(), 3 * 1);
   const StepResult s = model.step(X, rows, options());
   ASSERT_TRUE(s.x.allFinite());
@@ -75,14 +79,16 @@ TEST(HardCases, AViolationOfOneMetreGivesAFiniteAnswerAndAWarning) {
   Beam b;
   ConstraintRows rows;
   rows.add_bilateral_point(tests::node_stencil(b.tip()), b.X(),
-                           b.X().row(b.tip()).transpose() + Vector3d(1000, 0, 0), ConstraintSet::VESSELS);
+                           b.X().row(b.tip()).transpose() + Vector3d(1000, 0, 0),
+                           ConstraintSet::VESSELS);
   MatrixX3d x = b.X();
   Eigen::VectorXd lambda;
   StepResult s;
   for (int k = 0; k < 5; ++k) {  // keep stepping through the distorted states
     ConstraintRows r;
     r.add_bilateral_point(tests::node_stencil(b.tip()), x,
-                          b.X().row(b.tip()).transpose() + Vector3d(1000, 0, 0), ConstraintSet::VESSELS);
+                          b.X().row(b.tip()).transpose() + Vector3d(1000, 0, 0),
+                          ConstraintSet::VESSELS);
     s = b.model.step(x, r, options(), lambda);
     ASSERT_TRUE(s.x.allFinite()) << "step " << k;
     ASSERT_TRUE(s.lambda.allFinite()) << "step " << k;
@@ -97,15 +103,15 @@ TEST(HardCases, RowsOnFixedNodesAreIgnoredWithADiagnosis) {
   Beam b;
   const index_t fixed = tests::nodes_below(b.mesh, 0)[0];
   ConstraintRows rows;
-  rows.add_bilateral_point(tests::node_stencil(fixed), b.X(), b.X().row(fixed).transpose() + Vector3d(1, 0, 0),
-                           ConstraintSet::FIXED);
+  rows.add_bilateral_point(tests::node_stencil(fixed), b.X(),
+                           b.X().row(fixed).transpose() + Vector3d(1, 0, 0), ConstraintSet::FIXED);
   const Vector3d target = b.X().row(b.tip()).transpose() + Vector3d(0, 1, 0);
   rows.add_bilateral_point(tests::node_stencil(b.tip()), b.X(), target, ConstraintSet::LANDMARK);
   const StepResult s = b.model.step(b.X(), rows, options());
   ASSERT_TRUE(s.x.allFinite());
   EXPECT_EQ(s.pgs.ignored_rows, 3);
   EXPECT_NE(s.diagnosis.find("fixed nodes"), std::string::npos) << s.diagnosis;
-  EXPECT_EQ(s.x.row(fixed), b.X().row(fixed));  // fixed nodes never move
+  EXPECT_EQ(s.x.row(fixed), b.X().row(fixed));                      // fixed nodes never move
   EXPECT_LT((s.x.row(b.tip()).transpose() - target).norm(), 1e-8);  // the rest is still solved
 }
 

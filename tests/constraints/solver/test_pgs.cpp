@@ -1,11 +1,11 @@
+#include "tolerance.hpp"
+
 #include "constraints/solver/pgs.hpp"
 
+#include <Eigen/Cholesky>
 #include <gtest/gtest.h>
 
-#include <Eigen/Cholesky>
 #include <random>
-
-#include "tolerance.hpp"
 
 namespace brainshift::constraints {
 namespace {
@@ -30,7 +30,8 @@ ConstraintRows scalar_rows(int n, ConstraintLaw law) {
     if (law == ConstraintLaw::BILATERAL)
       rows.add_sliding_plane(s, x, Vector3d::Zero(), Vector3d::UnitX(), ConstraintSet::LANDMARK);
     else
-      rows.add_unilateral_plane(s, x, Vector3d::Zero(), Vector3d::UnitX(), ConstraintSet::FOOTPRINT);
+      rows.add_unilateral_plane(s, x, Vector3d::Zero(), Vector3d::UnitX(),
+                                ConstraintSet::FOOTPRINT);
   }
   return rows;
 }
@@ -42,7 +43,8 @@ TEST(Pgs, BilateralRowsMatchADirectSolve) {
   PgsOptions o;
   o.tolerance = 1e-13;
   o.max_iterations = 5000;
-  const PgsResult r = solve_pgs(W, delta, scalar_rows(n, ConstraintLaw::BILATERAL), Eigen::VectorXd(), o);
+  const PgsResult r =
+      solve_pgs(W, delta, scalar_rows(n, ConstraintLaw::BILATERAL), Eigen::VectorXd(), o);
   EXPECT_EQ(r.stop, PgsStop::CONVERGED) << r.message;
   const Eigen::VectorXd direct = W.ldlt().solve(-delta);
   // Residual 1e-13 relative and cond(W) ≈ 10 bound the λ error by ≈ 1e-12 relative.
@@ -57,7 +59,8 @@ TEST(Pgs, UnilateralRowsSatisfyTheLcpConditions) {
   PgsOptions o;
   o.tolerance = 1e-12;
   o.max_iterations = 5000;
-  const PgsResult r = solve_pgs(W, delta, scalar_rows(n, ConstraintLaw::UNILATERAL), Eigen::VectorXd(), o);
+  const PgsResult r =
+      solve_pgs(W, delta, scalar_rows(n, ConstraintLaw::UNILATERAL), Eigen::VectorXd(), o);
   ASSERT_EQ(r.stop, PgsStop::CONVERGED) << r.message;
   const Eigen::VectorXd g = delta + W * r.lambda;
   const double tol = 1e-9 * delta.cwiseAbs().maxCoeff();  // 1e-12 residual, with margin
@@ -69,8 +72,8 @@ TEST(Pgs, UnilateralRowsSatisfyTheLcpConditions) {
     EXPECT_LE(std::abs(g[i] * r.lambda[i]), tol * std::max(1.0, r.lambda.cwiseAbs().maxCoeff()));
     active += r.lambda[i] > 0;
   }
-  EXPECT_GT(active, 0);      // the case is not trivially separated
-  EXPECT_LT(active, n);      // nor all in contact
+  EXPECT_GT(active, 0);  // the case is not trivially separated
+  EXPECT_LT(active, n);  // nor all in contact
 }
 
 TEST(Pgs, ForceBoundIsRespectedAndReported) {
@@ -79,7 +82,8 @@ TEST(Pgs, ForceBoundIsRespectedAndReported) {
   const Eigen::VectorXd delta = Eigen::VectorXd::Constant(n, 100.0);
   PgsOptions o;
   o.lambda_max = 0.5;
-  const PgsResult r = solve_pgs(W, delta, scalar_rows(n, ConstraintLaw::BILATERAL), Eigen::VectorXd(), o);
+  const PgsResult r =
+      solve_pgs(W, delta, scalar_rows(n, ConstraintLaw::BILATERAL), Eigen::VectorXd(), o);
   EXPECT_LE(r.lambda.cwiseAbs().maxCoeff(), 0.5);
   EXPECT_GT(r.bounded_rows, 0);
   EXPECT_NE(r.stop, PgsStop::CONVERGED);  // bounded forces cannot close 100 mm gaps
@@ -100,7 +104,8 @@ TEST(Pgs, WarmStartFromTheSolutionConvergesInOneSweep) {
 }
 
 TEST(Pgs, NoRowsIsAStatusNotAnError) {
-  const PgsResult r = solve_pgs(Eigen::MatrixXd(0, 0), Eigen::VectorXd(0), ConstraintRows(), Eigen::VectorXd());
+  const PgsResult r =
+      solve_pgs(Eigen::MatrixXd(0, 0), Eigen::VectorXd(0), ConstraintRows(), Eigen::VectorXd());
   EXPECT_EQ(r.stop, PgsStop::NO_ROWS);
   EXPECT_EQ(r.lambda.size(), 0);
 }

@@ -2,13 +2,13 @@
 // tolerance" survived every other test, which use well-conditioned systems that PGS solves far
 // below the tolerance in the sweep that crosses it). Here the system is coupled enough that
 // each sweep gains only a little, so stopping early is visible in the answer.
-#include <gtest/gtest.h>
+#include "constraints/solver/pgs.hpp"
 
 #include <Eigen/Cholesky>
+#include <gtest/gtest.h>
+
 #include <limits>
 #include <random>
-
-#include "constraints/solver/pgs.hpp"
 
 namespace brainshift::constraints {
 namespace {

@@ -1,16 +1,16 @@
-#include "core/assembly/stiffness_assembly.hpp"
-
-#include <gtest/gtest.h>
-
-#include <Eigen/Cholesky>
-#include <random>
-#include <string>
+#include "tolerance.hpp"
 
 #include "core/assembly/dof_map.hpp"
+#include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
 #include "core/solver/cholmod_factor.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
-#include "tolerance.hpp"
+
+#include <Eigen/Cholesky>
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
 
 namespace brainshift::core {
 namespace {

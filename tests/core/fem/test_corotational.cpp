@@ -1,4 +1,10 @@
+#include "random_rotation.hpp"
+#include "tolerance.hpp"
+
+#include "core/assembly/stiffness_assembly.hpp"
+#include "core/error.hpp"
 #include "core/fem/corotational.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,12 +14,6 @@
 #include <limits>
 #include <random>
 #include <string>
-
-#include "core/assembly/stiffness_assembly.hpp"
-#include "core/error.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "random_rotation.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -125,8 +125,9 @@ TEST_F(CorotationalTest, IdentityRotationsGiveTheAssembledLinearForce) {
                                        Matrix3d::Identity());
   const Eigen::VectorXd u_vec = Eigen::Map<const Eigen::VectorXd>(u.data(), u.size());
   // Same sums in another order, plus x − X cancellation (ε‖X‖/‖u‖ ≈ 1e-15·30): 1e-12.
-  EXPECT_LE(tests::relative_difference(model.internal_force(mesh.nodes() + u, identity), K0 * u_vec),
-            1e-12);
+  EXPECT_LE(
+      tests::relative_difference(model.internal_force(mesh.nodes() + u, identity), K0 * u_vec),
+      1e-12);
 }
 
 TEST_F(CorotationalTest, GravityForceSumsToTheWeight) {

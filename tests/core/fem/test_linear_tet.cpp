@@ -1,13 +1,13 @@
-#include "core/fem/linear_tet.hpp"
+#include "tolerance.hpp"
 
-#include <gtest/gtest.h>
+#include "core/error.hpp"
+#include "core/fem/linear_tet.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
-#include <string>
+#include <gtest/gtest.h>
 
-#include "core/error.hpp"
-#include "tolerance.hpp"
+#include <string>
 
 namespace brainshift::core {
 namespace {

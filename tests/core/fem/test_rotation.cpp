@@ -1,18 +1,17 @@
+#include "random_rotation.hpp"
+#include "tolerance.hpp"
+
+#include "core/error.hpp"
 #include "core/fem/rotation.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 #include <gtest/gtest.h>
 
-#include <Eigen/Eigenvalues>
 #include <cmath>
-
-#include <Eigen/LU>
 #include <limits>
 #include <random>
 #include <string>
-
-#include "core/error.hpp"
-#include "random_rotation.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -55,13 +54,16 @@ TEST(Rotation, PolarFactorOfIllConditionedStretchesIsExact) {
     SCOPED_TRACE("trial " + std::to_string(trial));
     const Matrix3d Q = random_rotation(rng);
     const Matrix3d V = random_rotation(rng);
-    const Vector3d sigma(std::pow(10.0, log_stretch(rng)), std::pow(10.0, log_stretch(rng)), std::pow(10.0, log_stretch(rng)));
+    const Vector3d sigma(std::pow(10.0, log_stretch(rng)), std::pow(10.0, log_stretch(rng)),
+                         std::pow(10.0, log_stretch(rng)));
     const Matrix3d F = Q * V * sigma.asDiagonal() * V.transpose();
     const Matrix3d R = rotation_from_deformation_gradient(F);
     expect_proper_rotation(R);
     const Matrix3d S = R.transpose() * F;
     EXPECT_LE((S - S.transpose()).norm(), 1e-12 * F.norm());
-    EXPECT_GT(Eigen::SelfAdjointEigenSolver<Matrix3d>(0.5 * (S + S.transpose())).eigenvalues().minCoeff(), 0.0);
+    EXPECT_GT(
+        Eigen::SelfAdjointEigenSolver<Matrix3d>(0.5 * (S + S.transpose())).eigenvalues().minCoeff(),
+        0.0);
     EXPECT_LE((R - Q).norm(), 1e-11);  // the rotation of Q·(SPD) is Q; error ≈ ε·cond
   }
 }

@@ -1,4 +1,8 @@
+#include "tolerance.hpp"
+
+#include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,10 +10,6 @@
 #include <limits>
 #include <random>
 #include <string>
-
-#include "core/error.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -93,9 +93,9 @@ TEST_F(BarycentricMappingTest, TransposePreservesTotalForceAndMoment) {
 TEST(BarycentricMapping, PointsJustOutsideMapToTheNearestTetWithTheirDistance) {
   const TetMesh box = data_synth::make_box_mesh({10, 20, 30}, {2, 4, 6});
   MatrixX3d P(3, 3);
-  P << 3.3, 7.1, -0.7,  // below the bottom face
-      11.9, 5.0, 5.0,   // beside the x = 10 face
-      11.0, 21.0, 15.0; // beyond the edge x = 10, y = 20
+  P << 3.3, 7.1, -0.7,   // below the bottom face
+      11.9, 5.0, 5.0,    // beside the x = 10 face
+      11.0, 21.0, 15.0;  // beyond the edge x = 10, y = 20
   const BarycentricMapping J(box, P, {.max_outside_distance = 2.0});
   MatrixX3d closest(3, 3);
   closest << 3.3, 7.1, 0.0, 10.0, 5.0, 5.0, 10.0, 20.0, 15.0;

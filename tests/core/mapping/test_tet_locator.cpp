@@ -1,4 +1,7 @@
+#include "tolerance.hpp"
+
 #include "core/mapping/tet_locator.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
@@ -6,9 +9,6 @@
 #include <cmath>
 #include <limits>
 #include <random>
-
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {

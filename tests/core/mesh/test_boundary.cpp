@@ -1,10 +1,9 @@
 #include "core/mesh/boundary.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <map>
-
-#include "data_synth/geometry/structured_mesh.hpp"
 
 namespace brainshift::core {
 namespace {

@@ -1,13 +1,13 @@
+#include "tolerance.hpp"
+
+#include "core/error.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
-
-#include "core/error.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -65,9 +65,9 @@ TEST(TetMesh, InvertedElementIsNamed) {
 
 TEST(TetMesh, ZeroVolumeNaNOutOfRangeAndUnusedAreNamed) {
   MatrixX3d X(6, 3);
-  X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0,  // 4 coplanar nodes
+  X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0,             // 4 coplanar nodes
       std::numeric_limits<double>::quiet_NaN(), 0, 0,  // NaN node 4
-      5, 5, 5;                                          // unused node 5
+      5, 5, 5;                                         // unused node 5
   MatrixX4i T(3, 4);
   T << 0, 1, 2, 3,  // flat
       0, 1, 2, 4,   // uses the NaN node
@@ -89,8 +89,8 @@ TEST(TetMesh, BadMaterialIsNamed) {
   X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
   MatrixX4i T(1, 4);
   T << 0, 1, 2, 3;
-  const auto issues = find_mesh_issues(TetMesh(X, T, Eigen::VectorXd::Constant(1, 1.5),
-                                               Eigen::VectorXd::Constant(1, 0.5)));
+  const auto issues = find_mesh_issues(
+      TetMesh(X, T, Eigen::VectorXd::Constant(1, 1.5), Eigen::VectorXd::Constant(1, 0.5)));
   ASSERT_EQ(issues.size(), 1u);
   EXPECT_EQ(issues[0].kind, MeshIssue::Kind::BAD_MATERIAL);
 }

@@ -1,15 +1,15 @@
-#include "core/solver/cholmod_factor.hpp"
+#include "tolerance.hpp"
 
-#include <gtest/gtest.h>
+#include "core/error.hpp"
+#include "core/solver/cholmod_factor.hpp"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
+#include <gtest/gtest.h>
+
 #include <random>
 #include <string>
 #include <utility>
-
-#include "core/error.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {

@@ -1,18 +1,18 @@
+#include "tolerance.hpp"
+
+#include "core/error.hpp"
 #include "core/solver/static_solver.hpp"
+#include "core/units.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <functional>
-#include <optional>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <string>
-
-#include "core/error.hpp"
-#include "core/units.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::core {
 namespace {
@@ -23,7 +23,8 @@ bool on_box_boundary(const Vector3d& p, const Vector3d& lo, const Vector3d& hi) 
   return false;
 }
 
-std::vector<index_t> nodes_where(const TetMesh& mesh, const std::function<bool(const Vector3d&)>& f) {
+std::vector<index_t> nodes_where(const TetMesh& mesh,
+                                 const std::function<bool(const Vector3d&)>& f) {
   std::vector<index_t> out;
   for (index_t i = 0; i < mesh.num_nodes(); ++i)
     if (f(mesh.nodes().row(i).transpose())) out.push_back(i);
@@ -31,7 +32,8 @@ std::vector<index_t> nodes_where(const TetMesh& mesh, const std::function<bool(c
 }
 
 /// Prescribes x = map(X) on the given nodes.
-std::vector<PrescribedDisplacement> prescribe(const TetMesh& mesh, const std::vector<index_t>& nodes,
+std::vector<PrescribedDisplacement> prescribe(const TetMesh& mesh,
+                                              const std::vector<index_t>& nodes,
                                               const std::function<Vector3d(const Vector3d&)>& map) {
   std::vector<PrescribedDisplacement> out;
   for (const index_t i : nodes) {
@@ -96,8 +98,9 @@ TEST_P(PatchTest, AffineBoundaryDisplacementIsReproducedInTheInterior) {
   EXPECT_EQ(r.inverted_elements, 0);
 }
 
-INSTANTIATE_TEST_SUITE_P(StaticSolver, PatchTest, ::testing::Bool(),
-                         [](const auto& param_info) { return param_info.param ? "corotational" : "linear"; });
+INSTANTIATE_TEST_SUITE_P(StaticSolver, PatchTest, ::testing::Bool(), [](const auto& param_info) {
+  return param_info.param ? "corotational" : "linear";
+});
 
 // ---------------------------------------------------------------------------------------------
 // 5. Strong rotation (PRIOR_ART: CalculiX NLGEOM, cube rotated 60°, 2 % compression)
@@ -106,8 +109,10 @@ TEST(StaticSolver, CubeRotatedSixtyDegreesUnderCompressionEqualsTheRotatedLinear
   const double L = 20.0;
   const Vector3d lo = Vector3d::Constant(-L / 2);
   const TetMesh mesh = data_synth::make_box_mesh(Vector3d::Constant(L), {5, 5, 5}, lo);
-  const auto bottom = nodes_where(mesh, [&](const Vector3d& p) { return std::abs(p.z() + L / 2) < 1e-9; });
-  const auto top = nodes_where(mesh, [&](const Vector3d& p) { return std::abs(p.z() - L / 2) < 1e-9; });
+  const auto bottom =
+      nodes_where(mesh, [&](const Vector3d& p) { return std::abs(p.z() + L / 2) < 1e-9; });
+  const auto top =
+      nodes_where(mesh, [&](const Vector3d& p) { return std::abs(p.z() - L / 2) < 1e-9; });
   std::vector<index_t> faces = bottom;
   faces.insert(faces.end(), top.begin(), top.end());
   const StaticSolver solver(mesh, faces);
@@ -123,7 +128,8 @@ TEST(StaticSolver, CubeRotatedSixtyDegreesUnderCompressionEqualsTheRotatedLinear
   // The same problem rotated 60° about an oblique axis through the cube's centre.
   const Matrix3d Q = axis_angle(60, Vector3d(1, 2, 0.5));
   auto rotated = prescribe(mesh, bottom, [&](const Vector3d& X) -> Vector3d { return Q * X; });
-  const auto rotated_top = prescribe(mesh, top, [&](const Vector3d& X) -> Vector3d { return Q * (X + squeeze); });
+  const auto rotated_top =
+      prescribe(mesh, top, [&](const Vector3d& X) -> Vector3d { return Q * (X + squeeze); });
   rotated.insert(rotated.end(), rotated_top.begin(), rotated_top.end());
   const StaticResult cr = solver.solve(rotated, tight(true));
   const StaticResult lin = solver.solve(rotated, tight(false));
@@ -167,9 +173,8 @@ TEST(StaticSolver, CorotationalEqualsLinearAtSmallStrain) {
   faces.insert(faces.end(), top.begin(), top.end());
   const StaticSolver solver(mesh, faces);
   // 1e-6 compression plus 1e-6 shear of the top face: strain 1e-6, bending rotations ~1e-6.
-  const auto load = prescribe(mesh, top, [](const Vector3d& X) -> Vector3d {
-    return X + Vector3d(2e-5, 0, -2e-5);
-  });
+  const auto load = prescribe(
+      mesh, top, [](const Vector3d& X) -> Vector3d { return X + Vector3d(2e-5, 0, -2e-5); });
   const StaticResult lin = solver.solve(load, tight(false));
   const StaticResult cr = solver.solve(load, tight(true));
   ASSERT_EQ(cr.status, SolveStatus::CONVERGED) << cr.message;
@@ -295,9 +300,12 @@ TEST(StaticSolver, BadInputsThrowNamingTheNodeOrElement) {
     }
   };
   expect_message([&] { (void)solver.solve({{13, Vector3d(1, 0, 0)}}, {}); }, "node 13");
-  expect_message([&] {
-    (void)solver.solve({{bottom[2], Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0)}}, {});
-  }, "node " + std::to_string(bottom[2]));
+  expect_message(
+      [&] {
+        (void)solver.solve({{bottom[2], Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0)}},
+                           {});
+      },
+      "node " + std::to_string(bottom[2]));
   StaticOptions bad;
   bad.increment_tolerance = -1;
   expect_message([&] { (void)solver.solve({}, bad); }, "increment_tolerance");
@@ -319,9 +327,8 @@ TEST(StaticSolver, ElementsInvertedDuringTheSolveAreCountedNeverNaN) {
   fixed.insert(fixed.end(), top.begin(), top.end());
   const StaticSolver solver(mesh, fixed);
   // The top face is pushed 15 mm down, through the fixed bottom face: the body must invert.
-  const auto through = prescribe(mesh, top, [](const Vector3d& X) -> Vector3d {
-    return X + Vector3d(0, 0, -15);
-  });
+  const auto through =
+      prescribe(mesh, top, [](const Vector3d& X) -> Vector3d { return X + Vector3d(0, 0, -15); });
   for (const bool corotational : {true, false}) {
     SCOPED_TRACE(corotational ? "corotational" : "linear");
     StaticOptions o;

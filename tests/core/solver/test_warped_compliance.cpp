@@ -1,16 +1,16 @@
-#include "core/solver/warped_compliance.hpp"
-
-#include <gtest/gtest.h>
-
-#include <Eigen/Cholesky>
-#include <random>
+#include "random_rotation.hpp"
+#include "tolerance.hpp"
 
 #include "core/assembly/stiffness_assembly.hpp"
 #include "core/error.hpp"
 #include "core/solver/nodal_rotations.hpp"
+#include "core/solver/warped_compliance.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
-#include "random_rotation.hpp"
-#include "tolerance.hpp"
+
+#include <Eigen/Cholesky>
+#include <gtest/gtest.h>
+
+#include <random>
 
 namespace brainshift::core {
 namespace {

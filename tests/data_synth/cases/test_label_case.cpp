@@ -3,7 +3,9 @@
 // every file of the layout, a converged truth solve, a shift of the same size, landmarks — and a
 // refused request must leave nothing behind.
 
+#include "core/error.hpp"
 #include "data_synth/cases/label_case.hpp"
+#include "imaging/io/image_io.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -11,9 +13,6 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-
-#include "core/error.hpp"
-#include "imaging/io/image_io.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -48,10 +47,11 @@ TEST(LabelCase, EllipsoidLabelsGiveTheSameKindOfPhantomAsTheAnalyticOne) {
   o.out = tmp.path / "case";
   const CaseSummary s = generate_label_case(r, o);
   EXPECT_EQ(s.solver_status, TledStatus::CONVERGED) << s.solver_message;
-  for (const char* f : {"case.json", "preop/mri.nii.gz", "preop/labels.nii.gz", "preop/mra.nii.gz", "preop/vessels.vtp",
-                        "intraop/doppler.nii.gz", "intraop/bmode.nii.gz", "truth/displacement.nii.gz",
-                        "truth/landmarks_preop.csv", "truth/landmarks_intraop.csv", "truth/ventricles_preop.vtp",
-                        "truth/ventricles_intraop.vtp"})
+  for (const char* f :
+       {"case.json", "preop/mri.nii.gz", "preop/labels.nii.gz", "preop/mra.nii.gz",
+        "preop/vessels.vtp", "intraop/doppler.nii.gz", "intraop/bmode.nii.gz",
+        "truth/displacement.nii.gz", "truth/landmarks_preop.csv", "truth/landmarks_intraop.csv",
+        "truth/ventricles_preop.vtp", "truth/ventricles_intraop.vtp"})
     EXPECT_TRUE(fs::is_regular_file(o.out / f)) << f;
   // The analytic standard case shifts its landmarks by 7.2 mm on average (max cortical 10 mm).
   // The label version has the same brain, load and tumour but a fixed base of 10 mm instead of
@@ -66,7 +66,7 @@ TEST(LabelCase, EllipsoidLabelsGiveTheSameKindOfPhantomAsTheAnalyticOne) {
   std::ifstream in(o.out / "case.json");
   const nlohmann::json j = nlohmann::json::parse(in);
   const auto& geo = j["parameters"]["geometry"];
-  EXPECT_EQ(geo["tumour_placement"], "from the labels");  // the phantom's own 12 mm tumour
+  EXPECT_EQ(geo["tumour_placement"], "from the labels");          // the phantom's own 12 mm tumour
   EXPECT_NEAR(geo["tumour_radius_mm"].get<double>(), 12.0, 1.0);  // within a 2 mm voxel
   EXPECT_EQ(geo["craniotomy_placement"].get<std::string>().rfind("default", 0), 0U);
   EXPECT_EQ(j["truth_solver"]["status"], "converged");

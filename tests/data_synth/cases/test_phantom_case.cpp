@@ -1,4 +1,7 @@
+#include "core/error.hpp"
+#include "data_synth/cases/case_outputs.hpp"
 #include "data_synth/cases/phantom_case.hpp"
+#include "imaging/io/image_io.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -7,10 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
-
-#include "core/error.hpp"
-#include "data_synth/cases/case_outputs.hpp"
-#include "imaging/io/image_io.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -57,7 +56,8 @@ void check_WritesEveryListedFile(const fs::path& dir, [[maybe_unused]] const Cas
         << "temporary folder left behind: " << e.path();
 }
 
-void check_CaseJsonHasACorticalShiftOf5To25Mm(const fs::path& dir, [[maybe_unused]] const CaseSummary& summary) {
+void check_CaseJsonHasACorticalShiftOf5To25Mm(const fs::path& dir,
+                                              [[maybe_unused]] const CaseSummary& summary) {
   const nlohmann::json j = read_json(dir / "case.json");
   EXPECT_EQ(j["name"], "standard");
   EXPECT_EQ(j["seed"], 1);
@@ -71,7 +71,8 @@ void check_CaseJsonHasACorticalShiftOf5To25Mm(const fs::path& dir, [[maybe_unuse
   ::testing::Test::RecordProperty("seconds", std::to_string(summary.seconds));
 }
 
-void check_BifurcationLandmarksLieOnBrightMraVoxels(const fs::path& dir, [[maybe_unused]] const CaseSummary& summary) {
+void check_BifurcationLandmarksLieOnBrightMraVoxels(const fs::path& dir,
+                                                    [[maybe_unused]] const CaseSummary& summary) {
   const imaging::VolumeF mra = imaging::read_volume(dir / "preop/mra.nii.gz");
   const std::vector<Vector3d> pre = read_landmarks_csv(dir / "truth/landmarks_preop.csv");
   ASSERT_GE(pre.size(), std::size_t(summary.vessel_landmarks));
@@ -80,11 +81,13 @@ void check_BifurcationLandmarksLieOnBrightMraVoxels(const fs::path& dir, [[maybe
     const Eigen::Vector3i n = ijk.array().round().cast<int>();
     ASSERT_TRUE(mra.geometry.contains_index(n[0], n[1], n[2]));
     // Tissue is 40 ± 8 (noise); the thinnest vessel peaks at 250: 150 separates them.
-    EXPECT_GT(mra.at(n[0], n[1], n[2]), 150.0F) << "landmark " << i << " at voxel " << n.transpose();
+    EXPECT_GT(mra.at(n[0], n[1], n[2]), 150.0F)
+        << "landmark " << i << " at voxel " << n.transpose();
   }
 }
 
-void check_DisplacementImageAtPreopLandmarksMatchesTheLandmarkShift(const fs::path& dir, [[maybe_unused]] const CaseSummary& summary) {
+void check_DisplacementImageAtPreopLandmarksMatchesTheLandmarkShift(
+    const fs::path& dir, [[maybe_unused]] const CaseSummary& summary) {
   const imaging::VolumeF u = imaging::read_volume(dir / "truth/displacement.nii.gz");
   ASSERT_EQ(u.components, 3);
   const std::vector<Vector3d> pre = read_landmarks_csv(dir / "truth/landmarks_preop.csv");
@@ -99,7 +102,8 @@ void check_DisplacementImageAtPreopLandmarksMatchesTheLandmarkShift(const fs::pa
   }
 }
 
-void check_DopplerHasSignalOnlyInsideTheFieldOfView(const fs::path& dir, [[maybe_unused]] const CaseSummary& summary) {
+void check_DopplerHasSignalOnlyInsideTheFieldOfView(const fs::path& dir,
+                                                    [[maybe_unused]] const CaseSummary& summary) {
   const imaging::VolumeF doppler = imaging::read_volume(dir / "intraop/doppler.nii.gz");
   const nlohmann::json j = read_json(dir / "case.json");
   const auto v3 = [](const nlohmann::json& a) { return Vector3d(a[0], a[1], a[2]); };
@@ -122,8 +126,10 @@ void check_DopplerHasSignalOnlyInsideTheFieldOfView(const fs::path& dir, [[maybe
     for (int jj = 0; jj < g.size[1]; ++jj)
       for (int i = 0; i < g.size[0]; ++i) {
         if (doppler.at(i, jj, k) <= 0.0F) continue;
-        if (probe.in_field_of_view(g.index_to_world(Vector3d(i, jj, k)))) ++inside_signal;
-        else ++outside_signal;
+        if (probe.in_field_of_view(g.index_to_world(Vector3d(i, jj, k))))
+          ++inside_signal;
+        else
+          ++outside_signal;
       }
   EXPECT_GT(inside_signal, 1000);
   EXPECT_EQ(outside_signal, 0) << "signal outside the cone";

@@ -1,3 +1,7 @@
+#include "expect_error.hpp"
+#include "random_rotation.hpp"
+#include "tolerance.hpp"
+
 #include "data_synth/geometry/brain_phantom.hpp"
 
 #include <gtest/gtest.h>
@@ -5,10 +9,6 @@
 #include <array>
 #include <cmath>
 #include <random>
-
-#include "expect_error.hpp"
-#include "random_rotation.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -78,7 +78,8 @@ TEST_P(PhantomLabels, VoxelVolumesMatchTheAnalyticVolumesAndWorldPointsHitTheirL
             imaging::BACKGROUND);
   // The grid covers the skull: every corner voxel is background and lies outside the skull.
   for (int c = 0; c < 8; ++c) {
-    const Eigen::Vector3i ijk((c & 1) * (v.geometry.size[0] - 1), ((c >> 1) & 1) * (v.geometry.size[1] - 1),
+    const Eigen::Vector3i ijk((c & 1) * (v.geometry.size[0] - 1),
+                              ((c >> 1) & 1) * (v.geometry.size[1] - 1),
                               ((c >> 2) & 1) * (v.geometry.size[2] - 1));
     EXPECT_EQ(v.at(ijk.x(), ijk.y(), ijk.z()), imaging::BACKGROUND);
     EXPECT_GT(g.skull().level(v.geometry.index_to_world(ijk.cast<double>())), 1.0);

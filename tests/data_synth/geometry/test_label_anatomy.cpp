@@ -3,14 +3,13 @@
 // on the brain surface, the labels' own tumour found, a voxel truth mesh of the brain's volume —
 // defaults placed as documented, and bad inputs refused with one line naming the value.
 
+#include "core/error.hpp"
 #include "data_synth/geometry/label_anatomy.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
-
-#include "core/error.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -28,7 +27,8 @@ imaging::LabelVolume labels_of(const PhantomGeometry& g) {
 }
 
 const LabelAnatomy& tumour_anatomy() {
-  static const LabelAnatomy a = make_label_anatomy(labels_of(ellipsoid_phantom(true)), {}, "ellipsoid labels");
+  static const LabelAnatomy a =
+      make_label_anatomy(labels_of(ellipsoid_phantom(true)), {}, "ellipsoid labels");
   return a;
 }
 
@@ -41,7 +41,8 @@ TEST(LabelAnatomy, HullLiesOnTheEllipsoidAndTheLabelsTumourIsFound) {
   // move a smooth surface by well under a voxel).
   for (double theta = 0.2; theta < 1.4; theta += 0.3)
     for (double phi = 0.0; phi < 2.0 * std::numbers::pi; phi += 0.7) {
-      const Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta));
+      const Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                       std::cos(theta));
       const Vector3d x = brain.center + brain.semi_axes.cwiseProduct(d);
       EXPECT_NEAR(a.hull->value(x), 0.0, 1.5) << x.transpose();
       // The skull is the hull grown by the 2.5 mm gap: the convex brain needs no bridging, so the
@@ -53,7 +54,8 @@ TEST(LabelAnatomy, HullLiesOnTheEllipsoidAndTheLabelsTumourIsFound) {
   EXPECT_LT((a.tumour_center - g.tumour_center()).norm(), 1.0);
   EXPECT_NEAR(a.tumour_radius, g.tumour_radius, 1.0);
   // Brain volume (labels 1-3) against the analytic cut ellipsoid: 2 % (the staircase).
-  EXPECT_NEAR(a.brain_volume_ml, analytic_volumes(g).brain_total / 1000.0, 0.02 * analytic_volumes(g).brain_total / 1000.0);
+  EXPECT_NEAR(a.brain_volume_ml, analytic_volumes(g).brain_total / 1000.0,
+              0.02 * analytic_volumes(g).brain_total / 1000.0);
 }
 
 TEST(LabelAnatomy, DefaultsPutTheCraniotomyOnTheUpperConvexityAndTheTumourBeneathIt) {
@@ -65,7 +67,8 @@ TEST(LabelAnatomy, DefaultsPutTheCraniotomyOnTheUpperConvexityAndTheTumourBeneat
   // of up (the default direction is up tilted 25° toward +R; the ellipsoid's normal there tilts
   // further, but not past 40°), on the right (+R) side.
   EXPECT_NEAR(a.hull->value(a.craniotomy_center), 0.0, 0.1);
-  EXPECT_GT(a.craniotomy_normal.z(), std::cos(40.0 * std::numbers::pi / 180.0)) << a.craniotomy_normal.transpose();
+  EXPECT_GT(a.craniotomy_normal.z(), std::cos(40.0 * std::numbers::pi / 180.0))
+      << a.craniotomy_normal.transpose();
   EXPECT_GT(a.craniotomy_center.x(), g.center.x());
   // Tumour: 30 mm beneath along the inward normal, radius 10 mm, written into the labels.
   EXPECT_NEAR((a.tumour_center - a.craniotomy_center).norm(), 30.0, 1e-9);
@@ -107,7 +110,8 @@ TEST(LabelAnatomy, TruthMeshFillsTheBrainWithAFixedBase) {
   EXPECT_NEAR(volume, analytic, 0.05 * analytic);
   // The fixed base: the flattened bottom (and the rim within 10 mm of it) and nothing higher.
   ASSERT_FALSE(m.base_nodes.empty());
-  for (const index_t n : m.base_nodes) EXPECT_LE(m.mesh.nodes()(n, 2), g.base_level() + 10.0 + 1e-9);
+  for (const index_t n : m.base_nodes)
+    EXPECT_LE(m.mesh.nodes()(n, 2), g.base_level() + 10.0 + 1e-9);
   EXPECT_GT(m.surface_nodes.size(), 5 * m.base_nodes.size() / 10);
   // The tumour is in the mesh's materials.
   EXPECT_GT(std::count(m.tet_labels.begin(), m.tet_labels.end(), imaging::TUMOUR), 0);
@@ -123,7 +127,8 @@ TEST(DistanceField, SphereValuesNormalsAndClosestPoints) {
   imaging::VolumeF phi(g, 1, 0.0F);
   for (int k = 0; k < 81; ++k)
     for (int j = 0; j < 81; ++j)
-      for (int i = 0; i < 81; ++i) phi.at(i, j, k) = float(g.index_to_world(Vector3d(i, j, k)).norm() - 30.0);
+      for (int i = 0; i < 81; ++i)
+        phi.at(i, j, k) = float(g.index_to_world(Vector3d(i, j, k)).norm() - 30.0);
   const DistanceField f(std::move(phi));
   const Vector3d x(10.3, -7.7, 25.1);
   EXPECT_NEAR(f.value(x), x.norm() - 30.0, 0.05);
@@ -162,7 +167,9 @@ TEST(LabelAnatomy, BadInputsAreOneLineErrorsNamingTheValue) {
   LabelAnatomyOptions o;
   o.tumour_center = Vector3d(500.0, 0.0, 0.0);
   e = error_of([&] { (void)make_label_anatomy(labels, o, "l.nii.gz"); });
-  EXPECT_NE(e.find("tumour centre (500, 0, 0) mm is outside the brain of l.nii.gz"), std::string::npos) << e;
+  EXPECT_NE(e.find("tumour centre (500, 0, 0) mm is outside the brain of l.nii.gz"),
+            std::string::npos)
+      << e;
 
   o = {};
   o.tumour_center = g.center;
@@ -173,7 +180,8 @@ TEST(LabelAnatomy, BadInputsAreOneLineErrorsNamingTheValue) {
   o = {};
   o.craniotomy = Vector3d(0.0, 0.0, 300.0);
   e = error_of([&] { (void)make_label_anatomy(labels, o, "l.nii.gz"); });
-  EXPECT_NE(e.find("craniotomy (0, 0, 300) mm is outside the brain of l.nii.gz"), std::string::npos) << e;
+  EXPECT_NE(e.find("craniotomy (0, 0, 300) mm is outside the brain of l.nii.gz"), std::string::npos)
+      << e;
 }
 
 }  // namespace

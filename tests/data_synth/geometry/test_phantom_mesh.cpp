@@ -1,3 +1,6 @@
+#include "expect_error.hpp"
+#include "tolerance.hpp"
+
 #include "data_synth/geometry/phantom_mesh.hpp"
 
 #include <gtest/gtest.h>
@@ -6,9 +9,6 @@
 #include <array>
 #include <cmath>
 #include <map>
-
-#include "expect_error.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -52,7 +52,8 @@ TEST(PhantomMesh, IsValidConformingAndFillsTheBrain) {
   EXPECT_GT(m.snapped_nodes, index_t(0.6 * double(m.surface_nodes.size())));
   for (const index_t i : m.surface_nodes) {
     const Vector3d x = m.mesh.nodes().row(i).transpose();
-    ASSERT_LE((g.brain_ellipsoid().closest_point(x) - x).norm(), 0.5 * std::sqrt(3.0) * o.cell_size);
+    ASSERT_LE((g.brain_ellipsoid().closest_point(x) - x).norm(),
+              0.5 * std::sqrt(3.0) * o.cell_size);
   }
   EXPECT_GT(core::quality_report(m.mesh).min_dihedral_deg, 5.0);  // measured 11°
 

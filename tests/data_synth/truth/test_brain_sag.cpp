@@ -1,11 +1,11 @@
+#include "tolerance.hpp"
+
+#include "core/logger.hpp"
 #include "data_synth/truth/brain_sag.hpp"
 
 #include <gtest/gtest.h>
 
 #include <chrono>
-
-#include "core/logger.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::data_synth {
 namespace {

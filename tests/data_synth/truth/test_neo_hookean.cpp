@@ -1,12 +1,12 @@
+#include "random_rotation.hpp"
+#include "tolerance.hpp"
+
 #include "data_synth/truth/neo_hookean.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
-
-#include "random_rotation.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -79,9 +79,9 @@ TEST(NeoHookean, LinearisesToIsotropicElasticity) {
   constexpr double e = 1e-7;
   const Matrix3d strain = 0.5 * (H + H.transpose());
   const Matrix3d linear = lame * strain.trace() * Matrix3d::Identity() + 2 * m.mu * strain;
-  EXPECT_LT(tests::relative_difference(Matrix3d(m.first_piola(Matrix3d::Identity() + e * H) / e),
-                                       linear),
-            1e-5);
+  EXPECT_LT(
+      tests::relative_difference(Matrix3d(m.first_piola(Matrix3d::Identity() + e * H) / e), linear),
+      1e-5);
 }
 
 }  // namespace

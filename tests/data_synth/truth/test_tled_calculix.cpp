@@ -30,6 +30,15 @@
 /// tolerances below are set from those, with the measured differences in the comments.
 /// Skipped when `ccx` is not on PATH (CI installs calculix-ccx, scripts/install_deps.sh).
 
+#include "calculix.hpp"
+#include "temp_folder.hpp"
+#include "tolerance.hpp"
+
+#include "core/units.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+#include "data_synth/truth/brain_sag.hpp"
+#include "data_synth/truth/tled_solver.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -41,14 +50,6 @@
 #include <optional>
 #include <string>
 #include <vector>
-
-#include "calculix.hpp"
-#include "core/units.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "data_synth/truth/brain_sag.hpp"
-#include "data_synth/truth/tled_solver.hpp"
-#include "temp_folder.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -88,8 +89,8 @@ struct Gap {
 struct Bench {
   core::TetMesh mesh;
   std::vector<Support> supports;
-  bool gravity = false;    ///< the fully drained sag load ρ_csf g along −z (ccx: *DLOAD GRAV)
-  MatrixX3d nodal_force;   ///< further nodal forces, mN (ccx: *CLOAD); empty: none
+  bool gravity = false;   ///< the fully drained sag load ρ_csf g along −z (ccx: *DLOAD GRAV)
+  MatrixX3d nodal_force;  ///< further nodal forces, mN (ccx: *CLOAD); empty: none
   std::optional<SkullContact> contact;  ///< TLED's obstacle
   std::vector<Gap> gaps;                ///< ccx's obstacle, the same one node by node
 };
@@ -114,7 +115,8 @@ TledResult solve_tled(const Bench& b) {
   if (b.gravity) p.external_force += sag_nodal_force(b.mesh, full_weight());
   if (b.nodal_force.size() > 0) p.external_force += b.nodal_force;
   for (const Support& s : b.supports)
-    for (const index_t i : s.nodes) p.constraints.push_back({i, {true, true, true}, s.displacement});
+    for (const index_t i : s.nodes)
+      p.constraints.push_back({i, {true, true, true}, s.displacement});
   p.contact = b.contact;
   TledOptions o;
   o.error_tolerance = kTledTolerance;
@@ -173,7 +175,8 @@ void write_deck(const std::filesystem::path& file, const Bench& b) {
     const NeoHookean mat = NeoHookean::from_youngs(materials[k].first, materials[k].second);
     out << "*MATERIAL, NAME=BRAIN" << k << "\n*HYPERELASTIC, NEO HOOKE\n"
         << 0.5 * mat.mu << ", " << 2.0 / mat.kappa << "\n"
-        << "*DENSITY\n" << full_weight().csf_density << "\n"
+        << "*DENSITY\n"
+        << full_weight().csf_density << "\n"
         << "*SOLID SECTION, ELSET=M" << k << ", MATERIAL=BRAIN" << k << "\n";
   }
   // Residual and correction controls 100x tighter than ccx's defaults (0.005, 0.01), so that
@@ -189,7 +192,8 @@ void write_deck(const std::filesystem::path& file, const Bench& b) {
     out << "*CLOAD\n";
     for (index_t i = 0; i < n; ++i)
       for (int a = 0; a < 3; ++a)
-        if (b.nodal_force(i, a) != 0.0) out << i + 1 << ", " << a + 1 << ", " << b.nodal_force(i, a) << "\n";
+        if (b.nodal_force(i, a) != 0.0)
+          out << i + 1 << ", " << a + 1 << ", " << b.nodal_force(i, a) << "\n";
   }
   out << "*NODE PRINT, NSET=NALL\nU\n*END STEP\n";
 }
@@ -214,9 +218,9 @@ Comparison compare(const Bench& b, const std::string& name) {
   c.max_displacement = c.ccx.rowwise().norm().maxCoeff();
   std::cout << "[tled vs ccx] " << name << ": " << b.mesh.num_nodes() << " nodes, "
             << b.mesh.num_tets() << " tets; ccx " << seconds << " s; TLED " << c.tled.iterations
-            << " steps, " << c.tled.contact_nodes << " in contact; max |u| "
-            << c.max_displacement << " mm; max nodal difference " << c.max_difference
-            << " mm, relative L2 " << c.relative_l2 << "\n";
+            << " steps, " << c.tled.contact_nodes << " in contact; max |u| " << c.max_displacement
+            << " mm; max nodal difference " << c.max_difference << " mm, relative L2 "
+            << c.relative_l2 << "\n";
   return c;
 }
 
@@ -227,7 +231,8 @@ Bench sheared_cube() {
   b.mesh = make_box_mesh({20.0, 20.0, 20.0}, {5, 5, 5});
   b.supports.push_back({"BASE", nodes_where(b.mesh, [](const Vector3d& x) { return x.z() < 1e-9; }),
                         Vector3d::Zero()});
-  b.supports.push_back({"TOP", nodes_where(b.mesh, [](const Vector3d& x) { return x.z() > 20.0 - 1e-9; }),
+  b.supports.push_back({"TOP",
+                        nodes_where(b.mesh, [](const Vector3d& x) { return x.z() > 20.0 - 1e-9; }),
                         Vector3d(6.0, 0.0, -4.0)});
   return b;
 }
@@ -238,10 +243,10 @@ constexpr double kSpan = 60.0, kWidth = 20.0, kDepth = 20.0;  // mm
 Bench sagging_block() {
   Bench b;
   b.mesh = make_box_mesh({kSpan, kWidth, kDepth}, {12, 4, 4});
-  b.supports.push_back({"ENDS", nodes_where(b.mesh, [](const Vector3d& x) {
-                          return x.x() < 1e-9 || x.x() > kSpan - 1e-9;
-                        }),
-                        Vector3d::Zero()});
+  b.supports.push_back(
+      {"ENDS",
+       nodes_where(b.mesh, [](const Vector3d& x) { return x.x() < 1e-9 || x.x() > kSpan - 1e-9; }),
+       Vector3d::Zero()});
   b.gravity = true;
   return b;
 }

@@ -1,3 +1,9 @@
+#include "expect_error.hpp"
+#include "tolerance.hpp"
+
+#include "core/solver/static_solver.hpp"
+#include "core/units.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 #include "data_synth/truth/tled_solver.hpp"
 
 #include <gtest/gtest.h>
@@ -5,12 +11,6 @@
 #include <cmath>
 #include <random>
 #include <sstream>
-
-#include "core/solver/static_solver.hpp"
-#include "core/units.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::data_synth {
 namespace {
@@ -40,8 +40,8 @@ double lateral_stretch(double lambda, const NeoHookean& m) {
 /// Nominal (first Piola) axial stress P₁₁ = J σ₁₁ / λ, kPa.
 double nominal_stress(double lambda, double s, const NeoHookean& m) {
   const double J = lambda * s * s, I1 = lambda * lambda + 2 * s * s;
-  const double sigma11 = m.mu * std::pow(J, -5.0 / 3.0) * (lambda * lambda - I1 / 3.0) +
-                         m.kappa * (J - 1.0);
+  const double sigma11 =
+      m.mu * std::pow(J, -5.0 / 3.0) * (lambda * lambda - I1 / 3.0) + m.kappa * (J - 1.0);
   return J * sigma11 / lambda;
 }
 
@@ -55,13 +55,15 @@ TEST_P(UniaxialStretch, MatchesTheClosedFormNeoHookeanForceAndLateralContraction
   const core::TetMesh mesh = make_box_mesh({L, W, W}, {6, 4, 4}, {5.0, -3.0, 2.0});
   const Vector3d o(5.0, -3.0, 2.0);
   TledProblem p;
-  for (const index_t i : nodes_where(mesh, [&](const Vector3d& x) { return std::abs(x.x() - o.x()) < 1e-9; })) {
+  for (const index_t i :
+       nodes_where(mesh, [&](const Vector3d& x) { return std::abs(x.x() - o.x()) < 1e-9; })) {
     const Vector3d x = mesh.nodes().row(i).transpose() - o;
     // x = 0 face: u_x = 0; (0,0,0) also u_y = u_z = 0; (0,W,0) also u_z = 0 (no rigid rotation).
     const bool corner = x.norm() < 1e-9, edge = (x - Vector3d(0, W, 0)).norm() < 1e-9;
     p.constraints.push_back({i, {true, corner, corner || edge}, Vector3d::Zero()});
   }
-  const auto end = nodes_where(mesh, [&](const Vector3d& x) { return std::abs(x.x() - o.x() - L) < 1e-9; });
+  const auto end =
+      nodes_where(mesh, [&](const Vector3d& x) { return std::abs(x.x() - o.x() - L) < 1e-9; });
   for (const index_t i : end)
     p.constraints.push_back({i, {true, false, false}, Vector3d((lambda - 1) * L, 0, 0)});
   const TledSolver solver(mesh);
@@ -73,13 +75,15 @@ TEST_P(UniaxialStretch, MatchesTheClosedFormNeoHookeanForceAndLateralContraction
   double force = 0.0;
   const MatrixX3d f = solver.internal_force(r.displacement);
   for (const index_t i : end) force += f(i, 0);
-  const NeoHookean m = NeoHookean::from_youngs(units::brain_youngs_modulus, units::default_poisson_ratio);
+  const NeoHookean m =
+      NeoHookean::from_youngs(units::brain_youngs_modulus, units::default_poisson_ratio);
   const double s = lateral_stretch(lambda, m);
   const double analytic = nominal_stress(lambda, s, m) * W * W;  // mN
   // Linear tets reproduce the homogeneous solution exactly, so only the relaxation error
   // (1e-8 mm on ~mm displacements) remains: 1e-5 relative is a generous bound.
   EXPECT_TRUE(tests::near(force, analytic, 0.0, 1e-5)) << r.message;
-  const auto far = nodes_where(mesh, [&](const Vector3d& x) { return (x - o - Vector3d(L, W, W)).norm() < 1e-9; });
+  const auto far = nodes_where(
+      mesh, [&](const Vector3d& x) { return (x - o - Vector3d(L, W, W)).norm() < 1e-9; });
   EXPECT_TRUE(tests::near(W + r.displacement(far[0], 1), s * W, 0.0, 1e-5));
   EXPECT_TRUE(tests::near(W + r.displacement(far[0], 2), s * W, 0.0, 1e-5));
   std::ostringstream rel;
@@ -197,8 +201,11 @@ TEST(TledSolver, RejectsBadInput) {
   const TledSolver solver(column.mesh);
   TledOptions bad;
   bad.error_tolerance = 0.0;
-  tests::expect_error([&] { (void)solver.solve(column.problem({0, 0, -1}), bad); },
-                      {"error_tolerance"});
+  tests::expect_error(
+      [&] {
+        (void)solver.solve(column.problem({0, 0, -1}), bad);
+      },
+      {"error_tolerance"});
   TledProblem p = column.problem({0, 0, -1});
   p.constraints.push_back({column.mesh.num_nodes(), {true, true, true}, Vector3d::Zero()});
   tests::expect_error([&] { (void)solver.solve(p, {}); }, {"constraint on node"});

@@ -1,11 +1,10 @@
+#include "core/error.hpp"
+#include "data_synth/vessels/tree_graph.hpp"
 #include "data_synth/vessels/vessel_tree.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
-
-#include "core/error.hpp"
-#include "data_synth/vessels/tree_graph.hpp"
 
 namespace brainshift::data_synth {
 namespace {

@@ -1,14 +1,13 @@
 // Calibration of a predicted-error map (issue 16): Spearman's rank correlation on known cases
 // and the share within 1 and 2 sigma, including a calibrated 3-D Gaussian sample whose shares
 // must match the chi distribution's 60.8 % and 99.3 %.
+#include "core/error.hpp"
 #include "imaging/evaluation/calibration.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
-
-#include "core/error.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -17,7 +16,8 @@ TEST(Calibration, SpearmanOfMonotoneReversedAndTiedSamples) {
   const std::vector<double> a{1, 2, 3, 4, 5};
   EXPECT_NEAR(spearman(a, {10, 20, 25, 100, 1000}), 1.0, 1e-12);  // any increasing map: exactly 1
   EXPECT_NEAR(spearman(a, {5, 4, 3, 2, 1}), -1.0, 1e-12);
-  // Ties get average ranks: b's ranks are 1.5, 1.5, 3, 4, 5 → r = 9.5 / √95 = 0.97468 (Pearson of the ranks).
+  // Ties get average ranks: b's ranks are 1.5, 1.5, 3, 4, 5 → r = 9.5 / √95 = 0.97468 (Pearson of
+  // the ranks).
   EXPECT_NEAR(spearman(a, {1, 1, 2, 3, 4}), 0.97468, 1e-4);
   EXPECT_EQ(spearman(a, {2, 2, 2, 2, 2}), 0.0);  // constant: undefined, reported 0
   EXPECT_THROW((void)spearman(a, {1, 2}), Error);
@@ -41,7 +41,8 @@ TEST(Calibration, ACalibratedGaussianMatchesTheChiDistribution) {
   for (int i = 0; i < 20000; ++i) {
     const double sigma = u(rng), axis = sigma / std::sqrt(3.0);
     predicted.push_back(sigma);
-    actual.push_back(std::sqrt(std::pow(axis * g(rng), 2) + std::pow(axis * g(rng), 2) + std::pow(axis * g(rng), 2)));
+    actual.push_back(std::sqrt(std::pow(axis * g(rng), 2) + std::pow(axis * g(rng), 2) +
+                               std::pow(axis * g(rng), 2)));
   }
   const UncertaintyCalibration c = calibrate_uncertainty(predicted, actual);
   // Binomial standard error at n = 20,000 is ≤ 0.35 %; asked within 1.5 %.

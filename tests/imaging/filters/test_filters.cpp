@@ -1,13 +1,14 @@
 // Separable Gaussian (derivative) filtering and the Frangi vesselness (imaging/filters).
 
+#include "expect_error.hpp"
+
+#include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/vesselness.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
-
-#include "expect_error.hpp"
-#include "imaging/filters/gaussian.hpp"
-#include "imaging/filters/vesselness.hpp"
 
 namespace brainshift::imaging::filters {
 namespace {
@@ -77,7 +78,8 @@ TEST(GaussianFilter, WhiteNoiseGainMatchesTheMeasuredReduction) {
     for (int j = 4; j < 60; ++j)
       for (int i = 4; i < 60; ++i, ++n) sum2 += double(f.at(i, j, k)) * f.at(i, j, k);
   // 175k samples: the measured standard deviation is within 1 % of the truth; 3 % allowed.
-  EXPECT_NEAR(std::sqrt(sum2 / double(n)), gaussian_noise_gain(g, 0.6), 0.03 * gaussian_noise_gain(g, 0.6));
+  EXPECT_NEAR(std::sqrt(sum2 / double(n)), gaussian_noise_gain(g, 0.6),
+              0.03 * gaussian_noise_gain(g, 0.6));
 }
 
 TEST(GaussianFilter, DownsampleMeansAndMaxima) {
@@ -89,10 +91,12 @@ TEST(GaussianFilter, DownsampleMeansAndMaxima) {
   ASSERT_EQ(mean.geometry.size, Eigen::Vector3i(3, 2, 3));
   EXPECT_FLOAT_EQ(mean.at(0, 0, 0), (0 + 1 + 5 + 6) / 4.0F);
   EXPECT_FLOAT_EQ(peak.at(0, 0, 0), 6.0F);
-  EXPECT_FLOAT_EQ(mean.at(2, 1, 2), 56.5F);  // voxels 54 and 59: a block of 1 × 2 × 1 at the far faces
+  EXPECT_FLOAT_EQ(mean.at(2, 1, 2),
+                  56.5F);  // voxels 54 and 59: a block of 1 × 2 × 1 at the far faces
   EXPECT_FLOAT_EQ(peak.at(2, 1, 2), 59.0F);
   // Block centres: block (0,0,0) covers voxels 0 and 1 along i, j.
-  EXPECT_LT((mean.geometry.index_to_world(Vector3d::Zero()) - Vector3d(0.5, 0.5, 0.0)).norm(), 1e-12);
+  EXPECT_LT((mean.geometry.index_to_world(Vector3d::Zero()) - Vector3d(0.5, 0.5, 0.0)).norm(),
+            1e-12);
   tests::expect_error([&] { downsample(v, {0, 1, 1}); }, {"factors"});
 }
 
@@ -103,8 +107,9 @@ TEST(Vesselness, TubesRespondPlatesAndBlobsDoNot) {
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i) {
         const Vector3d p = g.index_to_world(Vector3d(i, j, k));
-        const bool tube = (Vector3d(p.x(), p.y(), 0) - Vector3d(7.5, 7.5, 0)).norm() <= 1.5;  // along z
-        const bool plate = std::abs(p.x() - 22.0) <= 1.5;                                     // normal x
+        const bool tube =
+            (Vector3d(p.x(), p.y(), 0) - Vector3d(7.5, 7.5, 0)).norm() <= 1.5;  // along z
+        const bool plate = std::abs(p.x() - 22.0) <= 1.5;                       // normal x
         const bool blob = (p - Vector3d(15, 22, 15)).norm() <= 3.0;
         image.at(i, j, k) = tube || plate || blob ? 100.0F : 0.0F;
       }

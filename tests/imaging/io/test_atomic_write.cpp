@@ -1,12 +1,12 @@
+#include "temp_folder.hpp"
+
+#include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <string>
-
-#include "core/error.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {

@@ -1,12 +1,12 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
 #include "imaging/io/compliance_cache.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <random>
-
-#include "expect_error.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -26,7 +26,9 @@ constraints::ComplianceBlock random_block(index_t n, unsigned seed) {
   return b;
 }
 
-std::size_t bytes_of(const std::filesystem::path& p) { return static_cast<std::size_t>(std::filesystem::file_size(p)); }
+std::size_t bytes_of(const std::filesystem::path& p) {
+  return static_cast<std::size_t>(std::filesystem::file_size(p));
+}
 
 TEST(ComplianceCache, RoundTripsExactlyWithTheLowerTriangleOnly) {
   const tests::TempFolder dir;
@@ -49,7 +51,9 @@ TEST(ComplianceCache, DamagedFilesAreOneLineErrorsNamingTheFile) {
     std::ifstream in(p, std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  auto write = [&](const std::string& b) { std::ofstream(p, std::ios::binary | std::ios::trunc) << b; };
+  auto write = [&](const std::string& b) {
+    std::ofstream(p, std::ios::binary | std::ios::trunc) << b;
+  };
 
   write(bytes.substr(0, bytes.size() - 20));
   expect_error([&] { (void)read_compliance_cache(p); }, {"c.bin", "truncated"});
@@ -62,12 +66,14 @@ TEST(ComplianceCache, DamagedFilesAreOneLineErrorsNamingTheFile) {
   write(version);
   expect_error([&] { (void)read_compliance_cache(p); }, {"c.bin", "version 9", "prepare again"});
   write("solid cube\nfacet normal 0 0 1\n");
-  expect_error([&] { (void)read_compliance_cache(p); }, {"c.bin", "not a brainshift compliance cache"});
+  expect_error([&] { (void)read_compliance_cache(p); },
+               {"c.bin", "not a brainshift compliance cache"});
   std::string huge = bytes;
   for (int k = 0; k < 8; ++k) huge[24 + k] = static_cast<char>(0x7f);  // node count ≈ 9e18
   write(huge);
   expect_error([&] { (void)read_compliance_cache(p); }, {"c.bin", "corrupted", "node count"});
-  expect_error([&] { (void)read_compliance_cache(dir / "absent.bin"); }, {"absent.bin", "cannot read"});
+  expect_error([&] { (void)read_compliance_cache(dir / "absent.bin"); },
+               {"absent.bin", "cannot read"});
 }
 
 TEST(ComplianceCache, AMisSizedBlockIsRefusedAndNothingIsWritten) {

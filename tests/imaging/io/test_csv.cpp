@@ -1,13 +1,13 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
+#include "core/error.hpp"
 #include "imaging/io/csv.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <string>
-
-#include "core/error.hpp"
-#include "expect_error.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {

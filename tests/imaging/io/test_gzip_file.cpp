@@ -1,7 +1,10 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
 #include "imaging/io/gzip_file.hpp"
+#include "imaging/io/image_io.hpp"
 
 #include <gtest/gtest.h>
-#include <zlib.h>
 
 #include <cstdint>
 #include <cstring>
@@ -10,10 +13,7 @@
 #include <random>
 #include <string>
 #include <vector>
-
-#include "expect_error.hpp"
-#include "imaging/io/image_io.hpp"
-#include "temp_folder.hpp"
+#include <zlib.h>
 
 namespace brainshift::imaging {
 namespace {
@@ -58,8 +58,8 @@ TEST(GzipFile, ChunkedStreamIsOneValidGzipMemberForAnyThreadCount) {
     std::vector<char> first;
     for (const int threads : {1, 2, 3}) {
       for (const bool rle : {true, false}) {
-        SCOPED_TRACE("size " + std::to_string(size) + ", threads " + std::to_string(threads) + ", rle " +
-                     std::to_string(rle));
+        SCOPED_TRACE("size " + std::to_string(size) + ", threads " + std::to_string(threads) +
+                     ", rle " + std::to_string(rle));
         GzipOptions o;
         o.threads = threads;
         o.run_length = rle;
@@ -78,7 +78,8 @@ TEST(GzipFile, ChunkedStreamIsOneValidGzipMemberForAnyThreadCount) {
         if (size > 4'000'000 && threads == 2 && rle) first = bytes;
       }
     }
-    // Compression happens: the zero half of 5 MB shrinks it below 80 % (noise half ≈ 85 %, zeros ≈ 0).
+    // Compression happens: the zero half of 5 MB shrinks it below 80 % (noise half ≈ 85 %, zeros ≈
+    // 0).
     if (!first.empty()) {
       EXPECT_LT(double(first.size()), 0.8 * double(size));
     }
@@ -94,8 +95,10 @@ TEST(GzipFile, RejectsBadOptionsAndUnreadableSource) {
   o = {};
   o.threads = 0;
   tests::expect_error([&] { gzip_buffer(&byte, 1, dir / "x.gz", o); }, {"x.gz", "threads"});
-  tests::expect_error([&] { gzip_file(dir / "absent.nii", dir / "x.gz"); }, {"absent.nii", "cannot open"});
-  tests::expect_error([&] { gzip_buffer(&byte, 1, dir / "no_such_folder" / "x.gz"); }, {"x.gz", "cannot open"});
+  tests::expect_error([&] { gzip_file(dir / "absent.nii", dir / "x.gz"); },
+                      {"absent.nii", "cannot open"});
+  tests::expect_error([&] { gzip_buffer(&byte, 1, dir / "no_such_folder" / "x.gz"); },
+                      {"x.gz", "cannot open"});
 }
 
 TEST(GzipFile, NiftiGzHoldsExactlyTheUncompressedNifti) {

@@ -1,8 +1,12 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
+#include "imaging/io/image_frame.hpp"
 #include "imaging/io/image_io.hpp"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include <Eigen/Geometry>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -12,10 +16,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include "expect_error.hpp"
-#include "imaging/io/image_frame.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -50,7 +50,7 @@ VolumeF random_volume(const ImageGeometry& g, int components, unsigned seed = 1)
 void expect_same_world(const ImageGeometry& a, const ImageGeometry& b) {
   ASSERT_EQ(a.size, b.size);
   for (const Vector3d& ijk : {Vector3d(0, 0, 0), Vector3d(a.size[0] - 1, 0, 0),
-                            Vector3d(0, a.size[1] - 1, 0), Vector3d(0, 0, a.size[2] - 1)})
+                              Vector3d(0, a.size[1] - 1, 0), Vector3d(0, 0, a.size[2] - 1)})
     EXPECT_LT((a.index_to_world(ijk) - b.index_to_world(ijk)).norm(), header_tolerance)
         << "voxel " << ijk.transpose();
 }
@@ -222,8 +222,9 @@ TEST(SlicerDisplacement, TranslationIsWrittenInLpsWithFlippedVectorsAndGeometry)
 
 TEST(SlicerDisplacement, RefusesOtherFormatsAndScalarVolumes) {
   const tests::TempFolder dir;
-  expect_error([&] { write_displacement_for_slicer(dir / "u.nii", VolumeF(oblique_geometry(), 3)); },
-               {"u.nii", ".nrrd"});
+  expect_error(
+      [&] { write_displacement_for_slicer(dir / "u.nii", VolumeF(oblique_geometry(), 3)); },
+      {"u.nii", ".nrrd"});
   expect_error([&] { write_displacement_for_slicer(dir / "u.nrrd", VolumeF(oblique_geometry())); },
                {"u.nrrd", "3 components"});
   EXPECT_EQ(dir.count(), 0u);
@@ -233,7 +234,8 @@ TEST(ImageIoErrors, MissingFileUnknownExtensionAndEmptyFile) {
   const tests::TempFolder dir;
   expect_error([&] { read_volume(dir / "absent.nii"); }, {"absent.nii", "no such file"});
   write_text(dir / "image.png", "x");
-  expect_error([&] { read_volume(dir / "image.png"); }, {"image.png", "unknown image file extension"});
+  expect_error([&] { read_volume(dir / "image.png"); },
+               {"image.png", "unknown image file extension"});
   write_text(dir / "empty.nii.gz", "");
   expect_error([&] { read_volume(dir / "empty.nii.gz"); }, {"empty.nii.gz", "empty file"});
   expect_error([&] { write_volume(dir / "no_folder" / "x.nii", VolumeF(oblique_geometry())); },
@@ -260,14 +262,17 @@ TEST(ImageIoErrors, GarbageAndTruncatedFilesAreOneLineErrors) {
 TEST(ImageIoErrors, NonFiniteSpacingAndZeroSizeAreRefused) {
   const tests::TempFolder dir;
   const std::string head = "NRRD0004\ntype: float\ndimension: 3\nspace: RAS\n";
-  write_text(dir / "nan.nrrd", head + "sizes: 1 1 1\nspace directions: (nan,0,0) (0,1,0) (0,0,1)\n"
-                                      "encoding: raw\n\nxxxx");
+  write_text(dir / "nan.nrrd", head +
+                                   "sizes: 1 1 1\nspace directions: (nan,0,0) (0,1,0) (0,0,1)\n"
+                                   "encoding: raw\n\nxxxx");
   expect_error([&] { read_volume(dir / "nan.nrrd"); }, {"nan.nrrd", "spacing"});
-  write_text(dir / "zero.nrrd", head + "sizes: 0 1 1\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"
-                                       "encoding: raw\n\n");
+  write_text(dir / "zero.nrrd", head +
+                                    "sizes: 0 1 1\nspace directions: (1,0,0) (0,1,0) (0,0,1)\n"
+                                    "encoding: raw\n\n");
   expect_error([&] { read_volume(dir / "zero.nrrd"); }, {"zero.nrrd", "zero-size"});
-  write_text(dir / "shear.nrrd", head + "sizes: 1 1 1\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"
-                                        "encoding: raw\n\nxxxx");
+  write_text(dir / "shear.nrrd", head +
+                                     "sizes: 1 1 1\nspace directions: (1,0,0) (1,1,0) (0,0,1)\n"
+                                     "encoding: raw\n\nxxxx");
   expect_error([&] { read_volume(dir / "shear.nrrd"); }, {"shear.nrrd", "orthonormal"});
   ImageGeometry bad = oblique_geometry();
   bad.spacing[1] = std::numeric_limits<double>::infinity();
@@ -306,15 +311,20 @@ TEST(ImageIoHeaders, RealShearAndSingularDirectionsAreStillErrors) {
   const tests::TempFolder dir;
   const std::string head = "NRRD0004\ntype: float\ndimension: 3\nspace: RAS\n";
   // 1e-3 of shear (0.06°): ten times the single-precision allowance.
-  write_text(dir / "small_shear.nrrd", head + "sizes: 1 1 1\nspace directions: (1,0,0) (0.001,1,0) (0,0,1)\n"
-                                              "encoding: raw\n\nxxxx");
-  expect_error([&] { read_volume(dir / "small_shear.nrrd"); }, {"small_shear.nrrd", "not orthonormal"});
-  write_text(dir / "singular.nrrd", head + "sizes: 1 1 1\nspace directions: (1,0,0) (1,0,0) (0,0,1)\n"
-                                           "encoding: raw\n\nxxxx");
+  write_text(dir / "small_shear.nrrd",
+             head +
+                 "sizes: 1 1 1\nspace directions: (1,0,0) (0.001,1,0) (0,0,1)\n"
+                 "encoding: raw\n\nxxxx");
+  expect_error([&] { read_volume(dir / "small_shear.nrrd"); },
+               {"small_shear.nrrd", "not orthonormal"});
+  write_text(dir / "singular.nrrd", head +
+                                        "sizes: 1 1 1\nspace directions: (1,0,0) (1,0,0) (0,0,1)\n"
+                                        "encoding: raw\n\nxxxx");
   expect_error([&] { read_volume(dir / "singular.nrrd"); }, {"singular.nrrd", "singular"});
   ImageGeometry sheared = oblique_geometry();
   sheared.direction(0, 1) += 2e-4;
-  expect_error([&] { write_volume(dir / "sheared.nii", VolumeF(sheared)); }, {"sheared.nii", "orthonormal"});
+  expect_error([&] { write_volume(dir / "sheared.nii", VolumeF(sheared)); },
+               {"sheared.nii", "orthonormal"});
 }
 
 TEST(ImageIoErrors, LabelOutsideTheFourValuesIsNamed) {

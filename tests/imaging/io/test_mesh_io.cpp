@@ -1,3 +1,8 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
+#include "core/error.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/io/mesh_io.hpp"
 
 #include <gtest/gtest.h>
@@ -7,11 +12,6 @@
 #include <limits>
 #include <random>
 #include <string>
-
-#include "core/error.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -36,7 +36,8 @@ std::string one_cell_vtu(int type, const std::string& cell_data = "") {
         <DataArray type="UInt8" Name="types" format="ascii">)" +
          std::to_string(type) + R"(</DataArray>
       </Cells>
-      <CellData>)" + cell_data + R"(</CellData>
+      <CellData>)" +
+         cell_data + R"(</CellData>
     </Piece>
   </UnstructuredGrid>
 </VTKFile>
@@ -92,7 +93,10 @@ TEST(MeshIo, MissingMaterialArraysDefaultToBrain) {
   EXPECT_EQ(mesh.youngs_modulus()(0), 1.5);
   EXPECT_EQ(mesh.poisson_ratio()(0), 0.45);
 
-  write_text(path, one_cell_vtu(10, R"(<DataArray type="Float64" Name="youngs_modulus" format="ascii">10</DataArray>)"));
+  write_text(
+      path,
+      one_cell_vtu(
+          10, R"(<DataArray type="Float64" Name="youngs_modulus" format="ascii">10</DataArray>)"));
   const core::TetMesh tumour = read_tet_mesh(path);
   EXPECT_EQ(tumour.youngs_modulus()(0), 10.0);
   EXPECT_EQ(tumour.poisson_ratio()(0), 0.45);
@@ -121,7 +125,8 @@ TEST(MeshIo, WrongCellTypeIsNamed) {
   const tests::TempFolder dir;
   const auto path = dir / "quad.vtu";
   write_text(path, one_cell_vtu(/*VTK_QUAD=*/9));
-  expect_error([&] { (void)read_tet_mesh(path); }, {path.string(), "cell 0", "vtkQuad", "tetrahedra"});
+  expect_error([&] { (void)read_tet_mesh(path); },
+               {path.string(), "cell 0", "vtkQuad", "tetrahedra"});
 }
 
 TEST(MeshIo, NaNCoordinateIsNamed) {

@@ -2,17 +2,17 @@
 // header with comment lines, `space: left-posterior-superior`, oblique `space directions`, gzip
 // data, key:=value pairs, short voxels for label maps) read into world RAS.
 
-#include <gtest/gtest.h>
+#include "temp_folder.hpp"
 
-#include <zlib.h>
+#include "imaging/io/image_io.hpp"
+
+#include <gtest/gtest.h>
 
 #include <cstdint>
 #include <fstream>
 #include <string>
 #include <vector>
-
-#include "imaging/io/image_io.hpp"
-#include "temp_folder.hpp"
+#include <zlib.h>
 
 namespace brainshift::imaging {
 namespace {
@@ -35,7 +35,8 @@ TEST(NrrdFromSlicer, AGzipShortLabelMapInObliqueLpsReadsIntoRasWithItsLabels) {
   const tests::TempFolder dir;
   // 2 × 3 × 2 voxels, labels 0…3 (short, as Slicer stores label maps).
   std::vector<std::int16_t> labels = {0, 1, 2, 3, 1, 1, 0, 2, 2, 3, 3, 0};
-  const std::string raw(reinterpret_cast<const char*>(labels.data()), labels.size() * sizeof(std::int16_t));
+  const std::string raw(reinterpret_cast<const char*>(labels.data()),
+                        labels.size() * sizeof(std::int16_t));
   // Oblique axes (i along −P, j along L: a 90° turn about S, as after hardening a transform in
   // Slicer) with anisotropic spacing.
   const std::string header =
@@ -62,7 +63,8 @@ TEST(NrrdFromSlicer, AGzipShortLabelMapInObliqueLpsReadsIntoRasWithItsLabels) {
   ASSERT_EQ(v.geometry.size, Eigen::Vector3i(2, 3, 2));
   for (int k = 0; k < 2; ++k)
     for (int j = 0; j < 3; ++j)
-      for (int i = 0; i < 2; ++i) EXPECT_EQ(int(v.at(i, j, k)), labels[std::size_t((k * 3 + j) * 2 + i)]);
+      for (int i = 0; i < 2; ++i)
+        EXPECT_EQ(int(v.at(i, j, k)), labels[std::size_t((k * 3 + j) * 2 + i)]);
   // Voxel (i, j, k) lies at LPS (60, 80, −30) + i (0, −0.5, 0) + j (0.75, 0, 0) + k (0, 0, 1.2);
   // RAS negates the first two coordinates. Exact up to rounding of the parsed decimals.
   constexpr double TOL = 1e-12;

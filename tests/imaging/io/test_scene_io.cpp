@@ -1,17 +1,17 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
+#include "core/mesh/boundary.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
+#include "imaging/io/mesh_io.hpp"
 #include "imaging/io/scene_io.hpp"
+#include "imaging/io/skeleton_io.hpp"
+#include "imaging/io/surface_io.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <string>
-
-#include "core/mesh/boundary.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "imaging/io/mesh_io.hpp"
-#include "imaging/io/skeleton_io.hpp"
-#include "imaging/io/surface_io.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -28,7 +28,8 @@ struct SceneFolder {
     write_surface_vtp(dir / "surface.vtp", constraints::SurfaceMesh{b.vertices, b.faces});
     VesselGraph g;
     g.nodes = {{Vector3d(-10, 0, 5), 1.0}, {Vector3d(10, 0, 5), 0.8}};
-    g.branches = {{0, 1, {Vector3d(-10, 0, 5), Vector3d(0, 2, 5), Vector3d(10, 0, 5)}, {1.0, 0.9, 0.8}}};
+    g.branches = {
+        {0, 1, {Vector3d(-10, 0, 5), Vector3d(0, 2, 5), Vector3d(10, 0, 5)}, {1.0, 0.9, 0.8}}};
     write_skeleton_vtp(dir / "vessels.vtp", g);
   }
   std::filesystem::path scene(const std::string& json) const {
@@ -55,7 +56,7 @@ TEST(SceneIo, ReadsEveryPartAndSetting) {
   EXPECT_EQ(s.mesh.num_nodes(), 125);
   EXPECT_EQ(s.mesh.youngs_modulus().minCoeff(), 3.0);
   EXPECT_EQ(s.mesh.poisson_ratio().maxCoeff(), 0.45);  // untouched default
-  EXPECT_EQ(s.fixed_nodes.size(), 25u);                // the bottom layer z = −20 of a 5×5×5 grid
+  EXPECT_EQ(s.fixed_nodes.size(), 25u);  // the bottom layer z = −20 of a 5×5×5 grid
   EXPECT_EQ(s.surface.triangles.rows(), 2 * 6 * 16);
   EXPECT_EQ(s.skeleton.points.rows(), 3);
   EXPECT_EQ(s.skeleton.segments.size(), 2u);
@@ -80,7 +81,8 @@ TEST(SceneIo, OnlyTheMeshIsRequiredAndNothingElseIsBuilt) {
   const Scene s = read_scene(f.scene(R"({"mesh": "mesh.vtu"})"));
   EXPECT_EQ(s.skeleton.points.rows(), 0);
   EXPECT_EQ(s.surface.triangles.rows(), 0);
-  EXPECT_EQ(s.fixed_nodes.size(), 50u);  // default: within 15 mm of the lowest node along −z: z = −20, −10
+  EXPECT_EQ(s.fixed_nodes.size(),
+            50u);  // default: within 15 mm of the lowest node along −z: z = −20, −10
   EXPECT_EQ(s.options.dura.mode, constraints::DuraOptions::Mode::NONE);
 }
 
@@ -88,26 +90,37 @@ TEST(SceneIo, BadScenesGiveOneLineErrorsNamingFileAndKey) {
   SceneFolder f;
   expect_error([&] { read_scene(f.dir / "none.json"); }, {"none.json", "cannot open"});
   expect_error([&] { read_scene(f.scene("{ not json")); }, {"scene.json", "not valid JSON"});
-  expect_error([&] { read_scene(f.scene(R"({"vessels": "vessels.vtp"})")); }, {"scene.json", "missing key 'mesh'"});
+  expect_error([&] { read_scene(f.scene(R"({"vessels": "vessels.vtp"})")); },
+               {"scene.json", "missing key 'mesh'"});
   expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "mesh_size": 3})")); },
                {"scene.json", "unknown key 'mesh_size'"});
   expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "solver": {"pgs_tol": 1e-3}})")); },
                {"unknown key 'solver.pgs_tol'", "pgs_tolerance"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "missing.vtu"})")); }, {"scene.json", "'mesh'", "missing.vtu"});
+  expect_error([&] { read_scene(f.scene(R"({"mesh": "missing.vtu"})")); },
+               {"scene.json", "'mesh'", "missing.vtu"});
   expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "vessels": "surface.vtp"})")); },
                {"'vessels'", "surface.vtp", "no line cells"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"radius_mm": "big"}})")); },
-               {"'craniotomy.radius_mm' must be a number"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"radius_mm": -3}})")); },
-               {"'craniotomy.radius_mm' = -3mm is out of range"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "constraints": {"dura": "sticky"}})")); },
-               {"'constraints.dura' = \"sticky\" is not one of"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "constraints": {"dura": "sliding"}})")); },
-               {"dura contact needs a 'collision_surface'"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "fixed": {"below": {"height_mm": 1, "direction": [0, 0, 0]}}})")); },
-               {"down direction must be non-zero"});
-  expect_error([&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "materials": {"poisson_ratio": 0.5}})")); },
-               {"'materials.poisson_ratio'", "out of range"});
+  expect_error(
+      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"radius_mm": "big"}})")); },
+      {"'craniotomy.radius_mm' must be a number"});
+  expect_error(
+      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"radius_mm": -3}})")); },
+      {"'craniotomy.radius_mm' = -3mm is out of range"});
+  expect_error(
+      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "constraints": {"dura": "sticky"}})")); },
+      {"'constraints.dura' = \"sticky\" is not one of"});
+  expect_error(
+      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "constraints": {"dura": "sliding"}})")); },
+      {"dura contact needs a 'collision_surface'"});
+  expect_error(
+      [&] {
+        read_scene(f.scene(
+            R"({"mesh": "mesh.vtu", "fixed": {"below": {"height_mm": 1, "direction": [0, 0, 0]}}})"));
+      },
+      {"down direction must be non-zero"});
+  expect_error(
+      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "materials": {"poisson_ratio": 0.5}})")); },
+      {"'materials.poisson_ratio'", "out of range"});
 }
 
 TEST(SurfaceIo, RoundTripsExactlyAndRejectsNonTriangles) {

@@ -1,13 +1,13 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+#include "tests/config.hpp"
+
 #include "imaging/io/skeleton_io.hpp"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
-
-#include "tests/config.hpp"
-#include "expect_error.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -68,7 +68,8 @@ TEST(SkeletonIo, ReadsVmtkCenterlinesWithTheirInscribedSphereRadius) {
 
 TEST(SkeletonIo, BadFilesAreOneLineErrors) {
   const tests::TempFolder dir;
-  tests::expect_error([&] { read_skeleton_vtp(dir / "absent.vtp"); }, {"absent.vtp", "no such file"});
+  tests::expect_error([&] { read_skeleton_vtp(dir / "absent.vtp"); },
+                      {"absent.vtp", "no such file"});
   std::ofstream(dir / "junk.vtp") << "not xml";
   tests::expect_error([&] { read_skeleton_vtp(dir / "junk.vtp"); }, {"junk.vtp"});
   tests::expect_error([&] { write_skeleton_vtp(dir / "missing" / "s.vtp", y_graph()); },

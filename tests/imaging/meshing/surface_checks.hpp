@@ -3,13 +3,13 @@
 /// @brief Brute-force checks of triangle surfaces for the meshing tests: closedness, enclosed
 /// volume, area, vertex-sampled Hausdorff distance.
 
+#include "constraints/registration/skeleton.hpp"
+#include "core/mapping/closest_point.hpp"
+
 #include <algorithm>
 #include <limits>
 #include <map>
 #include <utility>
-
-#include "constraints/registration/skeleton.hpp"
-#include "core/mapping/closest_point.hpp"
 
 namespace brainshift::imaging {
 
@@ -63,7 +63,8 @@ inline double distance_to_surface(const Vector3d& p, const constraints::SurfaceM
 
 /// max over the vertices of each surface of the distance to the other (a lower bound of the
 /// Hausdorff distance, tight when the surfaces are finely sampled), mm.
-inline double vertex_hausdorff(const constraints::SurfaceMesh& s1, const constraints::SurfaceMesh& s2) {
+inline double vertex_hausdorff(const constraints::SurfaceMesh& s1,
+                               const constraints::SurfaceMesh& s2) {
   double h = 0.0;
   for (index_t v = 0; v < s1.vertices.rows(); ++v) {
     h = std::max(h, distance_to_surface(s1.vertices.row(v).transpose(), s2));

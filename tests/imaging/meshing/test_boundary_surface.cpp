@@ -1,4 +1,11 @@
+#include "expect_error.hpp"
+#include "surface_checks.hpp"
+#include "tolerance.hpp"
+
+#include "core/mapping/closest_point.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
+#include "imaging/meshing/decimate_surface.hpp"
 
 #include <gtest/gtest.h>
 
@@ -8,13 +15,6 @@
 #include <numbers>
 #include <set>
 
-#include "core/mapping/closest_point.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "imaging/meshing/decimate_surface.hpp"
-#include "surface_checks.hpp"
-#include "tolerance.hpp"
-
 namespace brainshift::imaging {
 namespace {
 
@@ -22,7 +22,8 @@ using tests::expect_error;
 using tests::near;
 
 TEST(OuterMeshSurface, OfABoxIsItsSixFacesOrientedOutward) {
-  const core::TetMesh box = data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
+  const core::TetMesh box =
+      data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
   const MeshSurface s = outer_boundary_surface(box);
   EXPECT_EQ(s.surface.triangles.rows(), 2 * 2 * (2 * 3 + 3 * 4 + 2 * 4));  // 2 per boundary quad
   EXPECT_EQ(s.surface.vertices.rows(), 3 * 4 * 5 - 1 * 2 * 3);             // all but interior nodes
@@ -36,7 +37,8 @@ TEST(OuterMeshSurface, OfABoxIsItsSixFacesOrientedOutward) {
 
 TEST(FixedRegionNodes, AreTheSurfaceNodesWithinTheHeightOfTheLowestPoint) {
   // Node planes at z = 0, 7.5, 15, …; x = 0, 5, 10.
-  const core::TetMesh box = data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
+  const core::TetMesh box =
+      data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
   const MeshSurface s = outer_boundary_surface(box);
   EXPECT_EQ(fixed_region_nodes(s, Vector3d(0, 0, -1), /*height=*/5.0).size(), 3u * 4u);
   // Up to z = 7.5: the bottom plane and the 10 surface nodes of the next plane.
@@ -70,7 +72,8 @@ TEST(DuraSurface, LeavesOutTheCraniotomyDisc) {
   // 94 mm rim.
   const double removed = surface_area(outer.surface) - surface_area(dura.surface);
   EXPECT_TRUE(near(removed, std::numbers::pi * rho * rho, 0.0, 0.25));
-  EXPECT_EQ(dura_surface(outer, centre, 0.0).surface.triangles.rows(), outer.surface.triangles.rows());
+  EXPECT_EQ(dura_surface(outer, centre, 0.0).surface.triangles.rows(),
+            outer.surface.triangles.rows());
 }
 
 TEST(DecimateSurface, ReachesTheTargetAndStaysClosedAndClose) {
@@ -90,7 +93,8 @@ TEST(DecimateSurface, FindsTheNonManifoldEdgesWhereThinPartsTouch) {
   // Two 10 mm cubes sharing only the edge x = y = 10: the boundary is closed but four faces meet
   // at that edge (what one-element-wide thin structures produce). Nodes merged by position.
   const core::TetMesh a = data_synth::make_box_mesh(Vector3d(10, 10, 10), Eigen::Vector3i(2, 2, 2));
-  const core::TetMesh b = data_synth::make_box_mesh(Vector3d(10, 10, 10), Eigen::Vector3i(2, 2, 2), Vector3d(10, 10, 0));
+  const core::TetMesh b = data_synth::make_box_mesh(Vector3d(10, 10, 10), Eigen::Vector3i(2, 2, 2),
+                                                    Vector3d(10, 10, 0));
   std::map<std::array<long, 3>, index_t> id;
   std::vector<Vector3d> nodes;
   MatrixX4i tets(a.num_tets() + b.num_tets(), 4);
@@ -99,13 +103,15 @@ TEST(DecimateSurface, FindsTheNonManifoldEdgesWhereThinPartsTouch) {
     for (index_t e = 0; e < m->num_tets(); ++e, ++t)
       for (int k = 0; k < 4; ++k) {
         const Vector3d p = m->nodes().row(m->tets()(e, k)).transpose();
-        const std::array<long, 3> key{std::lround(p.x() * 1000), std::lround(p.y() * 1000), std::lround(p.z() * 1000)};
+        const std::array<long, 3> key{std::lround(p.x() * 1000), std::lround(p.y() * 1000),
+                                      std::lround(p.z() * 1000)};
         auto [it, inserted] = id.try_emplace(key, static_cast<index_t>(nodes.size()));
         if (inserted) nodes.push_back(p);
         tets(t, k) = it->second;
       }
   MatrixX3d X(static_cast<index_t>(nodes.size()), 3);
-  for (std::size_t i = 0; i < nodes.size(); ++i) X.row(static_cast<index_t>(i)) = nodes[i].transpose();
+  for (std::size_t i = 0; i < nodes.size(); ++i)
+    X.row(static_cast<index_t>(i)) = nodes[i].transpose();
   const core::TetMesh both(X, tets);
   const constraints::SurfaceMesh full = outer_boundary_surface(both).surface;
   // The shared edge (2 segments of the cubes' 5 mm grid) is where four faces meet; nothing
@@ -116,7 +122,8 @@ TEST(DecimateSurface, FindsTheNonManifoldEdgesWhereThinPartsTouch) {
 }
 
 TEST(DecimateSurface, RejectsOpenSurfaces) {
-  const core::TetMesh box = data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
+  const core::TetMesh box =
+      data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
   constraints::SurfaceMesh open = outer_boundary_surface(box).surface;
   open.triangles.conservativeResize(open.triangles.rows() - 1, 3);
   expect_error([&] { (void)decimate_surface(open, 20); }, {"open edges"});

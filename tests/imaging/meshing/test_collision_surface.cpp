@@ -1,18 +1,18 @@
+#include "expect_error.hpp"
+#include "surface_checks.hpp"
+#include "tolerance.hpp"
+
+#include "core/mapping/tet_locator.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/meshing/collision_surface.hpp"
+#include "imaging/meshing/decimate_surface.hpp"
+#include "imaging/meshing/wrap_surface.hpp"
 
 #include <gtest/gtest.h>
 
 #include <array>
 #include <map>
 #include <vector>
-
-#include "core/mapping/tet_locator.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "imaging/meshing/decimate_surface.hpp"
-#include "imaging/meshing/wrap_surface.hpp"
-#include "surface_checks.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -24,8 +24,10 @@ using tests::near;
 /// a corner (`shift` = (edge, edge, edge)), nodes merged by position: one mesh whose boundary is
 /// closed but not a manifold there, as where thin parts of a real brain touch.
 core::TetMesh touching_cubes(double edge, const Vector3d& shift) {
-  const core::TetMesh a = data_synth::make_box_mesh(Vector3d::Constant(edge), Eigen::Vector3i(2, 2, 2));
-  const core::TetMesh b = data_synth::make_box_mesh(Vector3d::Constant(edge), Eigen::Vector3i(2, 2, 2), shift);
+  const core::TetMesh a =
+      data_synth::make_box_mesh(Vector3d::Constant(edge), Eigen::Vector3i(2, 2, 2));
+  const core::TetMesh b =
+      data_synth::make_box_mesh(Vector3d::Constant(edge), Eigen::Vector3i(2, 2, 2), shift);
   std::map<std::array<long, 3>, index_t> id;
   std::vector<Vector3d> nodes;
   MatrixX4i tets(a.num_tets() + b.num_tets(), 4);
@@ -34,13 +36,15 @@ core::TetMesh touching_cubes(double edge, const Vector3d& shift) {
     for (index_t e = 0; e < m->num_tets(); ++e, ++t)
       for (int k = 0; k < 4; ++k) {
         const Vector3d p = m->nodes().row(m->tets()(e, k)).transpose();
-        const std::array<long, 3> key{std::lround(p.x() * 1000), std::lround(p.y() * 1000), std::lround(p.z() * 1000)};
+        const std::array<long, 3> key{std::lround(p.x() * 1000), std::lround(p.y() * 1000),
+                                      std::lround(p.z() * 1000)};
         auto [it, inserted] = id.try_emplace(key, static_cast<index_t>(nodes.size()));
         if (inserted) nodes.push_back(p);
         tets(t, k) = it->second;
       }
   MatrixX3d X(static_cast<index_t>(nodes.size()), 3);
-  for (std::size_t i = 0; i < nodes.size(); ++i) X.row(static_cast<index_t>(i)) = nodes[i].transpose();
+  for (std::size_t i = 0; i < nodes.size(); ++i)
+    X.row(static_cast<index_t>(i)) = nodes[i].transpose();
   return core::TetMesh(X, tets);
 }
 
@@ -69,7 +73,8 @@ TEST(CollisionSurface, WrapsAndDecimatesABoundaryThatTouchesItselfAlongAnEdge) {
   // Edge collapses stop at the edge count of the target: ± a few vertices (10 %).
   EXPECT_NEAR(double(c.surface.vertices.rows()), 60.0, 6.0);
   // Volume: the wrap lies 0.3 mm out (+ 0.3 × 19200 mm² = 5760 mm³, 4.5 %) and bridges the
-  // notch at the shared edge (a wedge of ≈ alpha² × 40 mm, 0.5 %); decimation keeps the volume. 8 %.
+  // notch at the shared edge (a wedge of ≈ alpha² × 40 mm, 0.5 %); decimation keeps the volume. 8
+  // %.
   EXPECT_TRUE(near(enclosed_volume(c.surface), 2.0 * edge * edge * edge, 0.0, 0.08))
       << enclosed_volume(c.surface);
   // Every vertex maps into the mesh within the registration's 2 mm (moved ones are on it).
@@ -105,7 +110,8 @@ TEST(CollisionSurface, DecimatesAManifoldBoundaryWithoutWrapping) {
 }
 
 TEST(CollisionSurface, RejectsBadOptions) {
-  const core::TetMesh box = data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
+  const core::TetMesh box =
+      data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
   const MeshSurface outer = outer_boundary_surface(box);
   CollisionSurfaceOptions o;
   o.wrap_alpha_mm = 0.0;

@@ -1,3 +1,11 @@
+#include "expect_error.hpp"
+#include "surface_checks.hpp"
+#include "tolerance.hpp"
+
+#include "core/logger.hpp"
+#include "core/mapping/barycentric_mapping.hpp"
+#include "imaging/meshing/boundary_surface.hpp"
+#include "imaging/meshing/decimate_surface.hpp"
 #include "imaging/meshing/label_mesher.hpp"
 
 #include <gtest/gtest.h>
@@ -5,14 +13,6 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
-
-#include "core/logger.hpp"
-#include "core/mapping/barycentric_mapping.hpp"
-#include "expect_error.hpp"
-#include "imaging/meshing/boundary_surface.hpp"
-#include "imaging/meshing/decimate_surface.hpp"
-#include "surface_checks.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -24,11 +24,13 @@ constexpr double PI = std::numbers::pi;
 
 /// Cubic label volume of n voxels per axis, 1 mm spacing unless given, labelled by `label(p)`
 /// at each voxel centre p (world).
-LabelVolume make_labels(const ImageGeometry& g, const std::function<std::uint8_t(const Vector3d&)>& label) {
+LabelVolume make_labels(const ImageGeometry& g,
+                        const std::function<std::uint8_t(const Vector3d&)>& label) {
   LabelVolume v(g);
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
-      for (int i = 0; i < g.size[0]; ++i) v.at(i, j, k) = label(g.index_to_world(Vector3d(i, j, k)));
+      for (int i = 0; i < g.size[0]; ++i)
+        v.at(i, j, k) = label(g.index_to_world(Vector3d(i, j, k)));
   return v;
 }
 
@@ -48,9 +50,9 @@ double total_volume(const core::TetMesh& m, double modulus = -1.0) {
   return v;
 }
 
-constexpr double SPHERE_R = 40.0;                     // mm
-const Vector3d TUMOUR_CENTRE(12.0, -5.0, 8.0);        // mm
-constexpr double TUMOUR_R = 12.0;                     // mm
+constexpr double SPHERE_R = 40.0;               // mm
+const Vector3d TUMOUR_CENTRE(12.0, -5.0, 8.0);  // mm
+constexpr double TUMOUR_R = 12.0;               // mm
 
 /// Sizes fine enough for the volume checks on the r = 40 mm sphere (facet_distance 0.5 mm).
 MeshingOptions accurate_options() {
@@ -74,7 +76,10 @@ class SphereMesh : public ::testing::Test {
                   result_->mesh.num_nodes(), result_->mesh.num_tets(), result_->seconds,
                   result_->quality.min_dihedral_deg);
   }
-  static void TearDownTestSuite() { delete result_; result_ = nullptr; }
+  static void TearDownTestSuite() {
+    delete result_;
+    result_ = nullptr;
+  }
   static MeshingResult* result_;
 };
 MeshingResult* SphereMesh::result_ = nullptr;
@@ -148,9 +153,11 @@ TEST(LabelMesher, CoarsePresetGivesAboutTwoThousandNodesForABrainSizedVolume) {
     return p.cwiseQuotient(semi).norm() < 1.0 ? BRAIN : BACKGROUND;
   });
   const MeshingResult r = mesh_labels(labels, MeshingOptions::coarse());
-  logger().warn("brain-sized ellipsoid, coarse preset: {} nodes, {} tets, {:.2f} s, min dihedral "
-                "{:.1f}°, {} slivers", r.mesh.num_nodes(), r.mesh.num_tets(), r.seconds,
-                r.quality.min_dihedral_deg, r.quality.sliver_count);
+  logger().warn(
+      "brain-sized ellipsoid, coarse preset: {} nodes, {} tets, {:.2f} s, min dihedral "
+      "{:.1f}°, {} slivers",
+      r.mesh.num_nodes(), r.mesh.num_tets(), r.seconds, r.quality.min_dihedral_deg,
+      r.quality.sliver_count);
   EXPECT_GE(r.mesh.num_nodes(), 1000);
   EXPECT_LE(r.mesh.num_nodes(), 4000);
 }
@@ -162,9 +169,11 @@ TEST(LabelMesher, IsDeterministic) {
   // Another mesh in between, so that heap addresses differ between the two calls.
   MeshingOptions o = MeshingOptions::refined(2.0);
   const MeshingResult a = mesh_labels(labels, o);
-  (void)mesh_labels(make_labels(centred_grid(30), [](const Vector3d& p) -> std::uint8_t {
-    return p.norm() < 12.0 ? BRAIN : BACKGROUND;
-  }), o);
+  (void)mesh_labels(make_labels(centred_grid(30),
+                                [](const Vector3d& p) -> std::uint8_t {
+                                  return p.norm() < 12.0 ? BRAIN : BACKGROUND;
+                                }),
+                    o);
   const MeshingResult b = mesh_labels(labels, o);
   // CGAL 5.5's sliver exuder may choose differently from call to call (see label_mesher.hpp):
   // with it, only nearly the same mesh (node count within 2 %, volume within 0.5 %);
@@ -195,7 +204,8 @@ TEST(LabelMesher, DirectionMatrixRotatesTheMesh) {
   o.exude = false;  // compare connectivity too (see IsDeterministic)
   const MeshingResult reference = mesh_labels(labels, o);
 
-  const Matrix3d rotation = Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const Matrix3d rotation =
+      Eigen::AngleAxisd(0.7, Vector3d(1, 2, 3).normalized()).toRotationMatrix();
   const Matrix3d lps_flip = Vector3d(-1, -1, 1).asDiagonal();
   for (const Matrix3d& direction : {Matrix3d(rotation), Matrix3d(lps_flip * rotation)}) {
     SCOPED_TRACE(::testing::Message() << "det(direction) = " << direction.determinant());
@@ -211,7 +221,8 @@ TEST(LabelMesher, DirectionMatrixRotatesTheMesh) {
                                direction * (reference.mesh.nodes().row(n).transpose() - g.origin);
       worst = std::max(worst, (r.mesh.nodes().row(n).transpose() - by_hand).norm());
     }
-    EXPECT_LE(worst, 1e-9);  // same CGAL run in index space; only the affine map differs (≈ ε·100 mm)
+    EXPECT_LE(worst,
+              1e-9);  // same CGAL run in index space; only the affine map differs (≈ ε·100 mm)
     EXPECT_TRUE(near(total_volume(r.mesh), total_volume(reference.mesh), 0.0, 1e-12));
   }
 }
@@ -229,8 +240,10 @@ TEST(LabelMesher, VentriclesAreSoftOrACavity) {
 
   o.ventricles = VentricleModel::CAVITY;
   const MeshingResult cavity = mesh_labels(labels, o);
-  for (index_t t = 0; t < cavity.mesh.num_tets(); ++t) ASSERT_EQ(cavity.tet_label[std::size_t(t)], BRAIN);
-  EXPECT_TRUE(near(total_volume(soft.mesh) - total_volume(cavity.mesh), ventricle_volume, 0.0, 0.12));
+  for (index_t t = 0; t < cavity.mesh.num_tets(); ++t)
+    ASSERT_EQ(cavity.tet_label[std::size_t(t)], BRAIN);
+  EXPECT_TRUE(
+      near(total_volume(soft.mesh) - total_volume(cavity.mesh), ventricle_volume, 0.0, 0.12));
   // The outer surface leaves the cavity wall out: all its vertices are near r = 30 mm.
   const MeshSurface outer = outer_boundary_surface(cavity.mesh);
   for (index_t v = 0; v < outer.surface.vertices.rows(); ++v) {

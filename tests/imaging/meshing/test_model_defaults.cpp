@@ -1,13 +1,13 @@
+#include "expect_error.hpp"
+
+#include "core/mapping/tet_locator.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/meshing/model_defaults.hpp"
+#include "imaging/meshing/skeleton_in_mesh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <vector>
-
-#include "core/mapping/tet_locator.hpp"
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "imaging/meshing/skeleton_in_mesh.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -16,21 +16,26 @@ using tests::expect_error;
 
 TEST(DefaultFixedRegion, IsFifteenMillimetresOnSmallBrainsAndSixteenPercentOnTallOnes) {
   // 30 mm tall: 16 % is 4.8 mm, so the 15 mm floor holds (node planes z = 0, 7.5, 15, ...).
-  const core::TetMesh short_box = data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
+  const core::TetMesh short_box =
+      data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
   const FixedRegion a = default_fixed_region(outer_boundary_surface(short_box));
   EXPECT_DOUBLE_EQ(a.extent_mm, 30.0);
   EXPECT_DOUBLE_EQ(a.height_mm, 15.0);
-  EXPECT_EQ(a.nodes, fixed_region_nodes(outer_boundary_surface(short_box), Vector3d(0, 0, -1), 15.0));
+  EXPECT_EQ(a.nodes,
+            fixed_region_nodes(outer_boundary_surface(short_box), Vector3d(0, 0, -1), 15.0));
   // 150 mm tall (an adult brain from the brain stem's end to the vertex): 24 mm.
   // Node planes every 5 mm, so none lies at the slab's top.
-  const core::TetMesh tall_box = data_synth::make_box_mesh(Vector3d(10, 20, 150), Eigen::Vector3i(2, 2, 30));
+  const core::TetMesh tall_box =
+      data_synth::make_box_mesh(Vector3d(10, 20, 150), Eigen::Vector3i(2, 2, 30));
   const FixedRegion b = default_fixed_region(outer_boundary_surface(tall_box));
   EXPECT_NEAR(b.height_mm, 24.0, 1e-9);
   for (index_t n : b.nodes) EXPECT_LE(tall_box.nodes()(n, 2), 24.0);
-  EXPECT_EQ(b.nodes.size(), 3u * 3u + 4u * 8u);  // the bottom plane, then 4 planes of 8 rim nodes (z = 5 … 20)
+  EXPECT_EQ(b.nodes.size(),
+            3u * 3u + 4u * 8u);  // the bottom plane, then 4 planes of 8 rim nodes (z = 5 … 20)
   EXPECT_NE(b.rule.find("24 mm"), std::string::npos) << b.rule;
-  expect_error([&] { (void)default_fixed_region(outer_boundary_surface(tall_box), Vector3d::Zero()); },
-               {"down direction"});
+  expect_error(
+      [&] { (void)default_fixed_region(outer_boundary_surface(tall_box), Vector3d::Zero()); },
+      {"down direction"});
 }
 
 TEST(DefaultCraniotomy, IsOverTheTumourWhenThereIsOneElseAtTheTop) {
@@ -50,14 +55,18 @@ TEST(DefaultCraniotomy, IsOverTheTumourWhenThereIsOneElseAtTheTop) {
   }
   const Craniotomy over = default_craniotomy(surface, ball, label);
   Eigen::Index nearest = 0;
-  (surface.vertices.rowwise() - Eigen::RowVector3d(40, 30, 20)).rowwise().squaredNorm().minCoeff(&nearest);
+  (surface.vertices.rowwise() - Eigen::RowVector3d(40, 30, 20))
+      .rowwise()
+      .squaredNorm()
+      .minCoeff(&nearest);
   // The tumour's centroid is within a tetrahedron of (40, 30, 20), so the chosen vertex is the
   // nearest one to that point or a neighbour: within one surface edge (≈ 12 mm) of it.
   EXPECT_LE((over.centre - surface.vertices.row(nearest).transpose()).norm(), 12.0);
   EXPECT_GT(over.centre.x(), 30.0);
   EXPECT_NE(over.rule.find("tumour"), std::string::npos) << over.rule;
-  expect_error([&] { (void)default_craniotomy(surface, ball, std::vector<std::uint8_t>(3, BRAIN)); },
-               {"labels"});
+  expect_error(
+      [&] { (void)default_craniotomy(surface, ball, std::vector<std::uint8_t>(3, BRAIN)); },
+      {"labels"});
 }
 
 /// A straight branch of `n` points from a to b, radius 1 mm, between two new nodes.
@@ -75,11 +84,12 @@ void add_branch(VesselGraph& g, const Vector3d& a, const Vector3d& b, int n) {
 }
 
 TEST(SkeletonInMesh, KeepsInsidePointsSnapsNearOnesAndDropsFarOnes) {
-  const core::TetMesh box = data_synth::make_box_mesh(Vector3d(40, 40, 40), Eigen::Vector3i(4, 4, 4));
+  const core::TetMesh box =
+      data_synth::make_box_mesh(Vector3d(40, 40, 40), Eigen::Vector3i(4, 4, 4));
   VesselGraph g;
-  add_branch(g, Vector3d(5, 20, 20), Vector3d(35, 20, 20), 7);   // inside
-  add_branch(g, Vector3d(5, 10, 43), Vector3d(35, 10, 43), 7);   // 3 mm above the top: snapped
-  add_branch(g, Vector3d(5, 30, 48), Vector3d(35, 30, 48), 7);   // 8 mm above: dropped
+  add_branch(g, Vector3d(5, 20, 20), Vector3d(35, 20, 20), 7);  // inside
+  add_branch(g, Vector3d(5, 10, 43), Vector3d(35, 10, 43), 7);  // 3 mm above the top: snapped
+  add_branch(g, Vector3d(5, 30, 48), Vector3d(35, 30, 48), 7);  // 8 mm above: dropped
   // Rising from inside to 10 mm out: z = 30, 34, …, 50 → kept up to 44 (4 mm out), then dropped.
   add_branch(g, Vector3d(20, 5, 30), Vector3d(20, 5, 50), 6);
   const SkeletonFit fit = fit_skeleton_to_mesh(g, box, /*snap_distance_mm=*/5.0);

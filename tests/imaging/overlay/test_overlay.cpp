@@ -1,18 +1,17 @@
+#include "expect_error.hpp"
+#include "temp_folder.hpp"
+
 #include "imaging/overlay/overlay.hpp"
 
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <functional>
 #include <limits>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-
-#include "expect_error.hpp"
-#include "temp_folder.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -28,11 +27,13 @@ ImageGeometry box_grid() {
   return g;
 }
 
-VolumeF make_volume(const ImageGeometry& g, const std::function<float(int, int, int, const Vector3d&)>& f) {
+VolumeF make_volume(const ImageGeometry& g,
+                    const std::function<float(int, int, int, const Vector3d&)>& f) {
   VolumeF v(g);
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
-      for (int i = 0; i < g.size[0]; ++i) v.at(i, j, k) = f(i, j, k, g.index_to_world(Vector3d(i, j, k)));
+      for (int i = 0; i < g.size[0]; ++i)
+        v.at(i, j, k) = f(i, j, k, g.index_to_world(Vector3d(i, j, k)));
   return v;
 }
 
@@ -81,7 +82,8 @@ TEST(Overlay, WritesAPngOfTheDocumentedSize) {
   const OverlayLayout layout = overlay_layout(in, o);
   EXPECT_EQ(layout.width, image.cols);
   EXPECT_EQ(layout.height, image.rows);
-  EXPECT_EQ(layout.panel_origin[0][2], Eigen::Vector2i(4 + 24 + 24, 4 + 16));  // sagittal, third column
+  EXPECT_EQ(layout.panel_origin[0][2],
+            Eigen::Vector2i(4 + 24 + 24, 4 + 16));  // sagittal, third column
 }
 
 TEST(Overlay, WindowsToThePercentilesWithPatientRightOnTheScreenLeft) {
@@ -99,8 +101,8 @@ TEST(Overlay, WindowsToThePercentilesWithPatientRightOnTheScreenLeft) {
   EXPECT_NEAR(c[0], 190, 1);
   EXPECT_EQ(c[0], c[1]);
   EXPECT_EQ(c[1], c[2]);
-  EXPECT_NEAR(rgb_at(image, 4 + 0, 20 + 25)[0], 255, 0);   // q = 0: the right-most voxel, i = 39
-  EXPECT_NEAR(rgb_at(image, 4 + 39, 20 + 25)[0], 0, 0);    // q = 39: i = 0
+  EXPECT_NEAR(rgb_at(image, 4 + 0, 20 + 25)[0], 255, 0);  // q = 0: the right-most voxel, i = 39
+  EXPECT_NEAR(rgb_at(image, 4 + 39, 20 + 25)[0], 0, 0);   // q = 39: i = 0
 }
 
 TEST(Overlay, DrawsPointsInTheirColourOnTheSlicesTheyAreNear) {
@@ -114,7 +116,7 @@ TEST(Overlay, DrawsPointsInTheirColourOnTheSlicesTheyAreNear) {
   // (drawn, slab 1.5 mm), 4.5 mm from the coronal and 9.5 mm from the sagittal plane (not drawn).
   OverlayPoints yellow{MatrixX3d(2, 3), {255, 255, 0}};
   yellow.points << 9.5, -4.5, 0.8,  //
-      -9.5, 4.5, 1.6;                // 1.6 mm from the axial plane (beyond the slab), 4.5 and 9.5 from the others
+      -9.5, 4.5, 1.6;  // 1.6 mm from the axial plane (beyond the slab), 4.5 and 9.5 from the others
   in.point_sets.push_back(yellow);
   OverlayOptions o;
   o.orientation_letters = false;
@@ -125,7 +127,8 @@ TEST(Overlay, DrawsPointsInTheirColourOnTheSlicesTheyAreNear) {
   // By hand: left axial panel at (4, 4 + 16), so the dot is centred at (4 + 10, 20 + 29).
   const std::array<int, 3> expected{255, 255, 0};
   EXPECT_EQ(rgb_at(image, 14, 49), expected);
-  EXPECT_TRUE(layout.world_to_pixel(SliceView::AXIAL, 0, yellow.points.row(0).transpose()).isApprox(Eigen::Vector2d(14, 49)));
+  EXPECT_TRUE(layout.world_to_pixel(SliceView::AXIAL, 0, yellow.points.row(0).transpose())
+                  .isApprox(Eigen::Vector2d(14, 49)));
   // Right column: the same point on the warped volume's axial panel (origin x = 4 + 50 + 4).
   EXPECT_EQ(rgb_at(image, 58 + 10, 49), expected);
   // Not drawn where it is farther than 1.5 mm from the plane: grey there (r = g = b).
@@ -134,7 +137,8 @@ TEST(Overlay, DrawsPointsInTheirColourOnTheSlicesTheyAreNear) {
     const auto c = rgb_at(image, int(std::lround(xy.x())), int(std::lround(xy.y())));
     EXPECT_TRUE(c[0] == c[1] && c[1] == c[2]) << "view " << int(view);
   }
-  const Eigen::Vector2d far = layout.world_to_pixel(SliceView::AXIAL, 0, yellow.points.row(1).transpose());
+  const Eigen::Vector2d far =
+      layout.world_to_pixel(SliceView::AXIAL, 0, yellow.points.row(1).transpose());
   const auto c = rgb_at(image, int(std::lround(far.x())), int(std::lround(far.y())));
   EXPECT_TRUE(c[0] == c[1] && c[1] == c[2]);
 }
@@ -170,7 +174,8 @@ TEST(Overlay, ShowsABlobAtItsWorldPositionWhateverTheDirectionMatrix) {
   const VolumeF v = make_volume(g, [&](int i, int, int, const Vector3d& p) {
     return (p - blob).norm() <= 8.0 ? 1000.0F : 100.0F + 0.5F * float(i);
   });
-  ASSERT_GT(double(std::count(v.data.begin(), v.data.end(), 1000.0F)), 0.015 * double(v.data.size()));
+  ASSERT_GT(double(std::count(v.data.begin(), v.data.end(), 1000.0F)),
+            0.015 * double(v.data.size()));
 
   const tests::TempFolder dir;
   OverlayInput in;
@@ -183,8 +188,8 @@ TEST(Overlay, ShowsABlobAtItsWorldPositionWhateverTheDirectionMatrix) {
   const OverlayLayout layout = overlay_layout(in, o);
   for (const SliceView view : {SliceView::AXIAL, SliceView::CORONAL, SliceView::SAGITTAL}) {
     SCOPED_TRACE(int(view));
-    const auto [centroid, count] =
-        bright_centroid(image, layout.panel_origin[0][std::size_t(view)], layout.panel_size[std::size_t(view)]);
+    const auto [centroid, count] = bright_centroid(image, layout.panel_origin[0][std::size_t(view)],
+                                                   layout.panel_size[std::size_t(view)]);
     // White (≥ 250 of 255, i.e. ≥ 98 % of the ball's value) where all 8 trilinear neighbours lie
     // in the ball: a disc of radius ≈ 7–8 mm at 1 mm pixels, π · 8² ≈ 201 pixels at most.
     EXPECT_GE(count, 90);
@@ -199,7 +204,8 @@ TEST(Overlay, ShowsABlobAtItsWorldPositionWhateverTheDirectionMatrix) {
   // blob at R = 6, A = 9 lands at (4 + 16.45 − 6 − ½, 20 + 25.5 − 9 − ½) = (13.95, 36).
   EXPECT_NEAR(layout.hi.x(), 16.45, 1e-9);
   EXPECT_NEAR(layout.hi.y(), 25.5, 1e-9);
-  EXPECT_TRUE(layout.world_to_pixel(SliceView::AXIAL, 0, blob).isApprox(Eigen::Vector2d(13.95, 36.0), 1e-12));
+  EXPECT_TRUE(layout.world_to_pixel(SliceView::AXIAL, 0, blob)
+                  .isApprox(Eigen::Vector2d(13.95, 36.0), 1e-12));
 }
 
 TEST(Overlay, AnUnwritableTargetNamesThePathAndLeavesNothingBehind) {
@@ -236,7 +242,8 @@ TEST(Overlay, RejectsBadInputInOneLine) {
   in.target = Vector3d(0.0, 0.0, 40.0);
   expect_error([&] { write_overlay_png(path, in); }, {"target", "outside"});
   in.target = Vector3d::Zero();
-  in.point_sets.push_back({MatrixX3d::Constant(1, 3, std::numeric_limits<double>::infinity()), {0, 255, 0}});
+  in.point_sets.push_back(
+      {MatrixX3d::Constant(1, 3, std::numeric_limits<double>::infinity()), {0, 255, 0}});
   expect_error([&] { write_overlay_png(path, in); }, {"point 0 of point set 0", "not finite"});
   in.point_sets.clear();
   OverlayOptions o;

@@ -10,16 +10,17 @@
 ///    correlated noise (what reconstruction and interpolation leave in a real MRA).
 /// Every generator is deterministic (fixed seeds).
 
+#include "synthetic_tubes.hpp"
+
+#include "imaging/filters/gaussian.hpp"
+#include "imaging/io/volume.hpp"
+
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
-
-#include <Eigen/Geometry>
-
-#include "imaging/filters/gaussian.hpp"
-#include "imaging/io/volume.hpp"
-#include "synthetic_tubes.hpp"
 
 namespace brainshift::tests {
 
@@ -49,26 +50,36 @@ struct Angiogram {
 /// z superior), scaled by `scale`: the ring (AComm, A1s, PComms, P1s), the internal carotids and
 /// the basilar below it, the MCAs, ACAs and PCAs beyond it. 19 pieces, ≈ 277 mm at scale 1.
 inline std::vector<VesselPiece> circle_of_willis(const Vector3d& centre, double scale = 1.0) {
-  const auto p = [&](double x, double y, double z) { return Vector3d(centre + scale * Vector3d(x, y, z)); };
+  const auto p = [&](double x, double y, double z) {
+    return Vector3d(centre + scale * Vector3d(x, y, z));
+  };
   const Vector3d a1l = p(-6, 9, 0), a1r = p(6, 9, 0), ical = p(-12, 0, 0), icar = p(12, 0, 0);
   const Vector3d p1l = p(-7, -10, 0), p1r = p(7, -10, 0), ba = p(0, -13, -1);
-  return {
-      {a1l, a1r, 0.9},                      // anterior communicating
-      {a1l, ical, 1.1},           {a1r, icar, 1.1},            // A1
-      {ical, p1l, 0.9},           {icar, p1r, 0.9},            // posterior communicating
-      {p1l, ba, 1.1},             {p1r, ba, 1.1},              // P1
-      {ical, p(-13, 3, -16), 2.0}, {icar, p(13, 3, -16), 2.0},   // internal carotids
-      {ba, p(0, -15, -19), 1.5},                                 // basilar
-      {ical, p(-27, 5, 4), 1.4},  {p(-27, 5, 4), p(-36, 12, 9), 1.2},   // left MCA
-      {icar, p(27, 5, 4), 1.4},   {p(27, 5, 4), p(36, 12, 9), 1.2},     // right MCA
-      {a1l, p(-3, 22, 10), 1.0},  {p(-3, 22, 10), p(-3, 32, 18), 1.0},  // left ACA
-      {a1r, p(3, 22, 10), 1.0},                                          // right ACA
-      {p1l, p(-22, -30, 6), 1.0}, {p1r, p(22, -30, 6), 1.0}};            // PCAs
+  return {{a1l, a1r, 0.9},  // anterior communicating
+          {a1l, ical, 1.1},
+          {a1r, icar, 1.1},  // A1
+          {ical, p1l, 0.9},
+          {icar, p1r, 0.9},  // posterior communicating
+          {p1l, ba, 1.1},
+          {p1r, ba, 1.1},  // P1
+          {ical, p(-13, 3, -16), 2.0},
+          {icar, p(13, 3, -16), 2.0},  // internal carotids
+          {ba, p(0, -15, -19), 1.5},   // basilar
+          {ical, p(-27, 5, 4), 1.4},
+          {p(-27, 5, 4), p(-36, 12, 9), 1.2},  // left MCA
+          {icar, p(27, 5, 4), 1.4},
+          {p(27, 5, 4), p(36, 12, 9), 1.2},  // right MCA
+          {a1l, p(-3, 22, 10), 1.0},
+          {p(-3, 22, 10), p(-3, 32, 18), 1.0},  // left ACA
+          {a1r, p(3, 22, 10), 1.0},             // right ACA
+          {p1l, p(-22, -30, 6), 1.0},
+          {p1r, p(22, -30, 6), 1.0}};  // PCAs
 }
 
 /// For each voxel: the normalised distance d/r to the nearest vessel (by d/r), ≥ 0; large
 /// outside every vessel.
-inline imaging::VolumeF relative_distance(const imaging::ImageGeometry& g, const std::vector<VesselPiece>& vessels) {
+inline imaging::VolumeF relative_distance(const imaging::ImageGeometry& g,
+                                          const std::vector<VesselPiece>& vessels) {
   imaging::VolumeF out(g, 1, 1e9F);
   for (const auto& v : vessels) {
     // Only the voxels of the piece's world bounding box (grown by its radius and a voxel).
@@ -87,7 +98,8 @@ inline imaging::VolumeF relative_distance(const imaging::ImageGeometry& g, const
     for (int k = lo[2]; k <= hi[2]; ++k)
       for (int j = lo[1]; j <= hi[1]; ++j)
         for (int i = lo[0]; i <= hi[0]; ++i) {
-          const double d = distance_to_segment(g.index_to_world(Vector3d(i, j, k)), v.a, v.b) / v.radius;
+          const double d =
+              distance_to_segment(g.index_to_world(Vector3d(i, j, k)), v.a, v.b) / v.radius;
           out.at(i, j, k) = std::min(out.at(i, j, k), float(d));
         }
   }
@@ -96,8 +108,8 @@ inline imaging::VolumeF relative_distance(const imaging::ImageGeometry& g, const
 
 /// Zero-mean Gaussian noise of standard deviation `sigma`, smoothed by a Gaussian of
 /// `correlation_mm` (then rescaled to `sigma`): spatially correlated like reconstructed MR noise.
-inline imaging::VolumeF correlated_noise(const imaging::ImageGeometry& g, double sigma, double correlation_mm,
-                                         std::uint32_t seed) {
+inline imaging::VolumeF correlated_noise(const imaging::ImageGeometry& g, double sigma,
+                                         double correlation_mm, std::uint32_t seed) {
   imaging::VolumeF n(g, 1, 0.0F);
   std::mt19937 rng(seed);
   std::normal_distribution<float> normal(0.0F, 1.0F);
@@ -113,7 +125,9 @@ inline imaging::VolumeF correlated_noise(const imaging::ImageGeometry& g, double
 /// The float32 rounding of a rotation as a NIfTI sform stores it, plus an error of ≈ 1.3e-6
 /// (as in the real file): orthonormal only to single precision.
 inline Matrix3d float_rounded_rotation() {
-  Matrix3d r = (Eigen::AngleAxisd(0.12, Vector3d::UnitZ()) * Eigen::AngleAxisd(-0.08, Vector3d::UnitX())).toRotationMatrix();
+  Matrix3d r =
+      (Eigen::AngleAxisd(0.12, Vector3d::UnitZ()) * Eigen::AngleAxisd(-0.08, Vector3d::UnitX()))
+          .toRotationMatrix();
   r(0, 1) += 1.3e-6;
   return r.cast<float>().cast<double>();
 }
@@ -124,7 +138,8 @@ inline Angiogram suppressed_tof() {
   g.spacing = {0.52, 0.52, 0.65};
   g.size = {170, 150, 70};  // 88 × 78 × 45.5 mm
   g.direction = float_rounded_rotation();
-  const Vector3d half = 0.5 * g.spacing.cwiseProduct((g.size - Eigen::Vector3i::Ones()).cast<double>());
+  const Vector3d half =
+      0.5 * g.spacing.cwiseProduct((g.size - Eigen::Vector3i::Ones()).cast<double>());
   g.origin = Vector3d(10.0, -20.0, 5.0) - g.direction * half;  // grid centred on (10, −20, 5)
   Angiogram a;
   a.vessels = circle_of_willis(Vector3d(10.0, -20.0, 8.0) + Vector3d(0, 0, 0));
@@ -141,7 +156,8 @@ inline Angiogram suppressed_tof() {
   }
   // Residual specks the suppression kept (fat, flow artefacts): a few bright voxels.
   for (int s = 0; s < 300; ++s) {
-    const int i = int(u(rng) * float(g.size[0] - 1)), j = int(u(rng) * float(g.size[1] - 1)), k = int(u(rng) * float(g.size[2] - 1));
+    const int i = int(u(rng) * float(g.size[0] - 1)), j = int(u(rng) * float(g.size[1] - 1)),
+              k = int(u(rng) * float(g.size[2] - 1));
     a.image.at(i, j, k) = std::round(100.0F + 100.0F * u(rng));
   }
   return a;
@@ -155,7 +171,8 @@ inline Angiogram raw_tof_with_fat() {
   g.spacing = {0.7, 0.7, 0.7};
   g.size = {180, 196, 80};  // 126 × 137 × 56 mm
   const Vector3d centre(0.0, 0.0, 0.0);
-  g.origin = centre - 0.5 * g.spacing.cwiseProduct((g.size - Eigen::Vector3i::Ones()).cast<double>());
+  g.origin =
+      centre - 0.5 * g.spacing.cwiseProduct((g.size - Eigen::Vector3i::Ones()).cast<double>());
   g.origin.z() = -25.0;
   Angiogram a;
   a.vessels = circle_of_willis(centre, 0.9);
@@ -171,11 +188,16 @@ inline Angiogram raw_tof_with_fat() {
         const double s = (p - centre).cwiseQuotient(semi).norm();
         const float r = d.at(i, j, k);
         float value;
-        if (s > 1.27) value = std::abs(noise(rng)) * 0.75F;     // air: magnitude noise
-        else if (s > 1.14) value = 800.0F + noise(rng);          // fat and skin
-        else if (s > 1.0) value = 40.0F + noise(rng);            // skull and CSF
-        else if (r <= 1.0F) value = 650.0F + 300.0F * std::sqrt(1.0F - r * r) + noise(rng);
-        else value = 250.0F + noise(rng);                        // brain
+        if (s > 1.27)
+          value = std::abs(noise(rng)) * 0.75F;  // air: magnitude noise
+        else if (s > 1.14)
+          value = 800.0F + noise(rng);  // fat and skin
+        else if (s > 1.0)
+          value = 40.0F + noise(rng);  // skull and CSF
+        else if (r <= 1.0F)
+          value = 650.0F + 300.0F * std::sqrt(1.0F - r * r) + noise(rng);
+        else
+          value = 250.0F + noise(rng);  // brain
         a.image.at(i, j, k) = std::round(std::clamp(value, 0.0F, 32767.0F));
       }
   return a;
@@ -196,7 +218,8 @@ inline Angiogram noisy_angiogram() {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   while (a.vessels.size() < 8) {
     // A straight tube of 37.5 mm through a random point, in a random direction, inside the brain.
-    const Vector3d c = centre + 0.5 * semi.cwiseProduct(Vector3d(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5));
+    const Vector3d c =
+        centre + 0.5 * semi.cwiseProduct(Vector3d(u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5));
     const Vector3d dir = Vector3d(u(rng) - 0.5, u(rng) - 0.5, 0.4 * (u(rng) - 0.5)).normalized();
     const VesselPiece v{c - 18.75 * dir, c + 18.75 * dir, 1.0};
     if (brain(v.a) < 0.85 && brain(v.b) < 0.85) a.vessels.push_back(v);

@@ -3,11 +3,11 @@
 /// @brief Analytic tube phantoms for the vessel tests: voxels whose centre lies within the
 /// radius of any axis segment are bright, the rest are background.
 
+#include "imaging/io/volume.hpp"
+
 #include <algorithm>
 #include <utility>
 #include <vector>
-
-#include "imaging/io/volume.hpp"
 
 namespace brainshift::tests {
 

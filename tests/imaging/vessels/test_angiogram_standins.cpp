@@ -4,16 +4,17 @@
 // must find the vessels: total length near the truth, the skeleton near the true centrelines,
 // the true centrelines covered, and a threshold above the noise and below the image maximum.
 
+#include "angiogram_standins.hpp"
+
+#include "core/logger.hpp"
+#include "imaging/vessels/vessel_extraction.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
-
-#include "angiogram_standins.hpp"
-#include "core/logger.hpp"
-#include "imaging/vessels/vessel_extraction.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -26,7 +27,8 @@ std::vector<Vector3d> dense_points(const VesselGraph& g) {
   for (const auto& b : g.branches)
     for (std::size_t i = 1; i < b.points.size(); ++i) {
       const int n = std::max(1, int(std::ceil((b.points[i] - b.points[i - 1]).norm() / 0.25)));
-      for (int s = (i == 1 ? 0 : 1); s <= n; ++s) out.push_back(b.points[i - 1] + (b.points[i] - b.points[i - 1]) * double(s) / n);
+      for (int s = (i == 1 ? 0 : 1); s <= n; ++s)
+        out.push_back(b.points[i - 1] + (b.points[i] - b.points[i - 1]) * double(s) / n);
     }
   return out;
 }
@@ -35,8 +37,9 @@ std::vector<Vector3d> dense_points(const VesselGraph& g) {
 double share_near_truth(const VesselGraph& g, const Angiogram& a, double tolerance) {
   const auto axes = a.axes();
   const auto points = dense_points(g);
-  const auto near = std::count_if(points.begin(), points.end(),
-                                  [&](const Vector3d& p) { return tests::distance_to_axes(p, axes) <= tolerance; });
+  const auto near = std::count_if(points.begin(), points.end(), [&](const Vector3d& p) {
+    return tests::distance_to_axes(p, axes) <= tolerance;
+  });
   return points.empty() ? 0.0 : double(near) / double(points.size());
 }
 
@@ -44,13 +47,15 @@ double share_near_truth(const VesselGraph& g, const Angiogram& a, double toleran
 double share_of_truth_found(const VesselGraph& g, const Angiogram& a, double tolerance) {
   std::vector<tests::AxisSegment> ours;
   for (const auto& b : g.branches)
-    for (std::size_t i = 1; i < b.points.size(); ++i) ours.push_back({b.points[i - 1], b.points[i]});
+    for (std::size_t i = 1; i < b.points.size(); ++i)
+      ours.push_back({b.points[i - 1], b.points[i]});
   std::size_t found = 0, total = 0;
   for (const auto& v : a.vessels) {
     const int n = std::max(1, int(std::ceil((v.b - v.a).norm() / 0.25)));
     for (int s = 0; s <= n; ++s) {
       ++total;
-      found += tests::distance_to_axes(v.a + (v.b - v.a) * double(s) / n, ours) <= tolerance ? 1 : 0;
+      found +=
+          tests::distance_to_axes(v.a + (v.b - v.a) * double(s) / n, ours) <= tolerance ? 1 : 0;
     }
   }
   return double(found) / double(total);
@@ -59,8 +64,9 @@ double share_of_truth_found(const VesselGraph& g, const Angiogram& a, double tol
 float image_max(const VolumeF& v) { return *std::max_element(v.data.begin(), v.data.end()); }
 
 void log_result(const char* name, const VesselExtractionResult& r, const Angiogram& a) {
-  logger().warn("{}: {} | truth {:.0f} mm | near truth (1 mm) {:.3f}, truth found (1.5 mm) {:.3f}", name, r.message,
-                a.length(), share_near_truth(r.graph, a, 1.0), share_of_truth_found(r.graph, a, 1.5));
+  logger().warn("{}: {} | truth {:.0f} mm | near truth (1 mm) {:.3f}, truth found (1.5 mm) {:.3f}",
+                name, r.message, a.length(), share_near_truth(r.graph, a, 1.0),
+                share_of_truth_found(r.graph, a, 1.5));
 }
 
 TEST(AngiogramStandIns, BackgroundSuppressedUint8TofFindsTheCircleOfWillis) {
@@ -83,7 +89,8 @@ TEST(AngiogramStandIns, BackgroundSuppressedUint8TofFindsTheCircleOfWillis) {
   EXPECT_GT(r.total_length_mm, 0.8 * a.length());
   EXPECT_LT(r.total_length_mm, 1.15 * a.length());
   // ≥ 90 % of the skeleton within 1 mm (2 voxels) of the true centrelines (junction corners
-  // make the rest), and ≥ 90 % of the true centrelines within 1.5 mm of it (ring and branches found).
+  // make the rest), and ≥ 90 % of the true centrelines within 1.5 mm of it (ring and branches
+  // found).
   EXPECT_GE(share_near_truth(r.graph, a, 1.0), 0.9);
   EXPECT_GE(share_of_truth_found(r.graph, a, 1.5), 0.9);
   // 19 pieces meeting at 8 junctions: the graph has between 15 and 40 branches (spurs pruned,
@@ -145,7 +152,8 @@ TEST(AngiogramStandIns, WeakContrastIsExtractedWithAWarning) {
   const auto tube = [](float contrast) {
     ImageGeometry g;
     g.size = {72, 48, 48};
-    VolumeF image = tests::draw_tubes(g, {{{8, 24, 24}, {64, 24, 24}}}, 3.0, 200.0F + contrast, 200.0F);
+    VolumeF image =
+        tests::draw_tubes(g, {{{8, 24, 24}, {64, 24, 24}}}, 3.0, 200.0F + contrast, 200.0F);
     std::mt19937 rng(41);
     std::normal_distribution<float> noise(0.0F, 40.0F);
     for (float& v : image.data) v += noise(rng);
@@ -155,7 +163,8 @@ TEST(AngiogramStandIns, WeakContrastIsExtractedWithAWarning) {
   ASSERT_EQ(weak.status, VesselStatus::OK) << weak.message;
   EXPECT_EQ(weak.threshold_rule, "noise floor");
   ASSERT_FALSE(weak.warnings.empty());
-  EXPECT_NE(weak.warnings.front().find("weak vessel contrast"), std::string::npos) << weak.warnings.front();
+  EXPECT_NE(weak.warnings.front().find("weak vessel contrast"), std::string::npos)
+      << weak.warnings.front();
   EXPECT_EQ(weak.branch_count, 1);
   EXPECT_GT(weak.total_length_mm, 56.0 - 2 * 3.0);  // the axis less a radius at each end
   // With 140 above the tissue the half-maximum clears the noise floor: no warning.

@@ -11,19 +11,20 @@
 // i.e. VTK's image frame with the origin negated). The test checks this mapping on the image
 // itself: the VMTK points must sit in bright lumen voxels in our RAS frame.
 
+#include "synthetic_tubes.hpp"
+#include "tests/config.hpp"
+
+#include "core/logger.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/skeleton_io.hpp"
+#include "imaging/vessels/vessel_extraction.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <vector>
-
-#include "tests/config.hpp"
-#include "core/logger.hpp"
-#include "imaging/io/image_io.hpp"
-#include "imaging/io/skeleton_io.hpp"
-#include "imaging/vessels/vessel_extraction.hpp"
-#include "synthetic_tubes.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -85,7 +86,8 @@ struct Stats {
   double mean = 0, p95 = 0, max = 0;
   std::vector<double> values;
   double within_limit_fraction(double limit) const {
-    return double(std::count_if(values.begin(), values.end(), [&](double v) { return v <= limit; })) /
+    return double(
+               std::count_if(values.begin(), values.end(), [&](double v) { return v <= limit; })) /
            double(values.size());
   }
 };
@@ -147,8 +149,9 @@ TEST_F(AortaReference, SkeletonMatchesVmtkCenterline) {
   logger().warn("aorta: VMTK→ours mean {:.2f} p95 {:.2f} max {:.2f} mm, within 2 voxels {:.3f}",
                 vmtk_to_ours.mean, vmtk_to_ours.p95, vmtk_to_ours.max,
                 vmtk_to_ours.within_limit_fraction(2 * voxel));
-  logger().warn("aorta: ours (inside VMTK lumen, {:.0f} mm) → VMTK mean {:.2f} p95 {:.2f} max {:.2f} mm",
-                0.25 * double(inside.size()), ours_to_vmtk.mean, ours_to_vmtk.p95, ours_to_vmtk.max);
+  logger().warn(
+      "aorta: ours (inside VMTK lumen, {:.0f} mm) → VMTK mean {:.2f} p95 {:.2f} max {:.2f} mm",
+      0.25 * double(inside.size()), ours_to_vmtk.mean, ours_to_vmtk.p95, ours_to_vmtk.max);
   // Measured (Release, default options, vessel-contrast threshold 1090): VMTK→ours mean 0.58,
   // p95 1.18, max 2.00 mm, 98.7 % within 2 voxels; ours→VMTK inside its lumen mean 0.99, p95
   // 3.75 mm (side-branch stubs, see distances_within_lumen()). With the former tissue-peak rule:
@@ -198,10 +201,12 @@ TEST_F(AortaReference, BackgroundSuppressedUint8AortaGivesTheSameSkeleton) {
   const Stats from_original = stats(distances(original.graph, r.graph));
   const Stats vmtk_to_ours = stats(distances(vmtk, r.graph));
   constexpr double voxel = 0.878906;  // mm, in-plane spacing
-  logger().warn("suppressed aorta: → original mean {:.2f} p95 {:.2f} mm; original → it mean {:.2f} p95 {:.2f} mm; "
-                "VMTK → it mean {:.2f} p95 {:.2f} mm; lengths {:.0f} / {:.0f} mm",
-                to_original.mean, to_original.p95, from_original.mean, from_original.p95, vmtk_to_ours.mean,
-                vmtk_to_ours.p95, r.total_length_mm, original.total_length_mm);
+  logger().warn(
+      "suppressed aorta: → original mean {:.2f} p95 {:.2f} mm; original → it mean {:.2f} p95 "
+      "{:.2f} mm; "
+      "VMTK → it mean {:.2f} p95 {:.2f} mm; lengths {:.0f} / {:.0f} mm",
+      to_original.mean, to_original.p95, from_original.mean, from_original.p95, vmtk_to_ours.mean,
+      vmtk_to_ours.p95, r.total_length_mm, original.total_length_mm);
   // Measured (Release): → original mean 0.61, p95 2.61 mm; original → it mean 0.57, p95 2.17 mm;
   // lengths 845 / 837 mm. The differences are junction corners and branch ends that move by a
   // voxel or two (the pre-filter sees a zero background instead of tissue). Bounds: mean within

@@ -33,7 +33,8 @@ TEST(DistanceTransform, MatchesBruteForceWithAnisotropicSpacing) {
             for (int y = 0; y < g.size[1]; ++y)
               for (int x = 0; x < g.size[0]; ++x)
                 if (mask.at(x, y, z) == 0)
-                  best = std::min(best, g.spacing.cwiseProduct(Vector3d(x - i, y - j, z - k)).norm());
+                  best =
+                      std::min(best, g.spacing.cwiseProduct(Vector3d(x - i, y - j, z - k)).norm());
         }
         worst = std::max(worst, std::abs(best - double(d.at(i, j, k))));
       }

@@ -1,15 +1,15 @@
+#include "expect_error.hpp"
+#include "synthetic_tubes.hpp"
+
+#include "core/logger.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
-#include <algorithm>
 #include <random>
-
-#include "core/logger.hpp"
-#include "expect_error.hpp"
-#include "synthetic_tubes.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -80,9 +80,8 @@ TEST(VesselExtraction, ObliqueTubeOnAnAnisotropicGridIsCentred) {
 TEST(VesselExtraction, YShapedTubeHasOneJunctionAndThreeBranches) {
   const ImageGeometry g = unit_grid({80, 64, 24});
   const Vector3d junction(36, 32, 12);
-  const std::vector<AxisSegment> axes{{{6, 32, 12}, junction},
-                                      {junction, {72, 54, 12}},
-                                      {junction, {72, 10, 12}}};
+  const std::vector<AxisSegment> axes{
+      {{6, 32, 12}, junction}, {junction, {72, 54, 12}}, {junction, {72, 10, 12}}};
   constexpr double radius = 3.0;
   const VesselExtractionResult r = extract_vessels(draw_tubes(g, axes, radius), given_threshold());
   ASSERT_EQ(r.status, VesselStatus::OK) << r.message;
@@ -104,11 +103,12 @@ TEST(VesselExtraction, ShortBumpIsPrunedAsASpur) {
   const ImageGeometry g = unit_grid({64, 28, 28});
   const std::vector<AxisSegment> axis{{{6, 13, 14}, {58, 13, 14}}};
   // A bump on the wall at mid-length: a stub of radius 2 mm whose tip reaches 4 mm beyond the
-  // 4 mm wall, so its centreline spur (5 mm measured) is shorter than 2 × the junction radius (≈ 3.1 mm
-  // by the distance transform at the junction voxel).
+  // 4 mm wall, so its centreline spur (5 mm measured) is shorter than 2 × the junction radius
+  // (≈ 3.1 mm by the distance transform at the junction voxel).
   VolumeF image = draw_tubes(g, axis, 4.0);
   const VolumeF bump = draw_tubes(g, {{{32, 13, 14}, {32, 19, 14}}}, 2.0);
-  for (std::size_t v = 0; v < image.data.size(); ++v) image.data[v] = std::max(image.data[v], bump.data[v]);
+  for (std::size_t v = 0; v < image.data.size(); ++v)
+    image.data[v] = std::max(image.data[v], bump.data[v]);
 
   VesselExtractionOptions keep_all = given_threshold();
   keep_all.spurs = {0.0, 0.0};
@@ -129,7 +129,8 @@ TEST(VesselExtraction, EmptyInputsGiveAnEmptyGraphWithAReason) {
   EXPECT_NE(constant.message.find("no tubular structure"), std::string::npos) << constant.message;
   VesselExtractionOptions histogram;
   histogram.threshold_method = ThresholdMethod::OTSU;
-  const VesselExtractionResult flat = extract_vessels(VolumeF(unit_grid({8, 8, 8}), 1, 5.0f), histogram);
+  const VesselExtractionResult flat =
+      extract_vessels(VolumeF(unit_grid({8, 8, 8}), 1, 5.0f), histogram);
   EXPECT_NE(flat.message.find("fewer than two distinct"), std::string::npos) << flat.message;
   EXPECT_TRUE(constant.graph.branches.empty());
 
@@ -182,11 +183,13 @@ TEST(VesselExtraction, TissuePeakThresholdSeparatesNoisyBackgroundFromVessels) {
   const VesselExtractionResult c = extract_vessels(image);
   ASSERT_EQ(c.status, VesselStatus::OK) << c.message;
   EXPECT_EQ(c.threshold_rule, "vessel contrast");
-  EXPECT_NEAR(c.threshold, 650.0, 100.0) << c.message;  // vessel level taken from voxels near the axis
+  EXPECT_NEAR(c.threshold, 650.0, 100.0)
+      << c.message;  // vessel level taken from voxels near the axis
   EXPECT_EQ(c.branch_count, 1);
   // The noise floor (median + 8 σ̂ of the tissue, σ̂ scaled by the pre-filter's white-noise
   // gain ≈ 0.3) and the tissue-peak rule land close together; either may win.
-  EXPECT_TRUE(r.threshold_rule == "tissue peak" || r.threshold_rule == "noise floor") << r.threshold_rule;
+  EXPECT_TRUE(r.threshold_rule == "tissue peak" || r.threshold_rule == "noise floor")
+      << r.threshold_rule;
   // tail_fraction 0.02 puts the threshold where a Gaussian peak falls to 2 %: mode + 2.8σ
   // = 270; the ≈ 0.3 % of tissue voxels above it are specks the minimum component size
   // removes (one branch below). Bounds: above mode + 2σ, below the vessels (≈ 1100 ± 75).
@@ -201,7 +204,8 @@ TEST(VesselExtraction, TissuePeakThresholdSeparatesNoisyBackgroundFromVessels) {
 TEST(VesselExtraction, SkeletonFormHasOneSegmentPerPolylineStep) {
   const ImageGeometry g = unit_grid({80, 64, 24});
   const Vector3d j(36, 32, 12);
-  const VolumeF image = draw_tubes(g, {{{6, 32, 12}, j}, {j, {72, 54, 12}}, {j, {72, 10, 12}}}, 3.0);
+  const VolumeF image =
+      draw_tubes(g, {{{6, 32, 12}, j}, {j, {72, 54, 12}}, {j, {72, 10, 12}}}, 3.0);
   VesselExtractionOptions options;
   options.threshold = 500.0;
   const VesselExtractionResult r = extract_vessels(image, options);
@@ -221,10 +225,16 @@ TEST(VesselExtraction, SkeletonFormHasOneSegmentPerPolylineStep) {
 TEST(VesselExtraction, InvalidOptionsAndVectorVolumesAreErrors) {
   VesselExtractionOptions bad;
   bad.resample_step_mm = -1.0;
-  tests::expect_error([&] { extract_vessels(VolumeF(unit_grid({4, 4, 4})), bad); },
-                      {"resample_step_mm"});
-  tests::expect_error([&] { extract_vessels(VolumeF(unit_grid({4, 4, 4}), 3)); },
-                      {"one-component"});
+  tests::expect_error(
+      [&] {
+        extract_vessels(VolumeF(unit_grid({4, 4, 4})), bad);
+      },
+      {"resample_step_mm"});
+  tests::expect_error(
+      [&] {
+        extract_vessels(VolumeF(unit_grid({4, 4, 4}), 3));
+      },
+      {"one-component"});
 }
 
 TEST(VesselExtraction, A256CubedVolumeWithEightCrossingTubesGivesTheirBranches) {
@@ -241,7 +251,6 @@ TEST(VesselExtraction, A256CubedVolumeWithEightCrossingTubesGivesTheirBranches) 
   ASSERT_EQ(r.status, VesselStatus::OK) << r.message;
   EXPECT_GE(r.branch_count, 8);  // 8 tubes; crossings add junctions and split branches
 }
-
 
 /// A power-Doppler-like volume (0.8 mm voxels, values in [0, 255]) of tubes of the given radius:
 /// 255 × (tube indicator) × gamma speckle of the given shape + |N(0, clutter)|, plus `blobs`
@@ -263,7 +272,8 @@ VolumeF doppler_like(const std::vector<AxisSegment>& axes, double radius, double
         for (int i = 0; i < g.size[0]; ++i) {
           const double d2 = (g.index_to_world(Vector3d(i, j, k)) - c).squaredNorm();
           if (d2 < 9 * sigma * sigma)
-            image.at(i, j, k) = std::max(image.at(i, j, k), float(amplitude * std::exp(-0.5 * d2 / (sigma * sigma))));
+            image.at(i, j, k) = std::max(image.at(i, j, k),
+                                         float(amplitude * std::exp(-0.5 * d2 / (sigma * sigma))));
         }
   }
   std::gamma_distribution<double> speckle(speckle_shape, 1.0 / speckle_shape);
@@ -273,7 +283,8 @@ VolumeF doppler_like(const std::vector<AxisSegment>& axes, double radius, double
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i)
-        if ((g.index_to_world(Vector3d(i, j, k)).array() > Eigen::Array3d(88, 72, 48)).any()) image.at(i, j, k) = 0.0f;
+        if ((g.index_to_world(Vector3d(i, j, k)).array() > Eigen::Array3d(88, 72, 48)).any())
+          image.at(i, j, k) = 0.0f;
   return image;
 }
 
@@ -281,7 +292,8 @@ VolumeF doppler_like(const std::vector<AxisSegment>& axes, double radius, double
 double fraction_near(const VesselGraph& graph, const VesselGraph& other, double tolerance) {
   std::vector<AxisSegment> segments;
   for (const auto& b : other.branches)
-    for (std::size_t i = 1; i < b.points.size(); ++i) segments.push_back({b.points[i - 1], b.points[i]});
+    for (std::size_t i = 1; i < b.points.size(); ++i)
+      segments.push_back({b.points[i - 1], b.points[i]});
   std::size_t near = 0, total = 0;
   for (const auto& b : graph.branches)
     for (const auto& p : b.points) {
@@ -296,12 +308,12 @@ TEST(VesselExtraction, NoisyDopplerGivesTheCleanCentrelines) {
   // of a 1–1.5 mm vessel). Clean: speckle shape 4, clutter σ 3 (the phantom's standard Doppler).
   // Noisy: speckle shape 1.5, clutter σ 12, 25 blobs, two gaps (the noisy_doppler case).
   const Vector3d j1(40, 36, 24), j2(62, 30, 26);
-  const std::vector<AxisSegment> tree{{{8, 40, 22}, j1}, {j1, j2}, {j2, {84, 14, 30}},
-                                      {j2, {82, 50, 20}}, {j1, {30, 64, 30}},
-                                      {{20, 10, 40}, {80, 66, 40}}};
+  const std::vector<AxisSegment> tree{{{8, 40, 22}, j1},  {j1, j2},
+                                      {j2, {84, 14, 30}}, {j2, {82, 50, 20}},
+                                      {j1, {30, 64, 30}}, {{20, 10, 40}, {80, 66, 40}}};
   std::vector<AxisSegment> with_gaps = tree;
   with_gaps[2] = {j2, j2 + 0.5 * (Vector3d(84, 14, 30) - j2)};  // the far half missing
-  with_gaps[5] = {{20, 10, 40}, {44, 32.4, 40}};                 // and a 20 mm stretch
+  with_gaps[5] = {{20, 10, 40}, {44, 32.4, 40}};                // and a 20 mm stretch
   with_gaps.push_back({{62, 47.2, 40}, {80, 66, 40}});
   const VolumeF clean_image = doppler_like(tree, 2.0, 4.0, 3.0, 4, 11);
   const VolumeF noisy_image = doppler_like(with_gaps, 2.0, 1.5, 12.0, 25, 12);

@@ -1,3 +1,7 @@
+#include "expect_error.hpp"
+#include "tolerance.hpp"
+
+#include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/warping/warp_image.hpp"
 
 #include <gtest/gtest.h>
@@ -6,10 +10,6 @@
 #include <functional>
 #include <limits>
 #include <optional>
-
-#include "data_synth/geometry/structured_mesh.hpp"
-#include "expect_error.hpp"
-#include "tolerance.hpp"
 
 namespace brainshift::imaging {
 namespace {
@@ -36,13 +36,15 @@ VolumeF make_image(const ImageGeometry& g, const std::function<double(const Vect
   VolumeF v(g);
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
-      for (int i = 0; i < g.size[0]; ++i) v.at(i, j, k) = float(f(g.index_to_world(Vector3d(i, j, k))));
+      for (int i = 0; i < g.size[0]; ++i)
+        v.at(i, j, k) = float(f(g.index_to_world(Vector3d(i, j, k))));
   return v;
 }
 
 /// A box mesh around the world origin, well inside both test grids (≈ 24 × 24 × 20 mm).
 core::TetMesh test_box() {
-  return data_synth::make_box_mesh(Vector3d(24, 24, 20), Eigen::Vector3i(4, 4, 3), Vector3d(-12, -12, -10));
+  return data_synth::make_box_mesh(Vector3d(24, 24, 20), Eigen::Vector3i(4, 4, 3),
+                                   Vector3d(-12, -12, -10));
 }
 
 bool inside_box(const Vector3d& X, double margin) {
@@ -60,12 +62,15 @@ TEST(WarpImage, IdentityDisplacementReproducesTheImage) {
   for (bool rotated : {false, true}) {
     SCOPED_TRACE(rotated ? "rotated direction" : "identity direction");
     const ImageGeometry g = test_grid(rotated);
-    const VolumeF in = make_image(g, [](const Vector3d& p) { return 100.0 + 50.0 * std::sin(0.3 * p.x()) * std::cos(0.2 * p.y() + 0.1 * p.z()); });
+    const VolumeF in = make_image(g, [](const Vector3d& p) {
+      return 100.0 + 50.0 * std::sin(0.3 * p.x()) * std::cos(0.2 * p.y() + 0.1 * p.z());
+    });
     const core::TetMesh mesh = test_box();
     const VolumeF out = warp_image(in, mesh, MatrixX3d::Zero(mesh.num_nodes(), 3));
     ASSERT_EQ(out.data.size(), in.data.size());
     double worst = 0.0;
-    for (std::size_t v = 0; v < in.data.size(); ++v) worst = std::max(worst, double(std::abs(out.data[v] - in.data[v])));
+    for (std::size_t v = 0; v < in.data.size(); ++v)
+      worst = std::max(worst, double(std::abs(out.data[v] - in.data[v])));
     // At voxel centres the interpolation weights are 0/1 up to rounding of the index maps
     // (≈ 1e-13), so the value is exact within a float ulp of the largest value (150).
     EXPECT_LE(worst, 150.0 * FLOAT_EPS);
@@ -76,7 +81,9 @@ TEST(WarpImage, TranslationMovesASmoothBlob) {
   const ImageGeometry g = test_grid(/*rotated=*/true);
   const Vector3d centre(2.0, -1.0, 1.5), d(3.0, -2.0, 5.0);
   const double sigma = 6.0;  // mm
-  const auto blob = [&](const Vector3d& p) { return std::exp(-(p - centre).squaredNorm() / (2 * sigma * sigma)); };
+  const auto blob = [&](const Vector3d& p) {
+    return std::exp(-(p - centre).squaredNorm() / (2 * sigma * sigma));
+  };
   const VolumeF in = make_image(g, blob);
   const core::TetMesh mesh = test_box();
   const MatrixX3d u = d.transpose().replicate(mesh.num_nodes(), 1);
@@ -108,7 +115,8 @@ TEST(WarpImage, AffineDeformationOfALinearImageIsExact) {
   A << 0.05, -0.02, 0.03, 0.01, -0.04, 0.02, -0.03, 0.02, 0.06;
   const Vector3d b(1.0, -0.5, 2.0);
   MatrixX3d u(mesh.num_nodes(), 3);
-  for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) = (A * mesh.nodes().row(n).transpose() + b).transpose();
+  for (index_t n = 0; n < mesh.num_nodes(); ++n)
+    u.row(n) = (A * mesh.nodes().row(n).transpose() + b).transpose();
   const VolumeF out = warp_image(in, mesh, u);
   const Matrix3d F_inv = (Matrix3d::Identity() + A).inverse();
   int checked = 0;
@@ -134,7 +142,8 @@ TEST(WarpImage, OutsideTheMeshOnlyTheRigidPartApplies) {
   const auto ramp = [&](const Vector3d& p) { return 50.0 + gradient.dot(p); };
   const VolumeF in = make_image(g, ramp);
   const core::TetMesh mesh = test_box();
-  Eigen::Affine3d T = Eigen::Translation3d(1.5, -1.0, 0.5) * Eigen::AngleAxisd(0.15, Vector3d::UnitZ());
+  Eigen::Affine3d T =
+      Eigen::Translation3d(1.5, -1.0, 0.5) * Eigen::AngleAxisd(0.15, Vector3d::UnitZ());
   WarpOptions options;
   options.rigid = T.matrix();
   // The mesh is translated (a non-rigid-part motion); only voxels outside it see T.
@@ -174,7 +183,8 @@ TEST(DisplacementField, IsTheTranslationInsideTheMeshAndRigidOutside) {
   const Vector3d d(3.0, -2.0, 5.0);
   const MatrixX3d u = d.transpose().replicate(mesh.num_nodes(), 1);
   DisplacementFieldOptions options;
-  const Eigen::Affine3d T = Eigen::Translation3d(0.5, 0.0, -1.0) * Eigen::AngleAxisd(0.1, Vector3d::UnitX());
+  const Eigen::Affine3d T =
+      Eigen::Translation3d(0.5, 0.0, -1.0) * Eigen::AngleAxisd(0.1, Vector3d::UnitX());
   options.rigid = T.matrix();
   const VolumeF field = displacement_field(mesh, u, g, options);
   ASSERT_EQ(field.components, 3);
@@ -202,7 +212,9 @@ struct AffineCase {
   Matrix3d A;
   Vector3d b;
   MatrixX3d u;
-  [[nodiscard]] Vector3d inverse(const Vector3d& y) const { return (Matrix3d::Identity() + A).inverse() * (y - b); }
+  [[nodiscard]] Vector3d inverse(const Vector3d& y) const {
+    return (Matrix3d::Identity() + A).inverse() * (y - b);
+  }
 };
 
 AffineCase affine_case(const core::TetMesh& mesh) {
@@ -222,7 +234,8 @@ Vector3d field_at(const VolumeF& f, int i, int j, int k) {
 TEST(InverseDisplacementField, IsTheExactInverseInsideTheDeformedMeshAndRigidOutside) {
   const core::TetMesh mesh = test_box();
   const AffineCase c = affine_case(mesh);
-  const Eigen::Affine3d T = Eigen::Translation3d(0.5, 0.0, -1.0) * Eigen::AngleAxisd(0.1, Vector3d::UnitX());
+  const Eigen::Affine3d T =
+      Eigen::Translation3d(0.5, 0.0, -1.0) * Eigen::AngleAxisd(0.1, Vector3d::UnitX());
   DisplacementFieldOptions options;
   options.rigid = T.matrix();
   for (bool rotated : {false, true}) {
@@ -261,7 +274,8 @@ TEST(InverseDisplacementField, ComposedWithTheForwardFieldGivesTheIdentity) {
   MatrixX3d u(mesh.num_nodes(), 3);
   for (index_t n = 0; n < mesh.num_nodes(); ++n) {
     const Vector3d X = mesh.nodes().row(n).transpose();
-    u.row(n) = Eigen::RowVector3d(1.5 * std::sin(0.2 * X.y()), 0.8 * std::cos(0.15 * X.z()), 0.05 * X.x() * X.y() / 10);
+    u.row(n) = Eigen::RowVector3d(1.5 * std::sin(0.2 * X.y()), 0.8 * std::cos(0.15 * X.z()),
+                                  0.05 * X.x() * X.y() / 10);
   }
   const ImageGeometry g = test_grid(/*rotated=*/true);
   // A rigid part far away: voxels outside the deformed mesh map 100 mm off, outside the box.
@@ -272,7 +286,9 @@ TEST(InverseDisplacementField, ComposedWithTheForwardFieldGivesTheIdentity) {
   const auto phi = [&](const Vector3d& X) -> std::optional<Vector3d> {
     for (index_t t = 0; t < mesh.num_tets(); ++t) {
       Matrix3d E;
-      const auto node = [&](int a) { return Vector3d(mesh.nodes().row(mesh.tets()(t, a)).transpose()); };
+      const auto node = [&](int a) {
+        return Vector3d(mesh.nodes().row(mesh.tets()(t, a)).transpose());
+      };
       E << node(1) - node(0), node(2) - node(0), node(3) - node(0);
       const Vector3d l = E.inverse() * (X - node(0));
       const Vector4d lambda(1.0 - l.sum(), l[0], l[1], l[2]);
@@ -306,7 +322,8 @@ TEST(DisplacementFields, TheExtensionContinuesTheMeshMapBeyondItsSurface) {
   const AffineCase c = affine_case(mesh);
   const ImageGeometry g = test_grid(/*rotated=*/true);
   DisplacementFieldOptions options;
-  options.rigid = Eigen::Affine3d(Eigen::Translation3d(4.0, 0.0, 0.0)).matrix();  // far from the mesh map
+  options.rigid =
+      Eigen::Affine3d(Eigen::Translation3d(4.0, 0.0, 0.0)).matrix();  // far from the mesh map
   options.extension_mm = trilinear_support_mm(g);
   EXPECT_NEAR(options.extension_mm, g.spacing.norm(), 1e-12);
   const VolumeF forward = displacement_field(mesh, c.u, g, options);
@@ -337,7 +354,8 @@ TEST(DisplacementFields, TheExtensionContinuesTheMeshMapBeyondItsSurface) {
           ++ring_inverse;
         }
         if (!inside_box(p, -2.0 * options.extension_mm - 1.0)) {  // well beyond: rigid part
-          worst_far = std::max(worst_far, (field_at(forward, i, j, k) - Vector3d(4.0, 0.0, 0.0)).norm());
+          worst_far =
+              std::max(worst_far, (field_at(forward, i, j, k) - Vector3d(4.0, 0.0, 0.0)).norm());
           ++far;
         }
       }
@@ -356,10 +374,12 @@ TEST(DisplacementFields, OnePassEqualsTheTwoSeparateFieldsVoxelForVoxel) {
   // float operations), for a non-affine displacement, a rotated grid, 1 and 3 threads.
   const core::TetMesh mesh = test_box();
   MatrixX3d u = affine_case(mesh).u;
-  for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) += 0.3 * mesh.nodes().row(n).array().sin().matrix();
+  for (index_t n = 0; n < mesh.num_nodes(); ++n)
+    u.row(n) += 0.3 * mesh.nodes().row(n).array().sin().matrix();
   const ImageGeometry g = test_grid(/*rotated=*/true);
   DisplacementFieldOptions options;
-  options.rigid = (Eigen::Translation3d(2.0, -1.0, 0.5) * Eigen::AngleAxisd(0.05, Vector3d::UnitZ())).matrix();
+  options.rigid =
+      (Eigen::Translation3d(2.0, -1.0, 0.5) * Eigen::AngleAxisd(0.05, Vector3d::UnitZ())).matrix();
   for (const int threads : {1, 3}) {
     SCOPED_TRACE("threads " + std::to_string(threads));
     options.threads = threads;
@@ -398,7 +418,8 @@ TEST(CoveringGrid, CoversThePointsOnTheVoxelLatticeOfTheModel) {
     const Vector3d ijk = g.world_to_index(points.row(r).transpose());
     // Inside the grid with the margin (2 mm ≥ 2 / 1.3 voxels along every axis here).
     EXPECT_TRUE((ijk.array() >= 2.0 / like.spacing.array() - 1e-9).all()) << ijk.transpose();
-    EXPECT_TRUE((ijk.array() <= (g.size.cast<double>() - Vector3d::Ones()).array() - 2.0 / like.spacing.array() + 1e-9)
+    EXPECT_TRUE((ijk.array() <= (g.size.cast<double>() - Vector3d::Ones()).array() -
+                                    2.0 / like.spacing.array() + 1e-9)
                     .all())
         << ijk.transpose();
   }
@@ -412,7 +433,8 @@ TEST(WarpImage, RejectsBadInput) {
   const core::TetMesh mesh = test_box();
   const VolumeF in(test_grid(false));
   expect_error([&] { (void)warp_image(in, mesh, MatrixX3d::Zero(3, 3)); }, {"3 rows", "nodes"});
-  expect_error([&] { (void)warp_image(VolumeF{}, mesh, MatrixX3d::Zero(mesh.num_nodes(), 3)); }, {"empty"});
+  expect_error([&] { (void)warp_image(VolumeF{}, mesh, MatrixX3d::Zero(mesh.num_nodes(), 3)); },
+               {"empty"});
   MatrixX3d nan = MatrixX3d::Zero(mesh.num_nodes(), 3);
   nan(2, 1) = std::nan("");
   expect_error([&] { (void)displacement_field(mesh, nan, test_grid(false)); }, {"NaN"});
@@ -431,13 +453,15 @@ TEST(WarpImage, Warps256CubedVoxels) {
   for (std::size_t v = 0; v < in.data.size(); ++v) in.data[v] = float(v % 1000);
   const core::TetMesh mesh = data_synth::make_ellipsoid_mesh(Vector3d(70, 85, 60), /*cells=*/12);
   MatrixX3d u(mesh.num_nodes(), 3);
-  for (index_t n = 0; n < mesh.num_nodes(); ++n) u.row(n) = 0.05 * mesh.nodes().row(n) + Eigen::RowVector3d(1, 2, -1);
+  for (index_t n = 0; n < mesh.num_nodes(); ++n)
+    u.row(n) = 0.05 * mesh.nodes().row(n) + Eigen::RowVector3d(1, 2, -1);
   const VolumeF out = warp_image(in, mesh, u);
   ASSERT_EQ(out.data.size(), in.data.size());
   EXPECT_EQ(out.geometry.size, g.size);
   for (const int c : {0, 255})
     for (const int b : {0, 255})
-      for (const int a : {0, 255}) EXPECT_EQ(out.at(a, b, c), in.at(a, b, c));  // ≥ 60 mm outside the mesh
+      for (const int a : {0, 255})
+        EXPECT_EQ(out.at(a, b, c), in.at(a, b, c));  // ≥ 60 mm outside the mesh
   // Inside the mesh the image moves: some voxel near the centre changes.
   int changed = 0;
   for (int i = 118; i < 138; ++i) changed += out.at(i, 128, 128) != in.at(i, 128, 128);
