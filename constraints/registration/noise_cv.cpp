@@ -81,30 +81,15 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
                   std::to_string(by_block.size()) + " blocks, too few to cross-validate";
     return est;
   }
-  for (index_t r : use)
-    if (r < 0 || r >= W.rows()) {
-      est.message = "noise model: vessel row index out of range";
-      return est;
-    }
-  Eigen::MatrixXd Wv(m, m);
-  Eigen::VectorXd y(m);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    y[a] = delta_free[use[static_cast<std::size_t>(a)]];
-    for (Eigen::Index b = 0; b < m; ++b)
-      Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
-  }
-  if (!Wv.allFinite() || !y.allFinite()) {
-    est.message = "noise model: non-finite system";
+  detail::VesselSpectrum sp;
+  if (std::string why = detail::vessel_spectrum(W, delta_free, use, sp); !why.empty()) {
+    est.message = "noise model: " + why;
     return est;
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Wv);
-  if (es.info() != Eigen::Success) {
-    est.message = "noise model: eigendecomposition failed";
-    return est;
-  }
-  const Eigen::VectorXd lam = es.eigenvalues().cwiseMax(0.0);
-  const Eigen::MatrixXd& Q = es.eigenvectors();
-  const Eigen::VectorXd z2 = (Q.transpose() * y).array().square();
+  const Eigen::VectorXd& y = sp.y;
+  const Eigen::VectorXd& lam = sp.lam;
+  const Eigen::MatrixXd& Q = sp.Q;
+  const Eigen::VectorXd& z2 = sp.z2;
   std::vector<std::vector<Eigen::Index>> blocks;
   blocks.reserve(by_block.size());
   for (auto& [id, rows] : by_block) blocks.push_back(std::move(rows));

@@ -37,24 +37,13 @@ NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::Vecto
         "noise model: " + std::to_string(m) + " vessel rows, too few to estimate the scatter";
     return est;
   }
-  Eigen::MatrixXd Wv(m, m);
-  Eigen::VectorXd y(m);
-  for (Eigen::Index a = 0; a < m; ++a) {
-    y[a] = delta_free[use[static_cast<std::size_t>(a)]];
-    for (Eigen::Index b = 0; b < m; ++b)
-      Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
-  }
-  if (!Wv.allFinite() || !y.allFinite()) {
-    est.message = "noise model: non-finite system";
+  detail::VesselSpectrum sp;
+  if (std::string why = detail::vessel_spectrum(W, delta_free, use, sp); !why.empty()) {
+    est.message = "noise model: " + why;
     return est;
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Wv);
-  if (es.info() != Eigen::Success) {
-    est.message = "noise model: eigendecomposition failed";
-    return est;
-  }
-  const Eigen::VectorXd lam = es.eigenvalues().cwiseMax(0.0);
-  const Eigen::VectorXd z2 = (es.eigenvectors().transpose() * y).array().square();
+  const Eigen::VectorXd& lam = sp.lam;
+  const Eigen::VectorXd& z2 = sp.z2;
   double best = std::numeric_limits<double>::infinity();
   for (int k = 0; k < options.grid; ++k) {
     const double ratio = options.min_ratio * std::pow(options.max_ratio / options.min_ratio,
@@ -83,5 +72,31 @@ NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::Vecto
   est.message = buf;
   return est;
 }
+
+namespace detail {
+
+std::string vessel_spectrum(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
+                            const std::vector<index_t>& use, VesselSpectrum& out) {
+  for (index_t r : use)
+    if (r < 0 || r >= W.rows() || r >= delta_free.size()) return "vessel row index out of range";
+  const auto m = static_cast<Eigen::Index>(use.size());
+  Eigen::MatrixXd Wv(m, m);
+  Eigen::VectorXd& y = out.y;
+  y.resize(m);
+  for (Eigen::Index a = 0; a < m; ++a) {
+    y[a] = delta_free[use[static_cast<std::size_t>(a)]];
+    for (Eigen::Index b = 0; b < m; ++b)
+      Wv(a, b) = W(use[static_cast<std::size_t>(a)], use[static_cast<std::size_t>(b)]);
+  }
+  if (!Wv.allFinite() || !y.allFinite()) return "non-finite system";
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(Wv);
+  if (es.info() != Eigen::Success) return "eigendecomposition failed";
+  out.lam = es.eigenvalues().cwiseMax(0.0);
+  out.Q = es.eigenvectors();
+  out.z2 = (out.Q.transpose() * y).array().square();
+  return "";
+}
+
+}  // namespace detail
 
 }  // namespace brainshift::constraints

@@ -127,4 +127,20 @@ Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::
                                     const std::vector<std::vector<Eigen::Index>>& blocks,
                                     double eps);
 
+namespace detail {
+/// The vessel rows' part of a step in the eigenbasis of its Delassus block, shared by GCV and
+/// the block cross-validation: W_v = Q diag(lam) Qᵀ (lam clamped at 0), z2 = (Qᵀ y)², y the
+/// rows' δ_free (mm).
+struct VesselSpectrum {
+  Eigen::VectorXd y;
+  Eigen::VectorXd lam;
+  Eigen::MatrixXd Q;
+  Eigen::VectorXd z2;
+};
+/// Fills `out` from the rows `use` of W and delta_free. Returns "" on success, otherwise the
+/// one-line reason (an index out of range, a non-finite system, a failed decomposition).
+std::string vessel_spectrum(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
+                            const std::vector<index_t>& use, VesselSpectrum& out);
+}  // namespace detail
+
 }  // namespace brainshift::constraints
