@@ -33,6 +33,11 @@ compliance at its minimum, the default) it is positive on 8 of 12 cases (up to 0
 resection), so the recorded shortfall is what the suite keeps from growing. The 0.1 mm is about four
 times the largest run-to-run spread measured on our mean TRE (0.023 mm); rigid-only does not use the
 mesh and does not vary.
+
+Known bimodal case: deep_tumour_one_side_vessels. Its block-CV curve has two minima of nearly the
+same height (ratio 0.03: 1.92 mm; ratio 27, nearly rigid: 3.13 mm) and the mesh decides which wins
+(6 of 7 runs vs 1 of 7 on 2026-12-02). Its entry in thresholds.json was set by hand from the worse
+mode (see its `_note`); re-set it that way when re-recording, until issue 14 makes the choice stable.
 """
 import argparse
 import json
