@@ -115,7 +115,9 @@ StepOptions RegistrationOptions::default_step() {
 
 GlobalStartOptions RegistrationOptions::default_global_start() {
   GlobalStartOptions g;
-  g.bulk_response = false;
+  // With the block CV (noise.enabled) the start must be rigid only, so that "no deformation" is
+  // the rigid answer; the default loop (fixed vessel ratio) keeps the bulk response.
+  g.bulk_response = true;
   return g;
 }
 

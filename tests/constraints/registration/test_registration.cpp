@@ -47,13 +47,7 @@ TEST(Registration, RecoversASmoothSagFromNoisyVesselPoints) {
             << "\n";
   EXPECT_TRUE(r.converged) << r.stop_reason;
   EXPECT_GT(before.first, 3.0);  // the case has a real shift
-  // Issue 4 asked ≤ 0.5 mm of the loop with exact-ish rows (ratio 0.2: 0.42 mm). The vessel
-  // compliance is now chosen by leave-one-branch-out cross-validation (issue 14), which on this
-  // scene's 6 branches lands at ratio 0.03-0.04 and 0.49-0.57 mm depending on the selection rule;
-  // the same rule is worth 0.1-1.2 mm on the phantoms' independent truth (docs/BENCHMARKS.md).
-  // The scene is analytic (no CGAL mesh), so the figure is reproducible; 0.6 mm is that worst
-  // measured figure plus float noise, still a sevenfold reduction of the 4.1 mm before.
-  EXPECT_LE(after.first, 0.6);
+  EXPECT_LE(after.first, 0.5);   // issue 4: landmark error ≤ 0.5 mm
 }
 
 TEST(Registration, ThirtyPercentOutliersAreFiltered) {

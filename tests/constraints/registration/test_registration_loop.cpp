@@ -67,13 +67,15 @@ TEST(RegistrationLoop, FreeThenSmoothStagesEachRecordedInTheHistory) {
 }
 
 TEST(RegistrationLoop, BlockCrossValidationChoosesTheCompliancePerBranch) {
-  // The default noise model: block CV over the skeleton's branches, run after the FREE stage.
+  // The noise model (block CV over the skeleton's branches, run after the FREE stage; off by
+  // default, from a rigid-only start when on).
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
   RegistrationOptions o = options();
   o.shift_search.enabled = false;
-  ASSERT_TRUE(o.noise.enabled);
+  o.noise.enabled = true;
+  o.global_start.bulk_response = false;
   ASSERT_EQ(o.noise.criterion, NoiseCriterion::BLOCK_CV);
   const RegistrationResult r = register_model(*s.model, d, o);
   ASSERT_TRUE(r.converged) << r.stop_reason;
@@ -96,6 +98,8 @@ TEST(RegistrationLoop, ANonFiniteStepInTheSmoothingStageEndsDiverged) {
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
   RegistrationOptions o = options();
   o.shift_search.enabled = false;
+  o.noise.enabled = true;  // the block-CV SMOOTH stage (off by default), from a rigid-only start
+  o.global_start.bulk_response = false;
   o.noise.change_factor = 1.0;     // always smooth at the chosen compliance
   o.noise.consider_start = false;  // a SMOOTH stage with iterations, not the start kept
   const RegistrationResult clean = register_model(*s.model, d, o);
