@@ -111,8 +111,8 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
   const auto pct = imaging::percent_shift_corrected(before.mean, after.mean);
   j["shift_corrected_pct"] = pct ? nlohmann::json(*pct) : nlohmann::json(nullptr);
   if (args.surface_pre) {
-    constraints::SurfaceMesh s_pre = imaging::read_surface_vtp(*args.surface_pre);
-    const constraints::SurfaceMesh s_intra = imaging::read_surface_vtp(*args.surface_intra);
+    core::SurfaceMesh s_pre = imaging::read_surface_vtp(*args.surface_pre);
+    const core::SurfaceMesh s_intra = imaging::read_surface_vtp(*args.surface_intra);
     j["surface_before_mm"] = surface_json(imaging::hausdorff_percentiles(s_pre, s_intra));
     s_pre.vertices = moved(field, s_pre.vertices);
     j["surface_after_mm"] = surface_json(imaging::hausdorff_percentiles(s_pre, s_intra));

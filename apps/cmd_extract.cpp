@@ -136,7 +136,7 @@ int run_extract_vessels(const ExtractVesselsArgs& args, std::ostream& out) {
   BS_VERIFY(r.status == imaging::VesselStatus::OK,
             file << ": no vessels found (" << r.message << ")");
 
-  const constraints::Skeleton skeleton = imaging::to_skeleton(r.graph);
+  const core::Skeleton skeleton = imaging::to_skeleton(r.graph);
   std::vector<std::string> warnings = r.warnings;
   const auto json_or_null = [](double x) {
     return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);

@@ -5,7 +5,7 @@
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
-#include "imaging/io/compliance_cache.hpp"
+#include "apps/workflow/compliance_cache.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
@@ -84,7 +84,7 @@ nlohmann::json materials_json(const imaging::MeshingOptions& o,
 }
 
 /// Σ a · (b × c) / 6 over the triangles: the enclosed volume, mL (mm³ / 1000) for outward normals.
-double enclosed_ml(const constraints::SurfaceMesh& s) {
+double enclosed_ml(const core::SurfaceMesh& s) {
   double v = 0.0;
   for (index_t f = 0; f < s.triangles.rows(); ++f) {
     const Vector3d a = s.vertices.row(s.triangles(f, 0)), b = s.vertices.row(s.triangles(f, 1)),
@@ -272,7 +272,7 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
   surface_options.target_vertices = args.surface_vertices;
   const imaging::CollisionSurface collision =
       imaging::make_collision_surface(mesh, outer, surface_options);
-  const constraints::SurfaceMesh& surface = collision.surface;
+  const core::SurfaceMesh& surface = collision.surface;
   const double t_surface =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t_surface_start).count();
   if (collision.wrapped)
@@ -375,7 +375,7 @@ int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink
                             {"block_nodes", op.block_nodes().size()},
                             {"seconds", model.seconds_prepare()}};
     if (op.strategy() == constraints::ComplianceStrategy::DENSE_BLOCK) {
-      imaging::write_compliance_cache(dir / compliance_cache_file, op.block());
+      workflow::write_compliance_cache(dir / compliance_cache_file, op.block());
       cache["file"] = compliance_cache_file;
       cache["bytes"] = std::filesystem::file_size(dir / compliance_cache_file);
     }

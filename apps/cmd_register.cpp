@@ -8,7 +8,7 @@
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "imaging/io/atomic_write.hpp"
-#include "imaging/io/compliance_cache.hpp"
+#include "apps/workflow/compliance_cache.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
@@ -68,7 +68,7 @@ Session open_session(const std::filesystem::path& model_dir) {
       std::filesystem::exists(cache)) {
     try {
       compliance.precomputed = std::make_shared<const constraints::ComplianceBlock>(
-          imaging::read_compliance_cache(cache));
+          workflow::read_compliance_cache(cache));
     } catch (const Error& e) {
       cache_problem = e.what();
       logger().warn("{}; the compliance block will be recomputed", cache_problem);

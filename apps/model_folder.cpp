@@ -97,7 +97,7 @@ LoadedModel load_model(const std::filesystem::path& dir) {
   } catch (const nlohmann::json::exception& e) {
     BS_VERIFY(false, manifest_path.string() << ": bad 'preop_grid' (" << e.what() << ")");
   }
-  m.scene = imaging::read_scene(dir / "scene.json");
+  m.scene = workflow::read_scene(dir / "scene.json");
   return m;
 }
 

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// @brief The MODEL folder written by `brainshift prepare` and read by `register` / `replay`:
-///   scene.json      the registration scene (imaging/io/scene_io.hpp): names the files below
+///   scene.json      the registration scene (apps/workflow/scene_io.hpp): names the files below
 ///   mesh.vtu        tetrahedral mesh with per-element materials (mm, RAS)
 ///   surface.vtp     decimated collision surface (≈300 vertices; closed 2-manifold, also where the
 ///                   mesh boundary is not: then its alpha wrap is decimated)
@@ -9,7 +9,7 @@
 ///                   points up to 5 mm outside moved onto it, farther ones dropped
 ///   fixed.csv       fixed nodes: the inferior part (brain stem, lower cerebellum)
 ///   compliance.bin  cached compliance block K0⁻¹ on the constrained nodes
-///                   (imaging/io/compliance_cache.hpp); optional, checked before use
+///                   (apps/workflow/compliance_cache.hpp); optional, checked before use
 ///   model.json      manifest: format name and version, the inputs (path, size, FNV-1a hash), the
 ///                   pre-operative image grid (to refuse images from another patient), and what
 ///                   prepare chose and found: `labels_ml`, `mesh`, `materials`, `surface` (how it
@@ -18,7 +18,7 @@
 ///                   `warnings`, `compliance`, `seconds`
 /// The folder is written under a temporary name and renamed, so it is complete or absent.
 
-#include "imaging/io/scene_io.hpp"
+#include "apps/workflow/scene_io.hpp"
 #include "imaging/io/volume.hpp"
 
 #include <nlohmann/json.hpp>
@@ -40,7 +40,7 @@ std::uint64_t file_hash(const std::filesystem::path& path);
 
 /// A model folder loaded for registration.
 struct LoadedModel {
-  imaging::Scene scene;
+  workflow::Scene scene;
   imaging::ImageGeometry preop_grid;  ///< grid of the pre-operative label image
   nlohmann::json manifest;
 };

@@ -398,7 +398,7 @@ StartScene& start_scene() {
   if (!scene) {
     scene = std::make_unique<StartScene>();
     const core::TetMesh mesh = hemisphere_mesh(11);
-    constraints::Skeleton skel;
+    core::Skeleton skel;
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     std::vector<Vector3d> pts;
@@ -436,7 +436,7 @@ StartScene& start_scene() {
       scene->points.row(i) = (O * (x + Vector3d(noise(rng), noise(rng), noise(rng)))).transpose();
     }
     scene->model = std::make_unique<constraints::RegistrationModel>(
-        mesh, bottom_cap(mesh), std::move(skel), constraints::SurfaceMesh{});
+        mesh, bottom_cap(mesh), std::move(skel), core::SurfaceMesh{});
     (void)scene->model->load_response();
   }
   return *scene;

@@ -31,7 +31,7 @@ std::string to_string(DuraOptions::Mode mode) {
   BS_UNREACHABLE();
 }
 
-void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const Skeleton& skeleton,
+void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const core::Skeleton& skeleton,
                      const MappedVertices& mapped, ConstRef<MatrixX3d> x,
                      ConstRef<MatrixX3d> points) {
   for (const Pair& p : pairs) {
@@ -44,7 +44,7 @@ void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const
 }
 
 void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
-                        const SurfaceMesh& surface, const MappedVertices& mapped,
+                        const core::SurfaceMesh& surface, const MappedVertices& mapped,
                         ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points,
                         ConstRef<MatrixX3d> normals) {
   for (const Pair& p : pairs) {
@@ -58,7 +58,7 @@ void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
   }
 }
 
-MatrixX3d vertex_normals(const SurfaceMesh& surface) {
+MatrixX3d vertex_normals(const core::SurfaceMesh& surface) {
   MatrixX3d n = MatrixX3d::Zero(surface.vertices.rows(), 3);
   for (Eigen::Index f = 0; f < surface.triangles.rows(); ++f) {
     const auto t = surface.triangles.row(f);
@@ -73,7 +73,7 @@ MatrixX3d vertex_normals(const SurfaceMesh& surface) {
   return n;
 }
 
-index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const SurfaceMesh& surface,
+index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const core::SurfaceMesh& surface,
                       const FeatureIndex& rest_index, ConstRef<MatrixX3d> rest_normals,
                       const MappedVertices& mapped, ConstRef<MatrixX3d> x,
                       const std::vector<bool>& skip) {

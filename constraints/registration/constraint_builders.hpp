@@ -19,7 +19,7 @@
 /// boundary faces of a positively oriented tetrahedral mesh are.
 
 #include "constraints/registration/pairing.hpp"
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "constraints/rows/constraint_rows.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
@@ -52,7 +52,7 @@ struct DuraOptions {
 std::string to_string(DuraOptions::Mode mode);
 
 /// Sliding-line rows for vessel pairs (`pairs` from segments of `skeleton`, points from `points`).
-void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const Skeleton& skeleton,
+void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const core::Skeleton& skeleton,
                      const MappedVertices& mapped, ConstRef<MatrixX3d> x,
                      ConstRef<MatrixX3d> points);
 
@@ -60,18 +60,18 @@ void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const
 /// normals into the tissue per footprint point, or empty to use the paired triangle's inward
 /// normal.
 void add_footprint_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
-                        const SurfaceMesh& surface, const MappedVertices& mapped,
+                        const core::SurfaceMesh& surface, const MappedVertices& mapped,
                         ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points,
                         ConstRef<MatrixX3d> normals);
 
 /// Area-weighted unit vertex normals of a surface (#V×3; zero for unused vertices).
-MatrixX3d vertex_normals(const SurfaceMesh& surface);
+MatrixX3d vertex_normals(const core::SurfaceMesh& surface);
 
 /// Dura rows for the vertices of `surface` outside the craniotomy, each against its nearest
 /// triangle of the rest surface (`rest_index`, built on the same surface at rest, whose vertex
 /// normals are `rest_normals`). Vertices in `skip` (e.g. those carrying a footprint row) get
 /// none. Returns the number of rows added.
-index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const SurfaceMesh& surface,
+index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const core::SurfaceMesh& surface,
                       const FeatureIndex& rest_index, ConstRef<MatrixX3d> rest_normals,
                       const MappedVertices& mapped, ConstRef<MatrixX3d> x,
                       const std::vector<bool>& skip = {});

@@ -64,7 +64,7 @@ Matrix3d rotation(const Vector3d& w) {
 /// τ) and the kernel κ_τ quantised to 0…255, on a regular grid.
 class DistanceGrid {
  public:
-  DistanceGrid(const Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h, double tau)
+  DistanceGrid(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h, double tau)
       : m_lo(lo), m_h(h), m_tau2(tau * tau) {
     m_dims = (((hi - lo) / h).array().ceil().cast<int>() + 1).matrix();
     const auto n = static_cast<std::size_t>(m_dims.x()) * static_cast<std::size_t>(m_dims.y()) *
@@ -161,7 +161,7 @@ MatrixX3d subsample(ConstRef<MatrixX3d> pc, int count) {
 
 /// Everything one call shares: the centred points, the table, the bulk basis of the fine points.
 struct Search {
-  const Skeleton& skeleton;
+  const core::Skeleton& skeleton;
   const GlobalStartOptions& o;
   Vector3d c;
   MatrixX3d coarse, fine;       // points − c
@@ -388,7 +388,7 @@ std::string fmt(const Vector3d& v, int precision = 2) {
 
 }  // namespace
 
-GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
+GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
                                const BasisAt& basis_at, const GlobalStartOptions& o) {
   const auto t0 = Clock::now();
   const std::string invalid = o.validate();

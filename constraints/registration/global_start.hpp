@@ -40,7 +40,7 @@
 /// 4. decision by the data score: the pose is kept when its fine score beats the identity's by
 ///    `min_gain`; otherwise the identity is returned and the message says why. No motion cap.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
 
 #include <functional>
@@ -117,7 +117,7 @@ using BasisAt = std::function<std::vector<Matrix3d>(ConstRef<MatrixX3d>)>;
 /// @return the pose; identity with accepted = false and the reason when there are fewer than
 ///         min_points points, no segments, or no pose beats the identity.
 /// \throws brainshift::Error when options.validate() fails or the inputs are not finite.
-GlobalStartResult global_start(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
+GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
                                const BasisAt& basis_at, const GlobalStartOptions& options);
 
 /// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of the

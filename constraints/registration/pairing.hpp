@@ -5,7 +5,7 @@
 /// (point-to-plane). A uniform grid over the features' bounding boxes answers nearest-feature
 /// queries by expanding rings of cells. Positions in mm, world frame.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
 
 #include <optional>

@@ -44,7 +44,7 @@ std::vector<index_t> feature_tets(const Features& features, index_t count,
 /// (mm): the part of the pre-operative tree the probe can have seen. A rigid ICP against the
 /// whole tree slides onto vessels outside the field of view (a dense cortical tree offers a
 /// near-match every few millimetres).
-Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double margin) {
+core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points, double margin) {
   if (points.rows() == 0) return s;
   const Vector3d lo = points.colwise().minCoeff().transpose().array() - margin;
   const Vector3d hi = points.colwise().maxCoeff().transpose().array() + margin;
@@ -52,7 +52,7 @@ Skeleton skeleton_near(const Skeleton& s, ConstRef<MatrixX3d> points, double mar
     const Vector3d p = s.points.row(i).transpose();
     return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
   };
-  Skeleton out = s;
+  core::Skeleton out = s;
   out.segments.clear();
   for (const auto& seg : s.segments)
     if (inside(seg[0]) && inside(seg[1])) out.segments.push_back(seg);

@@ -7,7 +7,7 @@
 /// share one model. Positions in mm, world (RAS) frame of the pre-operative images.
 
 #include "constraints/registration/constraint_builders.hpp"
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
@@ -30,7 +30,7 @@ class RegistrationModel {
   /// \throws brainshift::Error when K0 cannot be factorised or a feature point lies farther than
   /// 2 mm outside the mesh (naming it).
   RegistrationModel(const core::TetMesh& mesh, const std::vector<index_t>& fixed_nodes,
-                    Skeleton skeleton, SurfaceMesh surface,
+                    core::Skeleton skeleton, core::SurfaceMesh surface,
                     const ComplianceOptions& compliance = {});
   ~RegistrationModel();
   RegistrationModel(const RegistrationModel&) = delete;
@@ -38,8 +38,8 @@ class RegistrationModel {
 
   [[nodiscard]] const ConstrainedModel& mechanics() const { return *m_mechanics; }
   [[nodiscard]] const core::TetMesh& mesh() const { return m_mechanics->model().mesh(); }
-  [[nodiscard]] const Skeleton& skeleton() const { return m_skeleton; }
-  [[nodiscard]] const SurfaceMesh& surface() const { return m_surface; }
+  [[nodiscard]] const core::Skeleton& skeleton() const { return m_skeleton; }
+  [[nodiscard]] const core::SurfaceMesh& surface() const { return m_surface; }
   [[nodiscard]] const core::BarycentricMapping& skeleton_mapping() const { return m_skeleton_map; }
   [[nodiscard]] const core::BarycentricMapping& surface_mapping() const { return m_surface_map; }
   /// Nearest-triangle index of the rest collision surface (the dura). Null without triangles.
@@ -57,8 +57,8 @@ class RegistrationModel {
   [[nodiscard]] const std::array<MatrixX3d, 3>& load_response() const { return m_load_response; }
 
  private:
-  Skeleton m_skeleton;
-  SurfaceMesh m_surface;
+  core::Skeleton m_skeleton;
+  core::SurfaceMesh m_surface;
   core::BarycentricMapping m_skeleton_map;
   core::BarycentricMapping m_surface_map;
   std::unique_ptr<FeatureIndex> m_rest_surface;

@@ -88,7 +88,7 @@ Matrix3d rotation_of(const Vector3d& w) {
 
 /// Pairs every point of `pts` (mapped by x ↦ R(x − c) + c + t) with its closest feature of
 /// `index` (segments when !plane, triangles when plane) within max_dist.
-void pair_points(const FeatureIndex& index, const Skeleton& skel, ConstRef<MatrixX3d> pts,
+void pair_points(const FeatureIndex& index, const core::Skeleton& skel, ConstRef<MatrixX3d> pts,
                  bool plane, const Matrix3d& R, const Vector3d& c, const Vector3d& t,
                  double max_dist, std::vector<RigidPair>& out) {
   if (pts.rows() == 0 || index.size() == 0) return;
@@ -198,8 +198,8 @@ void verify_points(ConstRef<MatrixX3d> pts, const char* what) {
 
 }  // namespace
 
-RigidInitResult rigid_init(const Skeleton& skeleton, ConstRef<MatrixX3d> vessel_points,
-                           const SurfaceMesh* surface, const MatrixX3d* footprint_points,
+RigidInitResult rigid_init(const core::Skeleton& skeleton, ConstRef<MatrixX3d> vessel_points,
+                           const core::SurfaceMesh* surface, const MatrixX3d* footprint_points,
                            const RigidInitOptions& options) {
   const std::string bad = options.validate();
   BS_VERIFY(bad.empty(), "invalid RigidInitOptions: " << bad);
@@ -216,7 +216,7 @@ RigidInitResult rigid_init(const Skeleton& skeleton, ConstRef<MatrixX3d> vessel_
   const bool has_fp = footprint_points != nullptr && footprint_points->rows() > 0;
   BS_VERIFY(!has_fp || surface != nullptr,
             footprint_points->rows()
-                << " footprint points were given without a surface; pass the SurfaceMesh");
+                << " footprint points were given without a surface; pass the core::SurfaceMesh");
   if (has_fp) {
     verify_points(*footprint_points, "footprint points");
     verify_points(surface->vertices, "surface vertices");

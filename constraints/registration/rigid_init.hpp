@@ -20,7 +20,7 @@
 /// number; eigen-directions with λ < weak_dof_ratio · λ_max are named in `weak_dofs` (e.g. the
 /// rotation about, and translation along, a single straight vessel).
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
 
 #include <string>
@@ -72,8 +72,8 @@ struct RigidInitResult {
 ///         give the identity with converged = false and a stop_reason saying why.
 /// \throws brainshift::Error when options.validate() fails, indices are out of range, inputs
 ///         are not finite, or footprint points are given without a surface.
-RigidInitResult rigid_init(const Skeleton& skeleton, ConstRef<MatrixX3d> vessel_points,
-                           const SurfaceMesh* surface, const MatrixX3d* footprint_points,
+RigidInitResult rigid_init(const core::Skeleton& skeleton, ConstRef<MatrixX3d> vessel_points,
+                           const core::SurfaceMesh* surface, const MatrixX3d* footprint_points,
                            const RigidInitOptions& options);
 
 }  // namespace brainshift::constraints

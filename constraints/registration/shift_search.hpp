@@ -18,7 +18,7 @@
 /// The distances are tabulated once on a voxel grid (truncated at τ, exact point-to-segment
 /// distances near each segment), so one candidate costs one lookup per point.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
 
 #include <string>
@@ -61,7 +61,7 @@ struct ShiftSearchResult {
 /// rather than a translation. No points or segments: not accepted, zero shift.
 /// \throws brainshift::Error when options.validate() fails, the inputs are not finite or the
 /// basis has the wrong size.
-ShiftSearchResult search_shift(const Skeleton& skeleton, ConstRef<MatrixX3d> points,
+ShiftSearchResult search_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
                                const std::vector<Matrix3d>& basis,
                                const ShiftSearchOptions& options);
 

@@ -4,7 +4,7 @@
 
 namespace brainshift::constraints {
 
-std::vector<index_t> segment_blocks(const Skeleton& skeleton, double max_length_mm) {
+std::vector<index_t> segment_blocks(const core::Skeleton& skeleton, double max_length_mm) {
   const auto& segs = skeleton.segments;
   const auto np = static_cast<std::size_t>(skeleton.points.rows());
   std::vector<std::vector<std::size_t>> incident(np);

@@ -8,7 +8,7 @@
 /// neighbours (which share its error) predict it, and the error is read as signal.
 /// Lengths in mm, positions in the skeleton's frame.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 
 #include <vector>
 
@@ -17,6 +17,6 @@ namespace brainshift::constraints {
 /// Block id of every segment of `skeleton` (same order as skeleton.segments; ids 0..B-1).
 /// @param[in] max_length_mm a branch longer than this is cut into consecutive pieces of at most
 /// about this arc length (mm); 0 keeps whole branches. A cycle (no end or junction) is one branch.
-std::vector<index_t> segment_blocks(const Skeleton& skeleton, double max_length_mm = 0.0);
+std::vector<index_t> segment_blocks(const core::Skeleton& skeleton, double max_length_mm = 0.0);
 
 }  // namespace brainshift::constraints

@@ -11,7 +11,7 @@
 /// outside the block falls back to (b) for that call.
 ///
 /// The block is the expensive part of preparing a model (3|S| solves: seconds at 20k nodes), so it
-/// can be computed once before surgery, saved (imaging/io/compliance_cache.hpp) and handed back
+/// can be computed once before surgery, saved (apps/workflow/compliance_cache.hpp) and handed back
 /// through ComplianceOptions::precomputed. It is adopted only when it provably belongs to this
 /// model: same stiffness fingerprint (mesh, materials, fixed nodes), same block nodes, finite, and
 /// two of its columns agree with fresh solves; otherwise it is recomputed and cache_status() says

@@ -41,7 +41,7 @@ core::BoundarySurface region_surface(const core::TetMesh& mesh,
 
 void write_surface_vtp(const std::filesystem::path& path, ConstRef<MatrixX3d> vertices,
                        const core::TriangleMatrix& faces) {
-  imaging::write_surface_vtp(path, constraints::SurfaceMesh{vertices, faces});
+  imaging::write_surface_vtp(path, core::SurfaceMesh{vertices, faces});
 }
 
 }  // namespace brainshift::data_synth

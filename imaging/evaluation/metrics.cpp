@@ -14,7 +14,7 @@
 namespace brainshift::imaging {
 namespace {
 
-using constraints::SurfaceMesh;
+using core::SurfaceMesh;
 
 /// Percentile (type 7) of already sorted values.
 double sorted_percentile(const std::vector<double>& sorted, double p) {

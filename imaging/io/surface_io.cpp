@@ -12,7 +12,7 @@
 
 namespace brainshift::imaging {
 
-void write_surface_vtp(const std::filesystem::path& path, const constraints::SurfaceMesh& surface) {
+void write_surface_vtp(const std::filesystem::path& path, const core::SurfaceMesh& surface) {
   const auto nv = surface.vertices.rows();
   BS_VERIFY(surface.triangles.size() == 0 ||
                 (surface.triangles.minCoeff() >= 0 && surface.triangles.maxCoeff() < nv),
@@ -34,7 +34,7 @@ void write_surface_vtp(const std::filesystem::path& path, const constraints::Sur
   write_polydata(path, poly);
 }
 
-constraints::SurfaceMesh read_surface_vtp(const std::filesystem::path& path) {
+core::SurfaceMesh read_surface_vtp(const std::filesystem::path& path) {
   const std::string file = path.string();
   const vtkSmartPointer<vtkPolyData> poly = read_polydata(path);
   BS_VERIFY(poly != nullptr && poly->GetNumberOfPolys() + poly->GetNumberOfStrips() > 0,
@@ -48,7 +48,7 @@ constraints::SurfaceMesh read_surface_vtp(const std::filesystem::path& path) {
     strips->Update();
     source = strips->GetOutput();
   }
-  constraints::SurfaceMesh s;
+  core::SurfaceMesh s;
   s.vertices.resize(source->GetNumberOfPoints(), 3);
   for (vtkIdType v = 0; v < source->GetNumberOfPoints(); ++v) {
     double p[3];

@@ -4,7 +4,7 @@
 /// (collision surface), the default fixed region at the lowest part of the brain, and the dura
 /// surface (outer boundary minus the craniotomy). Positions in mm, world RAS frame.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
 #include <vector>
@@ -13,7 +13,7 @@ namespace brainshift::imaging {
 
 /// A surface whose vertices are nodes of a tetrahedral mesh.
 struct MeshSurface {
-  constraints::SurfaceMesh surface;  ///< vertices (mm, world) and triangles, normals outward
+  core::SurfaceMesh surface;  ///< vertices (mm, world) and triangles, normals outward
   std::vector<index_t> node;         ///< #V tet-mesh node of each surface vertex
 };
 

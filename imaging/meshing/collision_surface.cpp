@@ -41,7 +41,7 @@ std::string CollisionSurfaceOptions::validate() const {
   return s.str();
 }
 
-index_t count_non_manifold_vertices(const constraints::SurfaceMesh& surface) {
+index_t count_non_manifold_vertices(const core::SurfaceMesh& surface) {
   const auto& F = surface.triangles;
   const index_t nv = surface.vertices.rows();
   // Triangles around each vertex (CSR).

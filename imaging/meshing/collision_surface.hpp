@@ -7,7 +7,7 @@
 /// the mesh are then moved onto it, so every vertex maps into the mesh (the registration accepts
 /// up to 2 mm outside). Positions in mm, world RAS frame.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
 
@@ -34,7 +34,7 @@ struct CollisionSurfaceOptions {
 
 /// The collision surface and how it was made.
 struct CollisionSurface {
-  constraints::SurfaceMesh surface;   ///< closed 2-manifold, outward normals, mm
+  core::SurfaceMesh surface;   ///< closed 2-manifold, outward normals, mm
   index_t boundary_vertices = 0;      ///< of the mesh's outer boundary
   index_t non_manifold_edges = 0;     ///< boundary edges shared by more than two triangles
   index_t non_manifold_vertices = 0;  ///< boundary vertices whose triangles do not form one fan
@@ -53,6 +53,6 @@ CollisionSurface make_collision_surface(const core::TetMesh& mesh, const MeshSur
 
 /// Vertices whose incident triangles do not form a single fan (one cycle around the vertex):
 /// where parts of a boundary touch at a point or along an edge. 0 on a closed 2-manifold.
-index_t count_non_manifold_vertices(const constraints::SurfaceMesh& surface);
+index_t count_non_manifold_vertices(const core::SurfaceMesh& surface);
 
 }  // namespace brainshift::imaging

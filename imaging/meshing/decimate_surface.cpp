@@ -24,7 +24,7 @@ using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 namespace SMS = CGAL::Surface_mesh_simplification;
 
-Mesh to_cgal(const constraints::SurfaceMesh& surface) {
+Mesh to_cgal(const core::SurfaceMesh& surface) {
   const auto& V = surface.vertices;
   const auto& F = surface.triangles;
   Mesh sm;
@@ -55,7 +55,7 @@ Mesh to_cgal(const constraints::SurfaceMesh& surface) {
 
 }  // namespace
 
-index_t count_non_manifold_edges(const constraints::SurfaceMesh& surface) {
+index_t count_non_manifold_edges(const core::SurfaceMesh& surface) {
   std::map<std::pair<index_t, index_t>, int> faces_of_edge;
   for (index_t f = 0; f < surface.triangles.rows(); ++f)
     for (int c = 0; c < 3; ++c) {
@@ -67,7 +67,7 @@ index_t count_non_manifold_edges(const constraints::SurfaceMesh& surface) {
   return n;
 }
 
-constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surface,
+core::SurfaceMesh decimate_surface(const core::SurfaceMesh& surface,
                                           index_t target_vertices) {
   BS_VERIFY(target_vertices >= 4,
             "decimation target must be ≥ 4 vertices, got " << target_vertices);
@@ -88,7 +88,7 @@ constraints::SurfaceMesh decimate_surface(const constraints::SurfaceMesh& surfac
   }
   BS_VERIFY(CGAL::is_closed(sm), "internal error: decimated surface is not closed");
 
-  constraints::SurfaceMesh out;
+  core::SurfaceMesh out;
   out.vertices.resize(index_t(sm.number_of_vertices()), 3);
   for (auto v : sm.vertices()) {
     const auto& p = sm.point(v);

@@ -34,7 +34,7 @@ FixedRegion default_fixed_region(const MeshSurface& outer, const Vector3d& down,
   return r;
 }
 
-Craniotomy default_craniotomy(const constraints::SurfaceMesh& surface, const core::TetMesh& mesh,
+Craniotomy default_craniotomy(const core::SurfaceMesh& surface, const core::TetMesh& mesh,
                               const std::vector<std::uint8_t>& tet_label, double radius_mm) {
   const auto& V = surface.vertices;
   BS_VERIFY(V.rows() > 0, "craniotomy: the collision surface has no vertex");

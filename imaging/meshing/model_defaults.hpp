@@ -6,7 +6,7 @@
 /// one, else at the top of the brain). Each comes with a one-line statement of the rule, for the
 /// model's manifest. Positions in mm, world RAS frame (S up).
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mesh/tet_mesh.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
 
@@ -55,7 +55,7 @@ struct Craniotomy {
 /// @param[in] radius_mm  craniotomy radius, mm, > 0.
 /// \throws brainshift::Error when the surface has no vertex, the labels do not match the mesh, or
 /// the radius is not positive.
-Craniotomy default_craniotomy(const constraints::SurfaceMesh& surface, const core::TetMesh& mesh,
+Craniotomy default_craniotomy(const core::SurfaceMesh& surface, const core::TetMesh& mesh,
                               const std::vector<std::uint8_t>& tet_label, double radius_mm = 30.0);
 
 }  // namespace brainshift::imaging

@@ -18,7 +18,7 @@ using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 }  // namespace
 
-constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, double alpha,
+core::SurfaceMesh wrap_surface(const core::SurfaceMesh& soup, double alpha,
                                       double offset) {
   BS_VERIFY(std::isfinite(alpha) && alpha > 0.0,
             "surface wrap: alpha must be > 0 mm, got " << alpha);
@@ -47,7 +47,7 @@ constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, doub
   CGAL::alpha_wrap_3(points, faces, alpha, offset, wrap);
   BS_VERIFY(wrap.number_of_faces() > 0, "internal error: the surface wrap is empty");
 
-  constraints::SurfaceMesh out;
+  core::SurfaceMesh out;
   out.vertices.resize(index_t(wrap.number_of_vertices()), 3);
   std::vector<index_t> id(wrap.num_vertices(), -1);
   index_t n = 0;

@@ -6,7 +6,7 @@
 /// real brain touching along an edge or at a vertex), which edge-collapse decimation cannot take.
 /// Positions in mm, world frame.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
 
 namespace brainshift::imaging {
@@ -21,7 +21,7 @@ namespace brainshift::imaging {
 /// enclosed volume), without self-intersections.
 /// \throws brainshift::Error when alpha or offset is not a positive number, an index is out of
 /// range, a vertex is not finite, or the soup has no triangle.
-constraints::SurfaceMesh wrap_surface(const constraints::SurfaceMesh& soup, double alpha,
+core::SurfaceMesh wrap_surface(const core::SurfaceMesh& soup, double alpha,
                                       double offset);
 
 }  // namespace brainshift::imaging

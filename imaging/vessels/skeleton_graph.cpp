@@ -267,10 +267,10 @@ void resample_branches(VesselGraph& graph, double step_mm) {
   }
 }
 
-constraints::Skeleton to_skeleton(const VesselGraph& graph) {
+core::Skeleton to_skeleton(const VesselGraph& graph) {
   std::size_t total = graph.nodes.size();
   for (const auto& b : graph.branches) total += b.points.size() - 2;
-  constraints::Skeleton s;
+  core::Skeleton s;
   s.points.resize(Eigen::Index(total), 3);
   s.radius.resize(Eigen::Index(total));
   for (std::size_t n = 0; n < graph.nodes.size(); ++n) {

@@ -2,9 +2,9 @@
 /// @file
 /// @brief Vessel skeleton graphs: nodes (junctions and end points) joined by branches
 /// (polylines), positions in world RAS mm, radii in mm. Built from a thinned voxel mask, pruned
-/// of short spurs, smoothed and resampled; convertible to constraints::Skeleton.
+/// of short spurs, smoothed and resampled; convertible to core::Skeleton.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
 #include "imaging/io/volume.hpp"
 
@@ -76,6 +76,6 @@ void resample_branches(VesselGraph& graph, double step_mm);
 
 /// The points + segments + radii form used by the registration: nodes first (point i = node
 /// i), then the interior points of each branch in order.
-constraints::Skeleton to_skeleton(const VesselGraph& graph);
+core::Skeleton to_skeleton(const VesselGraph& graph);
 
 }  // namespace brainshift::imaging

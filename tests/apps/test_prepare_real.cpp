@@ -150,7 +150,7 @@ TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels)
 
   // The collision surface: decimated to the requested 300 vertices (edge collapses stop at the
   // matching edge count: ± a few, 5 %), closed and a 2-manifold although the boundary is not.
-  const constraints::SurfaceMesh surface = imaging::read_surface_vtp(model / "surface.vtp");
+  const core::SurfaceMesh surface = imaging::read_surface_vtp(model / "surface.vtp");
   EXPECT_NEAR(double(surface.vertices.rows()), 300.0, 15.0);
   EXPECT_TRUE(imaging::is_closed_and_consistent(surface));
   EXPECT_EQ(imaging::count_non_manifold_edges(surface), 0);

@@ -27,8 +27,8 @@ Vector3d truth(const Vector3d& X) {
 }
 
 /// Vessels: curved branches in the upper half of the ellipsoid (semi-axes 40, 35, 30 mm).
-Skeleton make_skeleton() {
-  Skeleton s;
+core::Skeleton make_skeleton() {
+  core::Skeleton s;
   std::vector<Vector3d> pts;
   for (int b = 0; b < 6; ++b) {
     const double phi = b * std::numbers::pi / 3.0;
@@ -49,7 +49,7 @@ Skeleton make_skeleton() {
 }
 
 /// Intra-operative points every 2.5 mm along the deformed skeleton, with Gaussian noise.
-MatrixX3d sample_deformed(const Skeleton& s, double noise, unsigned seed,
+MatrixX3d sample_deformed(const core::Skeleton& s, double noise, unsigned seed,
                           double shift_scale = 1.0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> g(0.0, noise);
@@ -70,15 +70,15 @@ MatrixX3d sample_deformed(const Skeleton& s, double noise, unsigned seed,
 
 struct Scene {
   core::TetMesh mesh = data_synth::make_ellipsoid_mesh({40, 35, 30}, 10);
-  Skeleton skeleton = make_skeleton();
+  core::Skeleton skeleton = make_skeleton();
   std::unique_ptr<RegistrationModel> model;
-  explicit Scene(Skeleton s = make_skeleton()) : skeleton(std::move(s)) {
+  explicit Scene(core::Skeleton s = make_skeleton()) : skeleton(std::move(s)) {
     std::vector<index_t> fixed;
     for (index_t i = 0; i < mesh.num_nodes(); ++i)
       if (mesh.nodes()(i, 2) < -22) fixed.push_back(i);
     const core::BoundarySurface b = core::boundary_surface(mesh);
     model = std::make_unique<RegistrationModel>(mesh, fixed, skeleton,
-                                                SurfaceMesh{b.vertices, b.faces});
+                                                core::SurfaceMesh{b.vertices, b.faces});
   }
   /// Mean and max error (mm) at the skeleton points (vessel landmarks).
   std::pair<double, double> landmark_error(const MatrixX3d& x) const {

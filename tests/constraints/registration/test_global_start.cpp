@@ -22,7 +22,7 @@ namespace {
 constexpr double deg = std::numbers::pi / 180.0;
 
 /// Appends a polyline (points joined in order) to a skeleton.
-void add_polyline(Skeleton& s, const std::vector<Vector3d>& line) {
+void add_polyline(core::Skeleton& s, const std::vector<Vector3d>& line) {
   const auto first = static_cast<index_t>(s.points.rows());
   s.points.conservativeResize(first + static_cast<Eigen::Index>(line.size()), 3);
   for (std::size_t k = 0; k < line.size(); ++k)
@@ -33,10 +33,10 @@ void add_polyline(Skeleton& s, const std::vector<Vector3d>& line) {
 
 /// A cortical-like tree on a 60 mm sphere (centre at the origin, cap around +z): 3 roots, two
 /// generations of bifurcations, each branch a wiggly arc of 1 mm segments (≈ 20 branches).
-Skeleton cortical_tree(unsigned seed) {
+core::Skeleton cortical_tree(unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
-  Skeleton s;
+  core::Skeleton s;
   s.points.resize(0, 3);
   const double R = 60.0;
   auto on_sphere = [&](const Vector3d& d) { return Vector3d(R * d.normalized()); };
@@ -76,8 +76,8 @@ Skeleton cortical_tree(unsigned seed) {
 
 /// Parallel wavy vessels spaced `spacing` mm along y on a gently curved sheet (z ≈ 60 mm), each
 /// with its own wavelength and phase, and one vessel crossing them: a dense tree.
-Skeleton parallel_vessels(int count, double spacing) {
-  Skeleton s;
+core::Skeleton parallel_vessels(int count, double spacing) {
+  core::Skeleton s;
   s.points.resize(0, 3);
   auto sheet = [](double x, double y) { return Vector3d(x, y, 60.0 - (x * x + y * y) / 120.0); };
   for (int k = 0; k < count; ++k) {
@@ -95,7 +95,7 @@ Skeleton parallel_vessels(int count, double spacing) {
 }
 
 /// Points every `step` mm along the segments with N(0, σ²) noise per axis.
-MatrixX3d sample(const Skeleton& s, double step, double sigma, unsigned seed) {
+MatrixX3d sample(const core::Skeleton& s, double step, double sigma, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> noise(0.0, sigma);
   std::vector<Vector3d> out;
@@ -145,7 +145,7 @@ double max_error(const Eigen::Isometry3d& est, const Eigen::Isometry3d& truth,
 constexpr double tol_mm = 0.5;
 
 TEST(GlobalStart, RecoversA20mmFourDegreeOffsetOfACorticalTree) {
-  const Skeleton tree = cortical_tree(1);
+  const core::Skeleton tree = cortical_tree(1);
   const MatrixX3d pts = sample(tree, 1.0, 0.3, 2);
   const Eigen::Isometry3d O = offset(20.0, 4.0, pts.colwise().mean().transpose());
   const MatrixX3d intra = apply(O, pts);
@@ -156,7 +156,7 @@ TEST(GlobalStart, RecoversA20mmFourDegreeOffsetOfACorticalTree) {
 }
 
 TEST(GlobalStart, RecoversA25mmFiveDegreeOffset) {
-  const Skeleton tree = cortical_tree(3);
+  const core::Skeleton tree = cortical_tree(3);
   const MatrixX3d pts = sample(tree, 1.0, 0.3, 4);
   const Eigen::Isometry3d O = offset(25.0, 5.0, pts.colwise().mean().transpose(), {-0.7, 0.4, 0.6});
   const MatrixX3d intra = apply(O, pts);
@@ -170,7 +170,7 @@ TEST(GlobalStart, RecoversA25mmFiveDegreeOffset) {
 TEST(GlobalStart, ADenseTreeOfParallelVesselsDoesNotFoolIt) {
   // 12 vessels 4 mm apart, offset 20 mm / 4° mostly across them: the nearest vessel of every
   // point is a wrong one, five spacings away.
-  const Skeleton tree = parallel_vessels(12, 4.0);
+  const core::Skeleton tree = parallel_vessels(12, 4.0);
   const MatrixX3d pts = sample(tree, 1.0, 0.3, 5);
   const Eigen::Isometry3d O = offset(20.0, 4.0, pts.colwise().mean().transpose(), {0.2, 1.0, 0.1});
   const MatrixX3d intra = apply(O, pts);
@@ -186,7 +186,7 @@ TEST(GlobalStart, ADenseTreeOfParallelVesselsDoesNotFoolIt) {
 }
 
 TEST(GlobalStart, NoOffsetMeansNoMotion) {
-  const Skeleton tree = cortical_tree(1);
+  const core::Skeleton tree = cortical_tree(1);
   const MatrixX3d pts = sample(tree, 1.0, 0.3, 6);
   const GlobalStartResult r = global_start(tree, pts, {}, GlobalStartOptions{});
   // Either the identity is kept, or the refined pose is within the noise floor of it (see tol_mm;
@@ -197,7 +197,7 @@ TEST(GlobalStart, NoOffsetMeansNoMotion) {
 }
 
 TEST(GlobalStart, ThirtyPercentOutliersDoNotBreakIt) {
-  const Skeleton tree = cortical_tree(2);
+  const core::Skeleton tree = cortical_tree(2);
   MatrixX3d pts = sample(tree, 1.0, 0.3, 7);
   const Eigen::Isometry3d O = offset(15.0, 4.0, pts.colwise().mean().transpose());
   MatrixX3d intra = apply(O, pts);
@@ -221,7 +221,7 @@ TEST(GlobalStart, TellsADepthGradedBulkShiftFromATranslation) {
   // The rest tree seen through a shift s that grows with height (basis α(z) I, α from 0.4 at
   // the deepest point to 1.6 at the highest, mean 1): a smooth deformation, not a pose. With the
   // basis the start recovers s and no rigid motion; without, a rigid pose can only average it.
-  const Skeleton tree = cortical_tree(1);
+  const core::Skeleton tree = cortical_tree(1);
   const MatrixX3d pts = sample(tree, 1.0, 0.3, 9);
   const double z0 = pts.col(2).minCoeff(), z1 = pts.col(2).maxCoeff();
   auto alpha = [&](double z) { return 0.4 + 1.2 * (z - z0) / (z1 - z0); };
@@ -252,7 +252,7 @@ TEST(GlobalStart, TellsADepthGradedBulkShiftFromATranslation) {
 }
 
 TEST(GlobalStart, EmptyOrTooFewPointsGiveTheIdentityAndSaySo) {
-  const Skeleton tree = cortical_tree(1);
+  const core::Skeleton tree = cortical_tree(1);
   for (const int n : {0, 1, 5}) {
     const MatrixX3d pts = sample(tree, 1.0, 0.3, 10).topRows(n);
     const GlobalStartResult r = global_start(tree, pts, {}, GlobalStartOptions{});
@@ -262,14 +262,14 @@ TEST(GlobalStart, EmptyOrTooFewPointsGiveTheIdentityAndSaySo) {
     EXPECT_TRUE(std::isfinite(r.score) && std::isfinite(r.rms_after_mm));
   }
   const GlobalStartResult none =
-      global_start(Skeleton{}, sample(tree, 1.0, 0.3, 10), {}, GlobalStartOptions{});
+      global_start(core::Skeleton{}, sample(tree, 1.0, 0.3, 10), {}, GlobalStartOptions{});
   EXPECT_FALSE(none.accepted);
   EXPECT_NE(none.message.find("no skeleton"), std::string::npos) << none.message;
 }
 
 TEST(GlobalStart, PointsFarFromEveryVesselKeepTheIdentity) {
   // Nothing within the searched range: no pose scores, the identity is kept with finite numbers.
-  const Skeleton tree = cortical_tree(1);
+  const core::Skeleton tree = cortical_tree(1);
   const MatrixX3d far =
       (sample(tree, 1.0, 0.3, 11).rowwise() + Vector3d(0, 0, 200).transpose()).eval();
   const GlobalStartResult r = global_start(tree, far, {}, GlobalStartOptions{});

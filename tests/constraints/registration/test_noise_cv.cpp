@@ -229,7 +229,7 @@ TEST(NoiseCv, OneBlockOrTooFewRowsKeepTheCurrentCompliance) {
 
 TEST(VesselBlocks, BranchesEndAtJunctionsAndEndsAndLongOnesAreCut) {
   // A "Y": trunk 0-1-2-3 (3 segments of 10 mm) to the junction 3, arms 3-4-5 and 3-6.
-  Skeleton s;
+  core::Skeleton s;
   s.points.resize(7, 3);
   s.points << 0, 0, 0, 10, 0, 0, 20, 0, 0, 30, 0, 0, 40, 10, 0, 50, 20, 0, 40, -10, 0;
   s.segments = {{0, 1}, {1, 2}, {2, 3}, {3, 4}, {4, 5}, {3, 6}};
@@ -246,7 +246,7 @@ TEST(VesselBlocks, BranchesEndAtJunctionsAndEndsAndLongOnesAreCut) {
   EXPECT_EQ(c[0], c[1]);
   EXPECT_NE(c[1], c[2]);
   // A closed loop (no ends) is one branch, and nothing is left unlabelled.
-  Skeleton loop;
+  core::Skeleton loop;
   loop.points.resize(3, 3);
   loop.points << 0, 0, 0, 1, 0, 0, 0, 1, 0;
   loop.segments = {{0, 1}, {1, 2}, {2, 0}};

@@ -10,10 +10,10 @@ namespace brainshift::constraints {
 namespace {
 
 /// A random polyline "vessel" of n segments with 2.5 mm steps, seeded.
-Skeleton random_skeleton(int n, unsigned seed) {
+core::Skeleton random_skeleton(int n, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> g;
-  Skeleton s;
+  core::Skeleton s;
   s.points.resize(n + 1, 3);
   Vector3d p = Vector3d::Zero(), d = Vector3d::UnitX();
   for (int i = 0; i <= n; ++i) {
@@ -26,7 +26,7 @@ Skeleton random_skeleton(int n, unsigned seed) {
 }
 
 TEST(FeatureIndex, NearestSegmentAgreesWithBruteForce) {
-  const Skeleton s = random_skeleton(400, 1);
+  const core::Skeleton s = random_skeleton(400, 1);
   const FeatureIndex index = FeatureIndex::segments(s.points, s.segments);
   std::mt19937 rng(2);
   const Vector3d lo = s.points.colwise().minCoeff().transpose().array() - 10;
@@ -73,7 +73,7 @@ TEST(FeatureIndex, TrianglePairsCarryTheNormalAndBarycentricWeights) {
 TEST(FeatureIndex, EmptyFeatureSetsAndNonFiniteQueriesPairNothing) {
   const FeatureIndex empty = FeatureIndex::segments(MatrixX3d(0, 3), {});
   EXPECT_FALSE(empty.nearest(Vector3d::Zero(), 100).has_value());
-  const Skeleton s = random_skeleton(5, 3);
+  const core::Skeleton s = random_skeleton(5, 3);
   const FeatureIndex index = FeatureIndex::segments(s.points, s.segments);
   EXPECT_FALSE(index.nearest(Vector3d(NAN, 0, 0), 100).has_value());
   EXPECT_TRUE(index.pair(MatrixX3d(0, 3), 10).empty());

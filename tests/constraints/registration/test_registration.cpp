@@ -91,8 +91,8 @@ TEST(Registration, WarmStartFromAPreviousResultConvergesInFewerIterations) {
 }
 
 /// One straight vessel along x at z = 10 mm, points every 2.5 mm.
-Skeleton straight_vessel() {
-  Skeleton s;
+core::Skeleton straight_vessel() {
+  core::Skeleton s;
   const int n = 17;
   s.points.resize(n, 3);
   for (int k = 0; k < n; ++k) s.points.row(k) << -20.0 + 2.5 * k, 0.0, 10.0;

@@ -207,8 +207,8 @@ TEST(RegistrationLoop, TrustRegionHalvesOnATurnBackAndGrowsOtherwise) {
 }
 
 /// Two parallel straight vessels 6 mm apart along x at y = ±3 mm, z = 10 mm.
-Skeleton parallel_vessels() {
-  Skeleton s;
+core::Skeleton parallel_vessels() {
+  core::Skeleton s;
   const int n = 13;
   s.points.resize(2 * n, 3);
   for (int v = 0; v < 2; ++v)

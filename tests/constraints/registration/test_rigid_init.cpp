@@ -29,7 +29,7 @@ Vector3d on_sphere(double theta, double phi) {
 /// Vessel-like tree on the 60 mm brain sphere: 8 branches joined at 3 bifurcations, each a
 /// great-circle arc with a ±1.5 mm sinuous wiggle, as polylines of ≈ 1 mm segments (non-planar:
 /// it follows the sphere over ≈ 45° of polar angle).
-Skeleton vessel_tree() {
+core::Skeleton vessel_tree() {
   struct Node {
     double theta, phi;
   };
@@ -37,7 +37,7 @@ Skeleton vessel_tree() {
                                    {22, 125}, {38, 245}, {42, 320}, {42, 140}};
   const std::vector<std::array<int, 2>> branches = {{0, 1}, {1, 2}, {1, 3}, {2, 4},
                                                     {2, 5}, {3, 6}, {3, 7}, {1, 8}};
-  Skeleton s;
+  core::Skeleton s;
   std::vector<Vector3d> pts;
   std::vector<int> node_point(nodes.size(), -1);
   auto node_index = [&](int n) {
@@ -80,7 +80,7 @@ Skeleton vessel_tree() {
 }
 
 /// Points every `step` mm of arc length along the skeleton's segments, plus N(0, σ²) noise.
-MatrixX3d sample_skeleton(const Skeleton& s, double step, double sigma, std::mt19937& rng) {
+MatrixX3d sample_skeleton(const core::Skeleton& s, double step, double sigma, std::mt19937& rng) {
   std::normal_distribution<double> noise(0.0, sigma);
   std::vector<Vector3d> out;
   double carry = 0.0;  // arc length left before the next sample (restarts per segment chain)
@@ -101,10 +101,10 @@ MatrixX3d sample_skeleton(const Skeleton& s, double step, double sigma, std::mt1
 }
 
 /// Sphere cap around +z (|u|, |v| ≤ 45 mm, gnomonic grid every 2.5 mm), 2 triangles per cell.
-SurfaceMesh brain_cap() {
+core::SurfaceMesh brain_cap() {
   const int n = 37;
   const double h = 2.5, half = 45.0;
-  SurfaceMesh m;
+  core::SurfaceMesh m;
   m.vertices.resize(n * n, 3);
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) {
@@ -168,8 +168,8 @@ struct Case {
   double ms;
 };
 
-Case run_case(const char* name, const Skeleton& skel, const MatrixX3d& vessels,
-              const SurfaceMesh* surf, const MatrixX3d* fp, const RigidInitOptions& o,
+Case run_case(const char* name, const core::Skeleton& skel, const MatrixX3d& vessels,
+              const core::SurfaceMesh* surf, const MatrixX3d* fp, const RigidInitOptions& o,
               const Eigen::Isometry3d& truth) {
   const auto t0 = std::chrono::steady_clock::now();
   Case c{rigid_init(skel, vessels, surf, fp, o), {}, 0.0};
@@ -196,7 +196,7 @@ constexpr double recover_mm = 0.5;
 constexpr double recover_deg = 0.5;
 
 struct Scene {
-  Skeleton skel = vessel_tree();
+  core::Skeleton skel = vessel_tree();
   MatrixX3d pre_points;  // noisy samples in the pre-operative frame
   Eigen::Isometry3d O, truth;
   MatrixX3d intra;
@@ -278,7 +278,7 @@ TEST(RigidInit, RobustLossesRecoverWithThirtyPercentOutliersWhileLeastSquaresDoe
 TEST(RigidInit, RecoversTheOffsetWithFootprintPointsOnACurvedSurface) {
   const Scene s(4);
   std::mt19937 rng(5);
-  const SurfaceMesh cap = brain_cap();
+  const core::SurfaceMesh cap = brain_cap();
   const MatrixX3d fp = apply(s.O, footprint(300, 0.3, rng));
   RigidInitOptions o;
   const Case c = run_case("tree + footprint, huber", s.skel, s.intra, &cap, &fp, o, s.truth);
@@ -294,9 +294,9 @@ TEST(RigidInit, FootprintAloneOnASphereReportsTheRotationsAboutItsCentreAsWeak) 
   // range (a far-away skeleton) those 3 DOFs are unobservable, and the report must say so.
   const Scene s(6);
   std::mt19937 rng(7);
-  const SurfaceMesh cap = brain_cap();
+  const core::SurfaceMesh cap = brain_cap();
   const MatrixX3d fp = footprint(300, 0.0, rng);
-  Skeleton far = s.skel;
+  core::Skeleton far = s.skel;
   far.points.rowwise() += Vector3d(500, 0, 0).transpose();
   RigidInitOptions o;
   const RigidInitResult r = rigid_init(far, s.pre_points, &cap, &fp, o);
@@ -307,7 +307,7 @@ TEST(RigidInit, FootprintAloneOnASphereReportsTheRotationsAboutItsCentreAsWeak) 
 }
 
 TEST(RigidInit, NoPointsGiveTheIdentityAndSaySo) {
-  const Skeleton skel = vessel_tree();
+  const core::Skeleton skel = vessel_tree();
   const RigidInitResult r = rigid_init(skel, MatrixX3d(0, 3), nullptr, nullptr, RigidInitOptions{});
   EXPECT_FALSE(r.converged);
   EXPECT_TRUE(r.transform.isApprox(Eigen::Isometry3d::Identity()));
@@ -328,7 +328,7 @@ TEST(RigidInit, PointsOutOfReachStopWithTooFewPairs) {
 TEST(RigidInit, OneStraightVesselIsFiniteAndReportsItsUnobservableDofs) {
   // All points on one straight segment: rotation about it and translation along it leave every
   // point-to-line residual unchanged.
-  Skeleton line;
+  core::Skeleton line;
   line.points.resize(2, 3);
   line.points << 0, 0, 0, 60, 0, 0;
   line.segments = {{0, 1}};
@@ -364,10 +364,10 @@ TEST(RigidInit, OptionsValidateAndBadInputsThrow) {
   EXPECT_EQ(o.validate(), "");
   o.loss_scale_mm = 0.0;
   EXPECT_NE(o.validate().find("loss_scale_mm"), std::string::npos);
-  const Skeleton skel = vessel_tree();
+  const core::Skeleton skel = vessel_tree();
   const MatrixX3d pts = skel.points.topRows(10);
   EXPECT_THROW(rigid_init(skel, pts, nullptr, nullptr, o), Error);
-  Skeleton bad = skel;
+  core::Skeleton bad = skel;
   bad.segments.push_back({0, static_cast<index_t>(skel.points.rows())});
   EXPECT_THROW(rigid_init(bad, pts, nullptr, nullptr, RigidInitOptions{}), Error);
   const MatrixX3d fp = pts;

@@ -11,8 +11,8 @@ namespace brainshift::constraints {
 namespace {
 
 /// Vessels 2.5 mm apart along x (varying in z) crossed by a few along y, in a 40 mm patch.
-Skeleton vessel_lattice() {
-  Skeleton s;
+core::Skeleton vessel_lattice() {
+  core::Skeleton s;
   std::vector<Vector3d> pts;
   auto line = [&](const Vector3d& a, const Vector3d& b, int n) {
     const auto first = static_cast<index_t>(pts.size());
@@ -34,7 +34,7 @@ Skeleton vessel_lattice() {
 }
 
 /// Points on the lattice moved by `shift`, with 0.3 mm noise, keeping the middle of the patch.
-MatrixX3d seen(const Skeleton& s, const Vector3d& shift) {
+MatrixX3d seen(const core::Skeleton& s, const Vector3d& shift) {
   std::mt19937 rng(11);
   std::normal_distribution<double> g(0.0, 0.3);
   std::vector<Vector3d> out;
@@ -50,7 +50,7 @@ MatrixX3d seen(const Skeleton& s, const Vector3d& shift) {
 }
 
 TEST(ShiftSearch, FindsAShiftLargerThanTheVesselSpacing) {
-  const Skeleton s = vessel_lattice();
+  const core::Skeleton s = vessel_lattice();
   const Vector3d shift(1.0, -1.5, -8.0);
   const ShiftSearchResult r = search_shift(s, seen(s, shift), {}, ShiftSearchOptions{});
   EXPECT_TRUE(r.accepted) << r.message;
@@ -60,7 +60,7 @@ TEST(ShiftSearch, FindsAShiftLargerThanTheVesselSpacing) {
 
 TEST(ShiftSearch, ABasisScalesTheShiftPerPoint) {
   // Each point moves by half the searched shift: with basis ½I the search reports the full one.
-  const Skeleton s = vessel_lattice();
+  const core::Skeleton s = vessel_lattice();
   const Vector3d shift(0.0, 1.0, -6.0);
   const MatrixX3d p = seen(s, 0.5 * shift);
   const std::vector<Matrix3d> half(static_cast<std::size_t>(p.rows()), 0.5 * Matrix3d::Identity());
@@ -70,9 +70,9 @@ TEST(ShiftSearch, ABasisScalesTheShiftPerPoint) {
 }
 
 TEST(ShiftSearch, NothingToMatchIsNotAccepted) {
-  const Skeleton s = vessel_lattice();
+  const core::Skeleton s = vessel_lattice();
   ShiftSearchOptions o;
-  EXPECT_FALSE(search_shift(Skeleton{}, seen(s, Vector3d::Zero()), {}, o).accepted);
+  EXPECT_FALSE(search_shift(core::Skeleton{}, seen(s, Vector3d::Zero()), {}, o).accepted);
   EXPECT_FALSE(search_shift(s, MatrixX3d(0, 3), {}, o).accepted);
   // Points already in place: no shift beats zero by the required gain.
   const ShiftSearchResult r = search_shift(s, seen(s, Vector3d::Zero()), {}, o);

@@ -17,7 +17,7 @@ namespace {
 
 struct Cube {
   core::TetMesh mesh = data_synth::make_box_mesh({1, 1, 1}, {2, 2, 2});
-  SurfaceMesh surface;
+  core::SurfaceMesh surface;
   core::BarycentricMapping map;
   std::unique_ptr<FeatureIndex> rest;
   MatrixX3d normals;
@@ -144,7 +144,7 @@ TEST(Builders, FootprintRowWithTheTriangleFallbackNormalPointsIntoTheTissue) {
 
 TEST(Builders, VesselRowsAreNormalToTheVesselAndMeasureTheDistanceToThePoint) {
   const Cube c;
-  Skeleton s;
+  core::Skeleton s;
   s.points.resize(2, 3);
   s.points << 0.25, 0.5, 0.5, 0.75, 0.5, 0.5;  // along x, inside the cube
   s.segments = {{0, 1}};

@@ -18,7 +18,7 @@
 namespace brainshift::imaging {
 namespace {
 
-using constraints::SurfaceMesh;
+using core::SurfaceMesh;
 
 /// Icosphere: the icosahedron subdivided `levels` times, every vertex projected onto the sphere
 /// of radius `radius` about `centre` (so vertices lie on the sphere and faces inside it).

@@ -3,7 +3,7 @@
 /// @brief Brute-force checks of triangle surfaces for the meshing tests: closedness, enclosed
 /// volume, area, vertex-sampled Hausdorff distance.
 
-#include "constraints/registration/skeleton.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mapping/closest_point.hpp"
 
 #include <algorithm>
@@ -15,7 +15,7 @@ namespace brainshift::imaging {
 
 /// Every directed edge occurs once and its reverse once: closed, manifold along edges, and
 /// consistently oriented.
-inline bool is_closed_and_consistent(const constraints::SurfaceMesh& s) {
+inline bool is_closed_and_consistent(const core::SurfaceMesh& s) {
   std::map<std::pair<index_t, index_t>, int> directed;
   for (index_t f = 0; f < s.triangles.rows(); ++f) {
     for (int c = 0; c < 3; ++c) ++directed[{s.triangles(f, c), s.triangles(f, (c + 1) % 3)}];
@@ -29,7 +29,7 @@ inline bool is_closed_and_consistent(const constraints::SurfaceMesh& s) {
 }
 
 /// Σ v0 · (v1 × v2) / 6: the enclosed volume (mm³), positive for outward normals.
-inline double enclosed_volume(const constraints::SurfaceMesh& s) {
+inline double enclosed_volume(const core::SurfaceMesh& s) {
   double v = 0.0;
   for (index_t f = 0; f < s.triangles.rows(); ++f) {
     const Vector3d a = s.vertices.row(s.triangles(f, 0)), b = s.vertices.row(s.triangles(f, 1)),
@@ -39,7 +39,7 @@ inline double enclosed_volume(const constraints::SurfaceMesh& s) {
   return v;
 }
 
-inline double surface_area(const constraints::SurfaceMesh& s) {
+inline double surface_area(const core::SurfaceMesh& s) {
   double area = 0.0;
   for (index_t f = 0; f < s.triangles.rows(); ++f) {
     const Vector3d a = s.vertices.row(s.triangles(f, 0)), b = s.vertices.row(s.triangles(f, 1)),
@@ -50,7 +50,7 @@ inline double surface_area(const constraints::SurfaceMesh& s) {
 }
 
 /// Distance from p to the surface (brute force over triangles), mm.
-inline double distance_to_surface(const Vector3d& p, const constraints::SurfaceMesh& s) {
+inline double distance_to_surface(const Vector3d& p, const core::SurfaceMesh& s) {
   double best = std::numeric_limits<double>::infinity();
   for (index_t f = 0; f < s.triangles.rows(); ++f) {
     const Vector3d a = s.vertices.row(s.triangles(f, 0)), b = s.vertices.row(s.triangles(f, 1)),
@@ -63,8 +63,8 @@ inline double distance_to_surface(const Vector3d& p, const constraints::SurfaceM
 
 /// max over the vertices of each surface of the distance to the other (a lower bound of the
 /// Hausdorff distance, tight when the surfaces are finely sampled), mm.
-inline double vertex_hausdorff(const constraints::SurfaceMesh& s1,
-                               const constraints::SurfaceMesh& s2) {
+inline double vertex_hausdorff(const core::SurfaceMesh& s1,
+                               const core::SurfaceMesh& s2) {
   double h = 0.0;
   for (index_t v = 0; v < s1.vertices.rows(); ++v) {
     h = std::max(h, distance_to_surface(s1.vertices.row(v).transpose(), s2));

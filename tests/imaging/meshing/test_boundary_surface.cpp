@@ -79,9 +79,9 @@ TEST(DuraSurface, LeavesOutTheCraniotomyDisc) {
 TEST(DecimateSurface, ReachesTheTargetAndStaysClosedAndClose) {
   const double r = 40.0;
   const core::TetMesh ball = data_synth::make_ellipsoid_mesh(Vector3d::Constant(r), /*cells=*/16);
-  const constraints::SurfaceMesh full = outer_boundary_surface(ball).surface;
+  const core::SurfaceMesh full = outer_boundary_surface(ball).surface;
   ASSERT_GT(full.vertices.rows(), 1000);
-  const constraints::SurfaceMesh coarse = decimate_surface(full, /*target_vertices=*/300);
+  const core::SurfaceMesh coarse = decimate_surface(full, /*target_vertices=*/300);
   EXPECT_NEAR(double(coarse.vertices.rows()), 300.0, 30.0);  // ±10 %
   EXPECT_TRUE(is_closed_and_consistent(coarse));
   EXPECT_GT(enclosed_volume(coarse), 0.0);  // still outward
@@ -113,7 +113,7 @@ TEST(DecimateSurface, FindsTheNonManifoldEdgesWhereThinPartsTouch) {
   for (std::size_t i = 0; i < nodes.size(); ++i)
     X.row(static_cast<index_t>(i)) = nodes[i].transpose();
   const core::TetMesh both(X, tets);
-  const constraints::SurfaceMesh full = outer_boundary_surface(both).surface;
+  const core::SurfaceMesh full = outer_boundary_surface(both).surface;
   // The shared edge (2 segments of the cubes' 5 mm grid) is where four faces meet; nothing
   // else is non-manifold. decimate_surface() cannot take it (a halfedge mesh cannot hold it).
   EXPECT_EQ(count_non_manifold_edges(full), 2);
@@ -124,7 +124,7 @@ TEST(DecimateSurface, FindsTheNonManifoldEdgesWhereThinPartsTouch) {
 TEST(DecimateSurface, RejectsOpenSurfaces) {
   const core::TetMesh box =
       data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
-  constraints::SurfaceMesh open = outer_boundary_surface(box).surface;
+  core::SurfaceMesh open = outer_boundary_surface(box).surface;
   open.triangles.conservativeResize(open.triangles.rows() - 1, 3);
   expect_error([&] { (void)decimate_surface(open, 20); }, {"open edges"});
   expect_error([&] { (void)decimate_surface(open, 3); }, {"≥ 4"});

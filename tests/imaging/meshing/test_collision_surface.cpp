@@ -49,7 +49,7 @@ core::TetMesh touching_cubes(double edge, const Vector3d& shift) {
 }
 
 /// Largest distance of a surface vertex outside the mesh, mm.
-double max_outside(const constraints::SurfaceMesh& s, const core::TetMesh& mesh) {
+double max_outside(const core::SurfaceMesh& s, const core::TetMesh& mesh) {
   const core::TetLocator locator(mesh.nodes(), mesh.tets());
   double worst = 0.0;
   for (index_t v = 0; v < s.vertices.rows(); ++v)
@@ -103,7 +103,7 @@ TEST(CollisionSurface, DecimatesAManifoldBoundaryWithoutWrapping) {
   EXPECT_EQ(c.non_manifold_vertices, 0);
   // The same surface as decimating the boundary directly (nothing moved: a convex shape's
   // decimated vertices lie within 1.5 mm of it).
-  const constraints::SurfaceMesh direct = decimate_surface(outer.surface, 300);
+  const core::SurfaceMesh direct = decimate_surface(outer.surface, 300);
   EXPECT_EQ(c.moved_vertices, 0);
   EXPECT_EQ(c.surface.vertices, direct.vertices);
   EXPECT_EQ(c.surface.triangles, direct.triangles);

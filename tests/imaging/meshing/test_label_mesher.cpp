@@ -130,7 +130,7 @@ TEST_F(SphereMesh, TumourElementsCarryTheTumourMaterial) {
 TEST_F(SphereMesh, DecimatedCollisionSurfaceMapsOntoTheMesh) {
   const MeshSurface outer = outer_boundary_surface(result_->mesh);
   EXPECT_TRUE(is_closed_and_consistent(outer.surface));
-  const constraints::SurfaceMesh coarse = decimate_surface(outer.surface, /*target_vertices=*/300);
+  const core::SurfaceMesh coarse = decimate_surface(outer.surface, /*target_vertices=*/300);
   EXPECT_NEAR(double(coarse.vertices.rows()), 300.0, 30.0);  // ±10 %
   EXPECT_TRUE(is_closed_and_consistent(coarse));
   // Edges ≈ 9 mm on r = 40 mm: sagitta ≈ 0.25 mm; 2 mm leaves room for the placement.

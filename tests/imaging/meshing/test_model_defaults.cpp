@@ -40,7 +40,7 @@ TEST(DefaultFixedRegion, IsFifteenMillimetresOnSmallBrainsAndSixteenPercentOnTal
 
 TEST(DefaultCraniotomy, IsOverTheTumourWhenThereIsOneElseAtTheTop) {
   const core::TetMesh ball = data_synth::make_ellipsoid_mesh(Vector3d(70, 85, 60), /*cells=*/12);
-  const constraints::SurfaceMesh surface = outer_boundary_surface(ball).surface;
+  const core::SurfaceMesh surface = outer_boundary_surface(ball).surface;
   // No tumour: the highest surface point.
   const Craniotomy top = default_craniotomy(surface, ball, {});
   EXPECT_DOUBLE_EQ(top.centre.z(), surface.vertices.col(2).maxCoeff());

@@ -210,7 +210,7 @@ TEST(VesselExtraction, SkeletonFormHasOneSegmentPerPolylineStep) {
   options.threshold = 500.0;
   const VesselExtractionResult r = extract_vessels(image, options);
   ASSERT_EQ(r.status, VesselStatus::OK);
-  const constraints::Skeleton s = to_skeleton(r.graph);
+  const core::Skeleton s = to_skeleton(r.graph);
   std::size_t steps = 0, interior = 0;
   for (const auto& b : r.graph.branches) {
     steps += b.points.size() - 1;

@@ -1,14 +1,15 @@
 #pragma once
 /// @file
-/// @brief Vessel skeleton graphs and triangle surfaces: the pre-operative features that
-/// intra-operative points are paired with. Positions in mm, world (RAS) frame.
+/// @brief Vessel skeleton graphs and triangle surfaces: the geometry shared by imaging (extraction,
+/// meshing, I/O), the registration (the features intra-operative points are paired with) and the
+/// phantoms. Positions in mm, world (RAS) frame.
 
 #include "core/config.hpp"
 
 #include <array>
 #include <vector>
 
-namespace brainshift::constraints {
+namespace brainshift::core {
 
 /// A vessel skeleton: points joined by segments, with a radius per point (mm).
 struct Skeleton {
@@ -23,4 +24,4 @@ struct SurfaceMesh {
   Eigen::Matrix<index_t, Eigen::Dynamic, 3, Eigen::RowMajor> triangles;  ///< #F×3
 };
 
-}  // namespace brainshift::constraints
+}  // namespace brainshift::core

@@ -17,7 +17,7 @@
 
 #include <filesystem>
 
-namespace brainshift::imaging {
+namespace brainshift::workflow {
 
 inline constexpr int compliance_cache_version = 1;
 
@@ -32,4 +32,4 @@ void write_compliance_cache(const std::filesystem::path& path,
 /// another version, truncated or corrupted (checksum).
 constraints::ComplianceBlock read_compliance_cache(const std::filesystem::path& path);
 
-}  // namespace brainshift::imaging
+}  // namespace brainshift::workflow

@@ -1,4 +1,4 @@
-#include "imaging/io/scene_io.hpp"
+#include "apps/workflow/scene_io.hpp"
 
 #include "core/error.hpp"
 #include "imaging/io/csv.hpp"
@@ -13,9 +13,14 @@
 #include <set>
 #include <sstream>
 
-namespace brainshift::imaging {
+namespace brainshift::workflow {
 namespace {
 
+using imaging::read_node_list;
+using imaging::read_skeleton_vtp;
+using imaging::read_surface_vtp;
+using imaging::read_tet_mesh;
+using imaging::to_skeleton;
 using constraints::ConstraintSet;
 using nlohmann::json;
 
@@ -280,4 +285,4 @@ Scene read_scene(const std::filesystem::path& path) {
   return s;
 }
 
-}  // namespace brainshift::imaging
+}  // namespace brainshift::workflow

@@ -1,4 +1,4 @@
-#include "imaging/io/compliance_cache.hpp"
+#include "apps/workflow/compliance_cache.hpp"
 
 #include "core/error.hpp"
 #include "core/hash.hpp"
@@ -10,8 +10,10 @@
 #include <fstream>
 #include <vector>
 
-namespace brainshift::imaging {
+namespace brainshift::workflow {
 namespace {
+
+using imaging::write_atomically;
 
 static_assert(std::endian::native == std::endian::little,
               "compliance cache I/O assumes a little-endian machine");
@@ -140,4 +142,4 @@ constraints::ComplianceBlock read_compliance_cache(const std::filesystem::path& 
   return b;
 }
 
-}  // namespace brainshift::imaging
+}  // namespace brainshift::workflow

@@ -4,7 +4,7 @@
 #include "core/mesh/boundary.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/io/mesh_io.hpp"
-#include "imaging/io/scene_io.hpp"
+#include "apps/workflow/scene_io.hpp"
 #include "imaging/io/skeleton_io.hpp"
 #include "imaging/io/surface_io.hpp"
 
@@ -13,9 +13,14 @@
 #include <fstream>
 #include <string>
 
-namespace brainshift::imaging {
+namespace brainshift::workflow {
 namespace {
 
+using imaging::read_surface_vtp;
+using imaging::VesselGraph;
+using imaging::write_skeleton_vtp;
+using imaging::write_surface_vtp;
+using imaging::write_tet_mesh;
 using tests::expect_error;
 
 /// A folder with mesh.vtu, surface.vtp (its boundary) and vessels.vtp (one 3-point branch).
@@ -25,7 +30,7 @@ struct SceneFolder {
   SceneFolder() {
     write_tet_mesh(dir / "mesh.vtu", mesh);
     const core::BoundarySurface b = core::boundary_surface(mesh);
-    write_surface_vtp(dir / "surface.vtp", constraints::SurfaceMesh{b.vertices, b.faces});
+    write_surface_vtp(dir / "surface.vtp", core::SurfaceMesh{b.vertices, b.faces});
     VesselGraph g;
     g.nodes = {{Vector3d(-10, 0, 5), 1.0}, {Vector3d(10, 0, 5), 0.8}};
     g.branches = {
@@ -125,17 +130,17 @@ TEST(SceneIo, BadScenesGiveOneLineErrorsNamingFileAndKey) {
 
 TEST(SurfaceIo, RoundTripsExactlyAndRejectsNonTriangles) {
   SceneFolder f;
-  const constraints::SurfaceMesh s = read_surface_vtp(f.dir / "surface.vtp");
+  const core::SurfaceMesh s = read_surface_vtp(f.dir / "surface.vtp");
   const core::BoundarySurface b = core::boundary_surface(f.mesh);
   EXPECT_EQ(s.vertices, b.vertices);
   EXPECT_EQ(s.triangles, b.faces);
   expect_error([&] { read_surface_vtp(f.dir / "vessels.vtp"); }, {"vessels.vtp", "no triangles"});
   expect_error([&] { read_surface_vtp(f.dir / "nothing.vtp"); }, {"nothing.vtp", "no such file"});
-  constraints::SurfaceMesh bad = s;
+  core::SurfaceMesh bad = s;
   bad.triangles(0, 0) = 100000;
   expect_error([&] { write_surface_vtp(f.dir / "bad.vtp", bad); }, {"bad.vtp", "indexes a vertex"});
   EXPECT_FALSE(std::filesystem::exists(f.dir / "bad.vtp"));
 }
 
 }  // namespace
-}  // namespace brainshift::imaging
+}  // namespace brainshift::workflow

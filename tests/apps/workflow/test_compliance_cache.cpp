@@ -1,14 +1,14 @@
 #include "expect_error.hpp"
 #include "temp_folder.hpp"
 
-#include "imaging/io/compliance_cache.hpp"
+#include "apps/workflow/compliance_cache.hpp"
 
 #include <gtest/gtest.h>
 
 #include <fstream>
 #include <random>
 
-namespace brainshift::imaging {
+namespace brainshift::workflow {
 namespace {
 
 using tests::expect_error;
@@ -85,4 +85,4 @@ TEST(ComplianceCache, AMisSizedBlockIsRefusedAndNothingIsWritten) {
 }
 
 }  // namespace
-}  // namespace brainshift::imaging
+}  // namespace brainshift::workflow

@@ -39,14 +39,14 @@
 #include <string>
 #include <vector>
 
-namespace brainshift::imaging {
+namespace brainshift::workflow {
 
 /// A scene read from disk: the model's parts and the registration settings.
 struct Scene {
   core::TetMesh mesh;
   std::vector<index_t> fixed_nodes;
-  constraints::Skeleton skeleton;    ///< empty when the scene names no vessels
-  constraints::SurfaceMesh surface;  ///< empty when the scene names no collision surface
+  core::Skeleton skeleton;    ///< empty when the scene names no vessels
+  core::SurfaceMesh surface;  ///< empty when the scene names no collision surface
   constraints::RegistrationOptions options;
   constraints::ComplianceOptions compliance;
 };
@@ -62,4 +62,4 @@ Scene read_scene(const std::filesystem::path& path);
 std::vector<index_t> nodes_below(const core::TetMesh& mesh, const Vector3d& direction,
                                  double height_mm);
 
-}  // namespace brainshift::imaging
+}  // namespace brainshift::workflow
