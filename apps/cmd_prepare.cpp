@@ -3,9 +3,9 @@
 #include "model_folder.hpp"
 #include "progress.hpp"
 
+#include "apps/workflow/compliance_cache.hpp"
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
-#include "apps/workflow/compliance_cache.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"

@@ -5,10 +5,10 @@
 #include "result_fields.hpp"
 #include "result_overlay.hpp"
 
+#include "apps/workflow/compliance_cache.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "imaging/io/atomic_write.hpp"
-#include "apps/workflow/compliance_cache.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"

@@ -16,12 +16,12 @@
 namespace brainshift::workflow {
 namespace {
 
+using constraints::ConstraintSet;
 using imaging::read_node_list;
 using imaging::read_skeleton_vtp;
 using imaging::read_surface_vtp;
 using imaging::read_tet_mesh;
 using imaging::to_skeleton;
-using constraints::ConstraintSet;
 using nlohmann::json;
 
 /// A JSON object being read: checks keys against a known list, types and ranges, and names the

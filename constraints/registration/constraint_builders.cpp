@@ -31,9 +31,9 @@ std::string to_string(DuraOptions::Mode mode) {
   BS_UNREACHABLE();
 }
 
-void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const core::Skeleton& skeleton,
-                     const MappedVertices& mapped, ConstRef<MatrixX3d> x,
-                     ConstRef<MatrixX3d> points) {
+void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
+                     const core::Skeleton& skeleton, const MappedVertices& mapped,
+                     ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points) {
   for (const Pair& p : pairs) {
     const auto& seg = skeleton.segments[static_cast<std::size_t>(p.feature)];
     const Stencil s =
@@ -73,10 +73,10 @@ MatrixX3d vertex_normals(const core::SurfaceMesh& surface) {
   return n;
 }
 
-index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const core::SurfaceMesh& surface,
-                      const FeatureIndex& rest_index, ConstRef<MatrixX3d> rest_normals,
-                      const MappedVertices& mapped, ConstRef<MatrixX3d> x,
-                      const std::vector<bool>& skip) {
+index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options,
+                      const core::SurfaceMesh& surface, const FeatureIndex& rest_index,
+                      ConstRef<MatrixX3d> rest_normals, const MappedVertices& mapped,
+                      ConstRef<MatrixX3d> x, const std::vector<bool>& skip) {
   if (options.mode == DuraOptions::Mode::NONE) return 0;
   const index_t before = rows.size();
   for (index_t v = 0; v < surface.vertices.rows(); ++v) {

@@ -19,8 +19,8 @@
 /// boundary faces of a positively oriented tetrahedral mesh are.
 
 #include "constraints/registration/pairing.hpp"
-#include "core/geometry/skeleton.hpp"
 #include "constraints/rows/constraint_rows.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
@@ -52,9 +52,9 @@ struct DuraOptions {
 std::string to_string(DuraOptions::Mode mode);
 
 /// Sliding-line rows for vessel pairs (`pairs` from segments of `skeleton`, points from `points`).
-void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs, const core::Skeleton& skeleton,
-                     const MappedVertices& mapped, ConstRef<MatrixX3d> x,
-                     ConstRef<MatrixX3d> points);
+void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,
+                     const core::Skeleton& skeleton, const MappedVertices& mapped,
+                     ConstRef<MatrixX3d> x, ConstRef<MatrixX3d> points);
 
 /// Unilateral rows for footprint pairs (`pairs` from triangles of `surface`). `normals`: #P×3 unit
 /// normals into the tissue per footprint point, or empty to use the paired triangle's inward
@@ -71,10 +71,10 @@ MatrixX3d vertex_normals(const core::SurfaceMesh& surface);
 /// triangle of the rest surface (`rest_index`, built on the same surface at rest, whose vertex
 /// normals are `rest_normals`). Vertices in `skip` (e.g. those carrying a footprint row) get
 /// none. Returns the number of rows added.
-index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options, const core::SurfaceMesh& surface,
-                      const FeatureIndex& rest_index, ConstRef<MatrixX3d> rest_normals,
-                      const MappedVertices& mapped, ConstRef<MatrixX3d> x,
-                      const std::vector<bool>& skip = {});
+index_t add_dura_rows(ConstraintRows& rows, const DuraOptions& options,
+                      const core::SurfaceMesh& surface, const FeatureIndex& rest_index,
+                      ConstRef<MatrixX3d> rest_normals, const MappedVertices& mapped,
+                      ConstRef<MatrixX3d> x, const std::vector<bool>& skip = {});
 
 /// Bilateral point rows: the model points (rest positions, mapped by `mapped`) go to `targets`.
 void add_landmark_rows(ConstraintRows& rows, const MappedVertices& mapped, ConstRef<MatrixX3d> x,

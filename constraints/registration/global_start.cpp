@@ -64,7 +64,8 @@ Matrix3d rotation(const Vector3d& w) {
 /// τ) and the kernel κ_τ quantised to 0…255, on a regular grid.
 class DistanceGrid {
  public:
-  DistanceGrid(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h, double tau)
+  DistanceGrid(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h,
+               double tau)
       : m_lo(lo), m_h(h), m_tau2(tau * tau) {
     m_dims = (((hi - lo) / h).array().ceil().cast<int>() + 1).matrix();
     const auto n = static_cast<std::size_t>(m_dims.x()) * static_cast<std::size_t>(m_dims.y()) *

@@ -40,8 +40,8 @@
 /// 4. decision by the data score: the pose is kept when its fine score beats the identity's by
 ///    `min_gain`; otherwise the identity is returned and the message says why. No motion cap.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 #include <functional>
 #include <string>

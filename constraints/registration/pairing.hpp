@@ -5,8 +5,8 @@
 /// (point-to-plane). A uniform grid over the features' bounding boxes answers nearest-feature
 /// queries by expanding rings of cells. Positions in mm, world frame.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 #include <optional>
 #include <vector>

@@ -47,8 +47,8 @@
 #include "constraints/registration/registration_model.hpp"
 #include "constraints/registration/rigid_init.hpp"
 #include "constraints/registration/shift_search.hpp"
-#include "core/geometry/skeleton.hpp"
 #include "constraints/solver/constrained_step.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
 

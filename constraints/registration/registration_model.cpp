@@ -20,8 +20,9 @@ std::vector<index_t> block_nodes_of(const core::TetMesh& mesh, const core::Baryc
 }  // namespace
 
 RegistrationModel::RegistrationModel(const core::TetMesh& mesh,
-                                     const std::vector<index_t>& fixed_nodes, core::Skeleton skeleton,
-                                     core::SurfaceMesh surface, const ComplianceOptions& compliance)
+                                     const std::vector<index_t>& fixed_nodes,
+                                     core::Skeleton skeleton, core::SurfaceMesh surface,
+                                     const ComplianceOptions& compliance)
     : m_skeleton(std::move(skeleton)), m_surface(std::move(surface)) {
   const auto t0 = std::chrono::steady_clock::now();
   m_skeleton_map = core::BarycentricMapping(mesh, m_skeleton.points);

@@ -7,8 +7,8 @@
 /// share one model. Positions in mm, world (RAS) frame of the pre-operative images.
 
 #include "constraints/registration/constraint_builders.hpp"
-#include "core/geometry/skeleton.hpp"
 #include "constraints/solver/constrained_step.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
 

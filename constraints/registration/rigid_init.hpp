@@ -20,8 +20,8 @@
 /// number; eigen-directions with λ < weak_dof_ratio · λ_max are named in `weak_dofs` (e.g. the
 /// rotation about, and translation along, a single straight vessel).
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 #include <string>
 

@@ -29,7 +29,8 @@ namespace {
 /// Squared distance to the nearest segment, truncated at τ², tabulated on a voxel grid.
 class DistanceTable {
  public:
-  DistanceTable(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h, double tau)
+  DistanceTable(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h,
+                double tau)
       : m_lo(lo), m_h(h), m_tau2(static_cast<float>(tau * tau)) {
     m_dims = (((hi - lo) / h).array().ceil().cast<int>() + 1).matrix();
     m_d2.assign(static_cast<std::size_t>(m_dims.prod()), m_tau2);

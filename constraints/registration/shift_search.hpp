@@ -18,8 +18,8 @@
 /// The distances are tabulated once on a voxel grid (truncated at τ, exact point-to-segment
 /// distances near each segment), so one candidate costs one lookup per point.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 #include <string>
 #include <vector>

@@ -5,8 +5,8 @@
 /// H25 of seeds 001/004) and the percentage of brain shift corrected. Pure functions, no I/O.
 /// Positions in world RAS mm, distances in mm.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 #include <cstddef>
 #include <optional>
@@ -76,8 +76,7 @@ LandmarkPairs match_landmarks_by_id(const std::vector<std::string>& ids_a,
 /// @return #V distances ≥ 0, in vertex order.
 /// \throws brainshift::Error when `to` has no triangle, a triangle index is out of range, or a
 /// vertex of either surface is not finite.
-std::vector<double> surface_distances(const core::SurfaceMesh& from,
-                                      const core::SurfaceMesh& to);
+std::vector<double> surface_distances(const core::SurfaceMesh& from, const core::SurfaceMesh& to);
 
 /// Symmetric surface-distance statistics: the directed distances A → B and B → A pooled into one
 /// sample of #V_A + #V_B values; Hxx is its xx-th percentile (percentile(), type 7).
@@ -93,8 +92,7 @@ struct SurfaceDistanceStats {
 
 /// Hausdorff percentiles between two triangle surfaces (see SurfaceDistanceStats).
 /// \throws brainshift::Error as surface_distances(), for either direction.
-SurfaceDistanceStats hausdorff_percentiles(const core::SurfaceMesh& a,
-                                           const core::SurfaceMesh& b);
+SurfaceDistanceStats hausdorff_percentiles(const core::SurfaceMesh& a, const core::SurfaceMesh& b);
 
 /// Percentage of brain shift corrected: 100 · (1 − after / before), from the mean TRE before
 /// (no correction) and after the correction. 100 = perfect, 0 = no better, < 0 = worse.

@@ -14,7 +14,7 @@ namespace brainshift::imaging {
 /// A surface whose vertices are nodes of a tetrahedral mesh.
 struct MeshSurface {
   core::SurfaceMesh surface;  ///< vertices (mm, world) and triangles, normals outward
-  std::vector<index_t> node;         ///< #V tet-mesh node of each surface vertex
+  std::vector<index_t> node;  ///< #V tet-mesh node of each surface vertex
 };
 
 /// The outer boundary of `mesh`: triangles that belong to exactly one tetrahedron, restricted to

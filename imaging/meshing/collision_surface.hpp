@@ -34,7 +34,7 @@ struct CollisionSurfaceOptions {
 
 /// The collision surface and how it was made.
 struct CollisionSurface {
-  core::SurfaceMesh surface;   ///< closed 2-manifold, outward normals, mm
+  core::SurfaceMesh surface;          ///< closed 2-manifold, outward normals, mm
   index_t boundary_vertices = 0;      ///< of the mesh's outer boundary
   index_t non_manifold_edges = 0;     ///< boundary edges shared by more than two triangles
   index_t non_manifold_vertices = 0;  ///< boundary vertices whose triangles do not form one fan

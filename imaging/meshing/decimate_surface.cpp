@@ -67,8 +67,7 @@ index_t count_non_manifold_edges(const core::SurfaceMesh& surface) {
   return n;
 }
 
-core::SurfaceMesh decimate_surface(const core::SurfaceMesh& surface,
-                                          index_t target_vertices) {
+core::SurfaceMesh decimate_surface(const core::SurfaceMesh& surface, index_t target_vertices) {
   BS_VERIFY(target_vertices >= 4,
             "decimation target must be ≥ 4 vertices, got " << target_vertices);
   Mesh sm = to_cgal(surface);

@@ -5,8 +5,8 @@
 /// (Lindstrom & Turk, "Fast and memory efficient polygonal simplification", IEEE Vis 1998),
 /// guarded against normal flips. Positions in mm, world frame.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 namespace brainshift::imaging {
 
@@ -19,8 +19,7 @@ namespace brainshift::imaging {
 /// (Lindstrom–Turk placement keeps the enclosed volume, so vertices may lie slightly outside).
 /// \throws brainshift::Error when `surface` is not a closed manifold (open edge, an edge shared by
 /// more than two triangles, an index out of range) or target_vertices < 4.
-core::SurfaceMesh decimate_surface(const core::SurfaceMesh& surface,
-                                          index_t target_vertices = 300);
+core::SurfaceMesh decimate_surface(const core::SurfaceMesh& surface, index_t target_vertices = 300);
 
 /// Edges shared by more than two triangles: where parts of a closed boundary touch along an edge
 /// (thin structures one element wide). decimate_surface() refuses such a surface;

@@ -18,8 +18,7 @@ using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Mesh = CGAL::Surface_mesh<Kernel::Point_3>;
 }  // namespace
 
-core::SurfaceMesh wrap_surface(const core::SurfaceMesh& soup, double alpha,
-                                      double offset) {
+core::SurfaceMesh wrap_surface(const core::SurfaceMesh& soup, double alpha, double offset) {
   BS_VERIFY(std::isfinite(alpha) && alpha > 0.0,
             "surface wrap: alpha must be > 0 mm, got " << alpha);
   BS_VERIFY(std::isfinite(offset) && offset > 0.0,

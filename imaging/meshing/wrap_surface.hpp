@@ -6,8 +6,8 @@
 /// real brain touching along an edge or at a vertex), which edge-collapse decimation cannot take.
 /// Positions in mm, world frame.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 
 namespace brainshift::imaging {
 
@@ -21,7 +21,6 @@ namespace brainshift::imaging {
 /// enclosed volume), without self-intersections.
 /// \throws brainshift::Error when alpha or offset is not a positive number, an index is out of
 /// range, a vertex is not finite, or the soup has no triangle.
-core::SurfaceMesh wrap_surface(const core::SurfaceMesh& soup, double alpha,
-                                      double offset);
+core::SurfaceMesh wrap_surface(const core::SurfaceMesh& soup, double alpha, double offset);
 
 }  // namespace brainshift::imaging

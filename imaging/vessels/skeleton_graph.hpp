@@ -4,8 +4,8 @@
 /// (polylines), positions in world RAS mm, radii in mm. Built from a thinned voxel mask, pruned
 /// of short spurs, smoothed and resampled; convertible to core::Skeleton.
 
-#include "core/geometry/skeleton.hpp"
 #include "core/config.hpp"
+#include "core/geometry/skeleton.hpp"
 #include "imaging/io/volume.hpp"
 
 #include <cstdint>

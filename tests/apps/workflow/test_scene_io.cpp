@@ -1,10 +1,10 @@
 #include "expect_error.hpp"
 #include "temp_folder.hpp"
 
+#include "apps/workflow/scene_io.hpp"
 #include "core/mesh/boundary.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 #include "imaging/io/mesh_io.hpp"
-#include "apps/workflow/scene_io.hpp"
 #include "imaging/io/skeleton_io.hpp"
 #include "imaging/io/surface_io.hpp"
 

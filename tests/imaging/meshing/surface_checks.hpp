@@ -63,8 +63,7 @@ inline double distance_to_surface(const Vector3d& p, const core::SurfaceMesh& s)
 
 /// max over the vertices of each surface of the distance to the other (a lower bound of the
 /// Hausdorff distance, tight when the surfaces are finely sampled), mm.
-inline double vertex_hausdorff(const core::SurfaceMesh& s1,
-                               const core::SurfaceMesh& s2) {
+inline double vertex_hausdorff(const core::SurfaceMesh& s1, const core::SurfaceMesh& s2) {
   double h = 0.0;
   for (index_t v = 0; v < s1.vertices.rows(); ++v) {
     h = std::max(h, distance_to_surface(s1.vertices.row(v).transpose(), s2));
