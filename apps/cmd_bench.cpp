@@ -2,10 +2,10 @@
 
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
-#include "intraop_footprint.hpp"
-#include "model_folder.hpp"
-#include "progress.hpp"
 
+#include "apps/workflow/intraop_footprint.hpp"
+#include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/progress.hpp"
 #include "constraints/registration/registration.hpp"
 #include "constraints/registration/uncertainty.hpp"
 #include "core/error.hpp"

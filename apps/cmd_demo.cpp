@@ -3,8 +3,8 @@
 #include "cmd_evaluate.hpp"
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
-#include "progress.hpp"
 
+#include "apps/workflow/progress.hpp"
 #include "core/error.hpp"
 #include "data_synth/cases/phantom_case.hpp"
 

@@ -1,8 +1,7 @@
 #include "cmd_extract_footprint.hpp"
 
-#include "intraop_footprint.hpp"
-#include "progress.hpp"
-
+#include "apps/workflow/intraop_footprint.hpp"
+#include "apps/workflow/progress.hpp"
 #include "core/config.hpp"
 #include "core/error.hpp"
 #include "imaging/footprint/footprint_io.hpp"

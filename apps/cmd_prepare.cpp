@@ -1,9 +1,8 @@
 #include "cmd_prepare.hpp"
 
-#include "model_folder.hpp"
-#include "progress.hpp"
-
 #include "apps/workflow/compliance_cache.hpp"
+#include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/progress.hpp"
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"

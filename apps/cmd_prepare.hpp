@@ -4,7 +4,7 @@
 /// (CGAL), decimated collision surface, fixed region, vessel skeleton, scene — written as a
 /// MODEL folder (model_folder.hpp). Wiring only.
 
-#include "progress.hpp"
+#include "apps/workflow/progress.hpp"
 
 #include <filesystem>
 #include <iosfwd>

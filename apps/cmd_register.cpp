@@ -1,11 +1,10 @@
 #include "cmd_register.hpp"
 
-#include "intraop_footprint.hpp"
-#include "progress.hpp"
-#include "result_fields.hpp"
-#include "result_overlay.hpp"
-
 #include "apps/workflow/compliance_cache.hpp"
+#include "apps/workflow/intraop_footprint.hpp"
+#include "apps/workflow/progress.hpp"
+#include "apps/workflow/result_fields.hpp"
+#include "apps/workflow/result_overlay.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "imaging/io/atomic_write.hpp"

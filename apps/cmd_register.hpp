@@ -6,8 +6,7 @@
 /// intraop_to_preop.nrrd, warped_mri.nii.gz, overlay.png; the fields in result_fields.hpp). Wiring
 /// only; the pieces are reused by `replay` and `demo`.
 
-#include "model_folder.hpp"
-
+#include "apps/workflow/model_folder.hpp"
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"

@@ -1,8 +1,8 @@
 #include "cmd_replay.hpp"
 
 #include "cmd_register.hpp"
-#include "progress.hpp"
 
+#include "apps/workflow/progress.hpp"
 #include "core/error.hpp"
 #include "imaging/evaluation/metrics.hpp"
 #include "imaging/io/atomic_write.hpp"

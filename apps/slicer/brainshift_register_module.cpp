@@ -13,12 +13,12 @@
 // report); 1 bad input (one line on stderr naming the file; nothing written).
 
 #include "../cmd_register.hpp"
-#include "../model_folder.hpp"
-#include "../result_fields.hpp"
 #include "module_description.hpp"
 #include "slicer_modules.hpp"
 #include "staged_outputs.hpp"
 
+#include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/result_fields.hpp"
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"

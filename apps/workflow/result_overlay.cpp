@@ -1,4 +1,4 @@
-#include "result_overlay.hpp"
+#include "apps/workflow/result_overlay.hpp"
 
 #include "imaging/overlay/overlay.hpp"
 

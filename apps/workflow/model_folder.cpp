@@ -1,4 +1,4 @@
-#include "model_folder.hpp"
+#include "apps/workflow/model_folder.hpp"
 
 #include "core/error.hpp"
 #include "core/hash.hpp"

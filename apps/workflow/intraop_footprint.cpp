@@ -1,4 +1,4 @@
-#include "intraop_footprint.hpp"
+#include "apps/workflow/intraop_footprint.hpp"
 
 #include "core/error.hpp"
 #include "imaging/footprint/freehand_footprint.hpp"

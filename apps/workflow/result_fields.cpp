@@ -1,4 +1,4 @@
-#include "result_fields.hpp"
+#include "apps/workflow/result_fields.hpp"
 
 #include "core/error.hpp"
 #include "imaging/warping/warp_image.hpp"

@@ -1,4 +1,4 @@
-#include "result_uncertainty.hpp"
+#include "apps/workflow/result_uncertainty.hpp"
 
 #include "core/error.hpp"
 #include "imaging/evaluation/metrics.hpp"
