@@ -1,29 +1,11 @@
 #pragma once
 /// @file
-/// @brief `brainshift bench`: speed against error on the phantom cases (issue 8). Every run is a
-/// real registration on a phantom with known truth — generated, prepared and registered through
-/// the same code as `phantom`, `prepare` and `register` — and records time per stage,
-/// iterations, peak memory, TRE (mean, p95, max) and the shift corrected.
-///
-///   suite `cases`:  each named phantom case with the product's defaults (vessels only), and two
-///                   baselines on the same data: `rigid_only` (the loop's rigid start alone) and
-///                   `prescribed_displacement` (the seeds' forward model: each vessel point's
-///                   nearest skeleton point is displaced onto it, no sliding, no re-pairing);
-///   suite `sweeps`: on `standard`: mesh size (≈1k … 50k nodes), start (identity or rigid),
-///                   intra-operative vessel sampling
-///                   (1.25, 2.5, 5 mm), compliance strategy (dense block, sparse solves, unwarped
-///                   K0 as the ablation), PGS tolerance (Gauss–Seidel forced), constraint sets
-///                   (vessels; + footprint; + dura).
-///
-/// Writes DIR/results.csv, DIR/results.json (with the machine, build type, date and the fitted
-/// growth exponents), DIR/results.md, DIR/pareto.png (gnuplot; its script and data are kept).
-/// The phantoms and models are built under DIR/work and removed unless --keep-work.
+/// @brief `brainshift bench`: speed against error on the phantom cases (issue 8); argument
+/// parsing over run_benchmark() (apps/workflow/bench.hpp, which describes the suites and outputs).
 
-#include <cstdint>
-#include <filesystem>
+#include "apps/workflow/bench.hpp"
+
 #include <iosfwd>
-#include <string>
-#include <vector>
 
 namespace CLI {
 class App;
@@ -31,20 +13,8 @@ class App;
 
 namespace brainshift::apps {
 
-struct BenchArgs {
-  bool quick = false;         ///< standard case and a few sweep points (CI smoke test, < 2 min)
-  std::string suite = "all";  ///< all | cases | sweeps
-  std::vector<std::string> cases;  ///< named cases for suite `cases` (default: every case)
-  std::uint32_t seed = 1;          ///< phantom seed
-  int repeat = 1;                  ///< registrations per run; the median run's times are recorded
-  bool keep_work = false;          ///< keep DIR/work (phantoms and models)
-  /// Real data (the icbm_* cases read DIR/icbm152/labels.nii.gz); absent: those cases are
-  /// skipped with a message (results.json → skipped). Default: $BRAINSHIFT_DATA, else
-  /// ../shared/data.
-  std::filesystem::path real_data;
-  std::filesystem::path out;  ///< DIR
-};
-
+/// The flags of `brainshift bench` (workflow/bench.hpp).
+using BenchArgs = BenchOptions;
 CLI::App* add_bench_command(CLI::App& app, BenchArgs& args);
 
 /// Runs the benchmark. @return 0 when every run gave a finite answer, 2 when some run failed or

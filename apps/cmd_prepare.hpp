@@ -2,13 +2,14 @@
 /// @file
 /// @brief `brainshift prepare`: the pre-operative model from a label volume and an MRA — mesh
 /// (CGAL), decimated collision surface, fixed region, vessel skeleton, scene — written as a
-/// MODEL folder (model_folder.hpp). Wiring only.
+/// MODEL folder (model_folder.hpp). Argument parsing over prepare_model()
+/// (apps/workflow/prepare.hpp).
 
+#include "apps/workflow/prepare.hpp"
 #include "apps/workflow/progress.hpp"
 
 #include <filesystem>
 #include <iosfwd>
-#include <optional>
 
 namespace CLI {
 class App;
@@ -16,15 +17,8 @@ class App;
 
 namespace brainshift::apps {
 
-struct PrepareArgs {
-  std::filesystem::path labels;                        ///< 0 bg, 1 brain, 2 tumour, 3 ventricles
-  std::filesystem::path mra;                           ///< MR angiogram, same patient and frame
-  std::optional<std::filesystem::path> mri;            ///< recorded in the manifest (grid, hash)
-  std::optional<std::filesystem::path> scene_options;  ///< JSON merged over the default scene
-  std::filesystem::path out;                           ///< MODEL folder
-  double mesh_refinement = 1.0;  ///< 1 ≈ 1.6k nodes (phantom); grows ≈ r^2.7
-  int surface_vertices = 300;    ///< decimated collision surface
-};
+/// The flags of `brainshift prepare` (workflow/prepare.hpp).
+using PrepareArgs = PrepareOptions;
 
 CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args);
 

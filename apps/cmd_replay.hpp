@@ -5,9 +5,11 @@
 /// frame's result; a frame that fails is reported and skipped, the rest go on. Writes
 /// RES/frame_NNN/ (as `register` does) and RES/replay.json with per-frame reports and the
 /// latency summary (median, p95, max). Exit code 0 when every frame registered, 2 when some
-/// failed or did not converge, 1 when none registered.
+/// failed or did not converge, 1 when none registered. Argument parsing over replay_sequence()
+/// (apps/workflow/replay.hpp).
 
-#include <filesystem>
+#include "apps/workflow/replay.hpp"
+
 #include <iosfwd>
 
 namespace CLI {
@@ -16,11 +18,8 @@ class App;
 
 namespace brainshift::apps {
 
-struct ReplayArgs {
-  std::filesystem::path model;
-  std::filesystem::path sequence;
-  std::filesystem::path out;
-};
+/// The flags of `brainshift replay` (workflow/replay.hpp).
+using ReplayArgs = ReplayOptions;
 
 CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args);
 int run_replay(const ReplayArgs& args, std::ostream& out);

@@ -1,5 +1,6 @@
 #include "apps/workflow/result_fields.hpp"
 
+#include "apps/workflow/intraop_frame.hpp"
 #include "core/error.hpp"
 #include "imaging/warping/warp_image.hpp"
 
@@ -14,12 +15,8 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
                                                         << r.positions.rows() << " positions for "
                                                         << mesh.num_nodes() << " nodes");
   ResultFields f;
-  f.intraop_from_model = r.rigid.transform.inverse();
-  f.u_intra.resize(mesh.num_nodes(), 3);
-  for (index_t i = 0; i < mesh.num_nodes(); ++i)
-    f.u_intra.row(i) =
-        (f.intraop_from_model * Vector3d(r.positions.row(i).transpose())).transpose() -
-        mesh.nodes().row(i);
+  f.intraop_from_model = intraop_from_model(r);
+  f.u_intra = to_intraop_frame(r, r.positions) - mesh.nodes();
 
   const imaging::ImageGeometry& preop = s.loaded.preop_grid;
   imaging::DisplacementFieldOptions fo;

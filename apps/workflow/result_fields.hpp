@@ -22,8 +22,8 @@
 /// The Slicer fields extend the brain's map trilinear_support_mm() beyond the mesh, so that
 /// trilinear interpolation anywhere in the brain blends no rigid-part values across its surface.
 
-#include "apps/cmd_register.hpp"
 #include "apps/workflow/result_uncertainty.hpp"
+#include "apps/workflow/session.hpp"
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
 

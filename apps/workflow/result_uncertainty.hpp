@@ -8,7 +8,7 @@
 /// RMS length of the predicted 3-D error of the displacement there; 0 outside the brain (and
 /// ≈ 0 in the fixed region, whose displacement is prescribed).
 
-#include "apps/cmd_register.hpp"
+#include "apps/workflow/session.hpp"
 #include "constraints/registration/uncertainty.hpp"
 #include "imaging/io/volume.hpp"
 

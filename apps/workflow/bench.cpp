@@ -1,0 +1,312 @@
+#include "apps/workflow/bench.hpp"
+
+#include "apps/workflow/baselines.hpp"
+#include "apps/workflow/bench_table.hpp"
+#include "apps/workflow/intraop_footprint.hpp"
+#include "apps/workflow/model_folder.hpp"
+#include "core/error.hpp"
+#include "data_synth/cases/case_catalog.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <sstream>
+
+namespace brainshift::apps {
+
+using constraints::RegistrationOptions;
+using constraints::RegistrationResult;
+
+BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
+  verify_output_folder(args.out);
+  std::vector<std::string> cases = args.cases;
+  std::vector<std::string> known = data_synth::case_names();
+  known.insert(known.end(), real_anatomy_cases().begin(), real_anatomy_cases().end());
+  for (const auto& c : cases)
+    BS_VERIFY(std::find(known.begin(), known.end(), c) != known.end(),
+              "bench: unknown case '" << c << "'");
+  if (cases.empty()) cases = args.quick ? std::vector<std::string>{"standard"} : known;
+  std::filesystem::path real_data = args.real_data;
+  if (real_data.empty()) {
+    const char* env = std::getenv("BRAINSHIFT_DATA");
+    real_data = env && *env ? std::filesystem::path(env) : std::filesystem::path("../shared/data");
+  }
+  std::vector<std::string> skipped;
+  if (!std::filesystem::is_regular_file(icbm_labels(real_data))) {
+    for (const auto& c : cases)
+      if (is_real_anatomy_case(c)) {
+        skipped.push_back(c);
+        std::cerr << "brainshift bench: skipping " << c << ": " << icbm_labels(real_data).string()
+                  << " is absent (--real-data DIR)\n";
+      }
+    std::erase_if(cases, is_real_anatomy_case);
+  }
+  const bool do_cases = args.suite != "sweeps", do_sweeps = args.suite != "cases";
+
+  BenchResult result;
+  std::vector<BenchRow>& rows = result.rows;
+  nlohmann::json& meta = result.meta;
+  meta = {{"machine", machine()},
+          {"seed", args.seed},
+          {"quick", args.quick},
+          {"repeat", args.repeat},
+          {"suite", args.suite},
+          {"skipped", skipped},
+          {"note",
+           "times are wall seconds of this process (2 threads at most); peak_rss_mib is the "
+           "process's high-water mark during the run (kernel VmHWM, reset before each run)"}};
+  write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
+    const auto work = dir / "work";
+    std::filesystem::create_directories(work);
+    std::map<std::string, CaseData> made;
+    auto case_data = [&](const std::string& name) -> const CaseData& {
+      if (!made.count(name)) {
+        progress.stage("phantom '" + name + "' (seed " + std::to_string(args.seed) + ")");
+        made.emplace(name, make_case(name, args.seed, work / name / "phantom", real_data));
+      }
+      return made.at(name);
+    };
+    auto base_row = [&](const std::string& suite, const std::string& name) {
+      BenchRow r;
+      r.suite = suite;
+      r.case_name = name;
+      r.seed = args.seed;
+      r.method = "constraint_icp";
+      return r;
+    };
+
+    // Suite `cases`: each case with the defaults, and the two baselines.
+    std::optional<double> standard_prepare_s;
+    if (do_cases)
+      for (const std::string& name : cases) {
+        BenchRow failed = base_row("cases", name);
+        try {
+          const CaseData& c = case_data(name);
+          const auto model_dir = work / name / "model";
+          progress.stage(name + ": prepare");
+          const double prepare_s = prepare_case(c, model_dir, 1.0);
+          if (name == "standard") standard_prepare_s = prepare_s;
+          Session s = open_session(model_dir);
+          constraints::IntraopData data;
+          data.vessel_points = doppler_points(s, c, 2.5);
+          const RegistrationOptions o = product_options(s);
+          // Variants of our loop (full runs only; --quick keeps the three methods):
+          // block_cv — the vessel compliance chosen by leave-one-branch-out cross-validation in a
+          // SMOOTH stage, from a rigid-only global start (off by default: bimodal with the mesh);
+          // gcv_compliance — the same stage at the compliance chosen by generalised
+          // cross-validation; dura_sliding / dura_unilateral — dura contact
+          // outside the craniotomy on (the default is none): what the boundary conditions do off
+          // the vessels (far-landmark TRE).
+          std::map<std::string, RegistrationOptions> variants;
+          variants["constraint_icp"] = o;
+          std::vector<std::string> methods = {"constraint_icp"};
+          if (!args.quick) {
+            variants["block_cv"] = o;
+            variants["block_cv"].noise.enabled = true;
+            variants["block_cv"].global_start.bulk_response = false;
+            variants["gcv_compliance"] = o;
+            variants["gcv_compliance"].noise.enabled = true;
+            variants["gcv_compliance"].global_start.bulk_response = false;
+            variants["gcv_compliance"].noise.criterion = constraints::NoiseCriterion::GCV;
+            variants["dura_sliding"] = o;
+            variants["dura_sliding"].dura.mode = constraints::DuraOptions::Mode::SLIDING;
+            variants["dura_unilateral"] = o;
+            variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
+            methods.insert(methods.end(),
+                           {"block_cv", "gcv_compliance", "dura_sliding", "dura_unilateral"});
+          }
+          methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
+          for (const std::string& method : methods) {
+            BenchRow row = base_row("cases", name);
+            row.method = method;
+            rows.push_back(measured(row, progress, [&](BenchRow& r) {
+              describe(r, s, data);
+              r.prepare_s = prepare_s;
+              const std::string& m = method;
+              const RegistrationResult res = median_of(args.repeat, [&] {
+                return m == "rigid_only" ? rigid_only(*s.model, data, o)
+                       : m == "prescribed_displacement"
+                           ? prescribed_displacement(*s.model, data, o)
+                           : constraints::register_model(*s.model, data, variants.at(m));
+              });
+              score(r, *s.model, res, c, data);
+              // Which vessel compliance the loop ended with (the noise model's choice, if applied).
+              if (variants.count(m) && res.noise.valid)
+                r.note = variants.at(m).noise.enabled
+                             ? "vessel compliance: " + res.noise.message
+                             : "vessel compliance fixed; " + res.noise.message;
+            }));
+          }
+        } catch (const std::exception& e) {  // the case itself could not be built
+          failed.error = e.what();
+          rows.push_back(failed);
+        }
+      }
+
+    if (do_sweeps) {
+      const std::string name = "standard";
+      try {
+        const CaseData& c = case_data(name);
+
+        // Mesh size: a model per refinement (the pre-operative cost is part of the figure).
+        const std::vector<double> refine =
+            args.quick
+                ? std::vector<double>{0.85, 1.1}
+                : std::vector<double>(std::begin(bench_refinements), std::end(bench_refinements));
+        for (double r : refine) {
+          BenchRow row = base_row("sweeps", name);
+          row.sweep = "mesh_size";
+          row.value = "refine " + fixed(r, 2);
+          rows.push_back(measured(row, progress, [&](BenchRow& out_row) {
+            const auto model_dir = work / name / ("model_r" + fixed(r, 2));
+            out_row.prepare_s = prepare_case(c, model_dir, r);
+            Session s = open_session(model_dir);
+            constraints::IntraopData data;
+            data.vessel_points = doppler_points(s, c, 2.5);
+            describe(out_row, s, data);
+            out_row.value = std::to_string(s.model->mesh().num_nodes()) + " nodes";
+            score(out_row, *s.model,
+                  median_of(args.repeat,
+                            [&] {
+                              return constraints::register_model(*s.model, data,
+                                                                 product_options(s));
+                            }),
+                  c, data);
+            std::filesystem::remove_all(
+                model_dir);  // 50k-node models are large; the figures are kept
+          }));
+        }
+
+        const auto model_dir = work / name / "model";
+        if (!std::filesystem::exists(model_dir))
+          standard_prepare_s = prepare_case(c, model_dir, 1.0);
+        Session s = open_session(model_dir);
+        constraints::IntraopData data;
+        data.vessel_points = doppler_points(s, c, 2.5);
+        auto sweep = [&](const std::string& what, const std::string& value,
+                         const constraints::IntraopData& d, const RegistrationOptions& o,
+                         constraints::RegistrationModel* model = nullptr) {
+          BenchRow row = base_row("sweeps", name);
+          row.sweep = what;
+          row.value = value;
+          rows.push_back(measured(row, progress, [&](BenchRow& r) {
+            describe(r, s, d);
+            r.prepare_s = standard_prepare_s.value_or(0.0);
+            constraints::RegistrationModel& m = model ? *model : *s.model;
+            score(r, m,
+                  median_of(args.repeat, [&] { return constraints::register_model(m, d, o); }), c,
+                  d);
+          }));
+        };
+
+        // The start: identity, or the robust rigid fit (which also absorbs any bulk brain motion).
+        for (const auto start :
+             {constraints::RigidStart::IDENTITY, constraints::RigidStart::RIGID}) {
+          RegistrationOptions o = product_options(s);
+          o.start = start;
+          sweep("start", start == constraints::RigidStart::RIGID ? "rigid" : "identity", data, o);
+        }
+
+        // Intra-operative vessel sampling.
+        for (double step :
+             args.quick ? std::vector<double>{5.0} : std::vector<double>{1.25, 2.5, 5.0}) {
+          constraints::IntraopData d;
+          d.vessel_points = doppler_points(s, c, step);
+          sweep("vessel_sampling", fixed(step, 2) + " mm", d, product_options(s));
+        }
+
+        // Compliance strategy: the precomputed block (default), per-iteration sparse solves (a
+        // model of its own: the strategy is chosen when the model is built), unwarped K0
+        // (ablation).
+        sweep("compliance", "dense_block", data, product_options(s));
+        {
+          constraints::ComplianceOptions sparse = s.loaded.scene.compliance;
+          sparse.strategy = constraints::ComplianceStrategy::SPARSE_SOLVE;
+          const auto& sc = s.loaded.scene;
+          constraints::RegistrationModel m(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
+                                           sparse);
+          sweep("compliance", "sparse_solve", data, product_options(s), &m);
+        }
+        {
+          RegistrationOptions o = product_options(s);
+          o.step.mechanics = constraints::Mechanics::UNWARPED;
+          sweep("compliance", "unwarped_K0", data, o);
+        }
+
+        // PGS tolerance, with Gauss–Seidel forced (the default active-set solve is exact and
+        // uses PGS only to verify).
+        for (double tol : args.quick ? std::vector<double>{1e-2, 1e-4}
+                                     : std::vector<double>{1e-2, 1e-3, 1e-4, 1e-6}) {
+          RegistrationOptions o = product_options(s);
+          o.step.solver = constraints::ConstraintSolver::GAUSS_SEIDEL;
+          o.step.pgs.tolerance = tol;
+          std::ostringstream v;
+          v << "gs " << tol;
+          sweep("pgs_tolerance", v.str(), data, o);
+        }
+
+        // Constraint sets.
+        {
+          constraints::IntraopData with_fp = data;
+          const IntraopFootprint fp = footprint_from_bmode(c.phantom / "intraop/bmode.nii.gz");
+          with_fp.footprint_points = fp.points;
+          with_fp.footprint_normals = fp.normals;
+          const std::string fp_note =
+              fp.points.rows()
+                  ? ""
+                  : "the B-mode gave no footprint: " + fp.report.value("message", std::string());
+          RegistrationOptions o = s.loaded.scene.options;
+          o.use_footprint = false;
+          sweep("constraint_sets", "vessels", data, o);
+          o.use_footprint = true;
+          sweep("constraint_sets", "vessels+footprint", with_fp, o);
+          rows.back().note = fp_note;
+          if (!args.quick) {
+            o.dura.mode = constraints::DuraOptions::Mode::SLIDING;
+            sweep("constraint_sets", "vessels+footprint+dura", with_fp, o);
+            rows.back().note = fp_note;
+          }
+        }
+      } catch (const std::exception& e) {
+        BenchRow failed = base_row("sweeps", name);
+        failed.error = e.what();
+        rows.push_back(failed);
+      }
+    }
+
+    // Growth with mesh size and constraint count.
+    nlohmann::json fits = nlohmann::json::object();
+    std::vector<std::pair<double, double>> reg, per_it, prep, wp;
+    for (const BenchRow& r : rows) {
+      if (!r.ok) continue;
+      if (r.sweep == "mesh_size") {
+        reg.emplace_back(r.nodes, r.t.total);
+        if (r.iterations > 0) per_it.emplace_back(r.nodes, r.t.total / r.iterations);
+        prep.emplace_back(r.nodes, r.prepare_s);
+      }
+      if ((r.sweep == "vessel_sampling" || r.sweep == "constraint_sets") && r.iterations > 0)
+        wp.emplace_back(r.rows, (r.t.delassus + r.t.pgs) / r.iterations);
+    }
+    if (auto k = log_slope(reg)) fits["registration_s_vs_nodes"] = *k;
+    if (auto k = log_slope(per_it)) fits["seconds_per_iteration_vs_nodes"] = *k;
+    if (auto k = log_slope(prep)) fits["prepare_s_vs_nodes"] = *k;
+    if (auto k = log_slope(wp)) fits["delassus_plus_pgs_per_iteration_vs_rows"] = *k;
+    meta["fits"] = fits;
+
+    const std::string plot = write_pareto(dir, rows);
+    meta["plot"] = plot.empty() ? nlohmann::json("pareto.png") : nlohmann::json(plot);
+    nlohmann::json all = meta;
+    all["runs"] = nlohmann::json::array();
+    for (const BenchRow& r : rows) all["runs"].push_back(row_json(r));
+    write_csv(dir / "results.csv", rows);
+    std::ofstream(dir / "results.json") << all.dump(2) << '\n';
+    write_markdown(dir / "results.md", rows, meta);
+    if (!args.keep_work) std::filesystem::remove_all(work);
+  });
+  return result;
+}
+
+}  // namespace brainshift::apps

@@ -1,0 +1,149 @@
+#pragma once
+/// @file
+/// @brief The pieces of one benchmark run (bench.hpp): a row of results, the phantom case it runs
+/// on, the memory and machine it records, and how a result is scored against the case's
+/// landmarks (TRE in mm, intra-operative frame, world RAS).
+
+#include "apps/workflow/progress.hpp"
+#include "apps/workflow/session.hpp"
+#include "constraints/registration/registration.hpp"
+#include "imaging/evaluation/calibration.hpp"
+#include "imaging/evaluation/metrics.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace brainshift::apps {
+
+/// Mesh refinements whose node counts are ≈ 1k, 2k, 5k, 10k, 20k, 50k on the phantom (measured:
+/// nodes ≈ 1,600 r^2.7, not r³, as the boundary and the tumour keep their own sizing).
+inline constexpr double bench_refinements[] = {0.85, 1.1, 1.6, 2.1, 2.75, 3.9};
+
+/// One benchmark run: a row of results.csv.
+struct BenchRow {
+  std::string suite;  ///< cases | sweeps
+  std::string case_name;
+  std::uint32_t seed = 0;
+  std::string sweep;   ///< for suite sweeps: mesh_size, vessel_sampling, compliance, pgs_tolerance,
+                       ///< constraint_sets
+  std::string value;   ///< the swept setting
+  std::string method;  ///< constraint_icp | rigid_only | prescribed_displacement; full runs also
+                       ///< block_cv | gcv_compliance | dura_sliding | dura_unilateral
+                       ///< (variants of ours)
+  index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0,
+          footprint_points = 0;
+  index_t rows = 0;
+  int iterations = 0;
+  bool converged = false;
+  std::string stop;
+  double prepare_s =
+      0.0;               ///< pre-operative: the whole `prepare` (meshing, factor, compliance block)
+  double setup_s = 0.0;  ///< intra-operative model set-up: load MODEL, factorise, adopt the block
+  constraints::StageTimes t;
+  double rss_before_mib =
+      0.0;  ///< resident memory when the run started (what the process already held)
+  double peak_rss_mib = 0.0;  ///< high-water mark during the run, including rss_before_mib
+  double tre_before_mean = 0.0, tre_before_p95 = 0.0;
+  double tre_mean = 0.0, tre_p95 = 0.0, tre_max = 0.0;
+  /// Mean TRE over the landmarks near (≤ 5 mm) and far (> 10 mm) from the intra-operative vessel
+  /// points (distance from the landmark's intra-operative position to the nearest Doppler point):
+  /// where the data constrain the answer, and where only the mechanics can. NaN without any.
+  double tre_near_mean = 0.0, tre_far_mean = 0.0;
+  index_t landmarks_near = 0, landmarks_far = 0;
+  std::optional<double> corrected_pct;
+  double max_displacement_mm = 0.0;
+  bool ok = false;  ///< finite answer, no exception
+  std::string error;
+  std::string note;  ///< e.g. why the B-mode gave no footprint
+  /// Predicted error (issue 16; runs of ours only, else unset): its cost, the median over the
+  /// free nodes, the mean at the landmarks (all, near, far as above) and its calibration against
+  /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
+  std::optional<double> unc_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
+  std::optional<imaging::UncertaintyCalibration> unc_calibration;
+};
+
+/// The data of one case: a phantom folder and its landmarks.
+struct CaseData {
+  std::string name;
+  std::filesystem::path phantom;
+  imaging::LandmarkPairs truth;  ///< a: pre-operative, b: intra-operative landmarks
+};
+
+/// The cases on real anatomy (ICBM152, issue 18): the named recipe after the prefix on the brain
+/// of REAL_DATA/icbm152/labels.nii.gz, default craniotomy and tumour.
+const std::vector<std::string>& real_anatomy_cases();
+bool is_real_anatomy_case(const std::string& name);
+/// REAL_DATA/icbm152/labels.nii.gz.
+std::filesystem::path icbm_labels(const std::filesystem::path& real_data);
+
+/// Generates the phantom `name` (seed) into `dir` and reads its landmarks.
+/// \throws brainshift::Error when the phantom has no landmarks in common.
+CaseData make_case(const std::string& name, std::uint32_t seed, const std::filesystem::path& dir,
+                   const std::filesystem::path& real_data);
+
+/// Runs `prepare` on a phantom into `model` (mesh refinement as prepare's --refine); returns its
+/// wall time, s.
+double prepare_case(const CaseData& c, const std::filesystem::path& model, double refinement);
+
+/// Vessel points from the case's Doppler, resampled every `step_mm` along the centrelines,
+/// through `register`'s own reader (same checks: overlap with the model, NaN, no vessels).
+MatrixX3d doppler_points(const Session& s, const CaseData& c, double step_mm);
+
+/// The machine, build type and date (results.json → machine).
+nlohmann::json machine();
+/// Resets the kernel's peak-RSS counter of this process (Linux ≥ 4.0), so VmHWM measures one run.
+void reset_peak_rss();
+/// A "VmHWM:" / "VmRSS:" field of /proc/self/status, MiB (0 when unavailable).
+double status_mib(const std::string& key);
+
+/// Runs `reg` (one registration; deterministic for a given model and data) `repeat` times and
+/// returns the run whose total time is the median, so its stage times are one consistent run.
+template <typename F>
+constraints::RegistrationResult median_of(int repeat, F&& reg) {
+  std::vector<constraints::RegistrationResult> runs;
+  for (int i = 0; i < std::max(1, repeat); ++i) runs.push_back(reg());
+  std::sort(runs.begin(), runs.end(),
+            [](const constraints::RegistrationResult& a, const constraints::RegistrationResult& b) {
+              return a.seconds.total < b.seconds.total;
+            });
+  return std::move(runs[runs.size() / 2]);
+}
+
+/// TRE of a result against the case's landmarks: a pre-operative landmark X is predicted at
+/// T⁻¹ (X + u(X)), u interpolated in its tetrahedron (landmarks up to 20 mm outside the mesh are
+/// projected onto it; none are on the phantoms, which landmark the brain).
+void score(BenchRow& row, const constraints::RegistrationModel& model,
+           const constraints::RegistrationResult& r, const CaseData& c,
+           const constraints::IntraopData& data);
+
+/// Runs `f` (which fills the row) with the peak memory measured and any error recorded.
+template <typename F>
+BenchRow measured(BenchRow row, const Progress& progress, F&& f) {
+  progress.stage(row.case_name + " " +
+                 (row.sweep.empty() ? row.method : row.sweep + "=" + row.value));
+  reset_peak_rss();
+  row.rss_before_mib = status_mib("VmRSS:");
+  try {
+    f(row);
+  } catch (const std::exception& e) {
+    row.ok = false;
+    row.error = e.what();
+  }
+  row.peak_rss_mib = status_mib("VmHWM:");
+  return row;
+}
+
+/// The row's model and data sizes and the model's set-up time.
+void describe(BenchRow& row, const Session& s, const constraints::IntraopData& data);
+
+/// The product's defaults for the benchmark: the scene's options, vessels only (as the demo:
+/// the footprint rows currently cost accuracy on the phantoms; the constraint-set sweep shows it).
+constraints::RegistrationOptions product_options(const Session& s);
+
+}  // namespace brainshift::apps

@@ -1,0 +1,40 @@
+#pragma once
+/// @file
+/// @brief Register-and-write: one intra-operative registration against a prepared MODEL, as
+/// `brainshift register` runs it — load the model (session.hpp), extract the vessel points from
+/// the power Doppler and the footprint from the B-mode, run the constraint-based ICP, write the
+/// result folder (result_report.hpp). Inputs in world RAS, mm; results in the intra-operative
+/// frame (result_fields.hpp).
+
+#include "apps/workflow/progress.hpp"
+#include "constraints/registration/registration.hpp"
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace brainshift::apps {
+
+/// What to register and where to write it (the flags of `brainshift register`).
+struct RegisterOptions {
+  std::filesystem::path model;                 ///< MODEL folder from prepare
+  std::filesystem::path doppler;               ///< power-Doppler volume (vessels)
+  std::optional<std::filesystem::path> bmode;  ///< B-mode volume (probe footprint), optional
+  std::optional<std::filesystem::path> mri;    ///< pre-operative MRI to warp (model's grid)
+  std::string init;           ///< "rigid", "identity" or empty (the scene's choice)
+  std::filesystem::path out;  ///< result folder RES (replaced atomically)
+};
+
+/// What register_and_write() did (the full account is RES/report.json).
+struct RegisterOutcome {
+  constraints::RegistrationResult result;  ///< positions in the model frame, mm
+  double max_displacement_mm = 0.0;        ///< largest nodal displacement (model frame)
+};
+
+/// Loads the model, reads the images, registers and writes RES (report.json and the fields);
+/// progress stages go to `progress`. A registration that does not converge is still written
+/// (outcome.result.converged says so).
+/// \throws brainshift::Error, one line naming the file, for bad inputs (nothing written then).
+RegisterOutcome register_and_write(const RegisterOptions& options, const Progress& progress);
+
+}  // namespace brainshift::apps

@@ -1,0 +1,94 @@
+#include "apps/workflow/replay.hpp"
+
+#include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/result_report.hpp"
+#include "apps/workflow/session.hpp"
+#include "core/error.hpp"
+#include "imaging/evaluation/metrics.hpp"
+
+#include <algorithm>
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <vector>
+
+namespace brainshift::apps {
+namespace {
+
+/// p-th percentile of the latencies (0 when there are none: every frame failed).
+double latency_percentile(const std::vector<double>& v, double p) {
+  return v.empty() ? 0.0 : imaging::percentile(v, p);
+}
+
+}  // namespace
+
+ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress) {
+  std::error_code ec;
+  BS_VERIFY(std::filesystem::is_directory(args.sequence, ec), args.sequence.string()
+                                                                  << ": no such folder");
+  std::vector<std::filesystem::path> frames;
+  for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
+    if (e.is_directory() && e.path().filename().string().rfind("frame_", 0) == 0)
+      frames.push_back(e.path());
+  std::sort(frames.begin(), frames.end());
+  BS_VERIFY(!frames.empty(), args.sequence.string() << ": no frame_* folders");
+  verify_output_folder(args.out);
+  progress.stage("loading the model " + args.model.string());
+  Session s = open_session(args.model);
+
+  nlohmann::json summary = {{"model", args.model.string()},
+                            {"sequence", args.sequence.string()},
+                            {"frames", nlohmann::json::array()}};
+  std::vector<double> latency;
+  int failed = 0, unconverged = 0;
+  std::optional<constraints::RegistrationResult> previous;
+  write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
+    for (const auto& f : frames) {
+      const std::string name = f.filename().string();
+      progress.stage(name);
+      nlohmann::json entry = {{"frame", name}};
+      try {
+        const std::filesystem::path bmode = f / "bmode.nii.gz";
+        const IntraopInputs in = read_intraop(s, f / "doppler.nii.gz",
+                                              std::filesystem::exists(bmode)
+                                                  ? std::optional<std::filesystem::path>(bmode)
+                                                  : std::nullopt);
+        const constraints::RegistrationResult r = constraints::register_model(
+            *s.model, in.data, s.loaded.scene.options, previous ? &*previous : nullptr);
+        write_result(dir / name, s, r, in, nullptr,
+                     {{"frame", name}, {"warm_start", previous.has_value()}});
+        const double seconds = in.seconds + r.seconds.total;
+        latency.push_back(seconds);
+        entry.update({{"status", r.converged ? "ok" : "not_converged"},
+                      {"iterations", r.iterations},
+                      {"stop", constraints::to_string(r.stop)},
+                      {"stop_reason", r.stop_reason},
+                      {"cold_retry", r.cold_retry},
+                      {"latency_s", seconds},
+                      {"warm_start", previous.has_value()}});
+        if (!r.converged) ++unconverged;
+        if (r.converged) previous = r;  // warm-start only from a trustworthy frame
+      } catch (const Error& e) {
+        ++failed;
+        entry.update({{"status", "failed"}, {"error", e.what()}});
+        std::cerr << "brainshift replay: " << name << " failed: " << e.what() << "\n";
+      }
+      summary["frames"].push_back(entry);
+    }
+    summary["latency_s"] = {
+        {"median", latency_percentile(latency, 50)},
+        {"p95", latency_percentile(latency, 95)},
+        {"max", latency.empty() ? 0.0 : *std::max_element(latency.begin(), latency.end())}};
+    summary["failed"] = failed;
+    summary["not_converged"] = unconverged;
+    std::ofstream(dir / "replay.json") << summary.dump(2) << '\n';
+  });
+  ReplayResult result;
+  result.summary = std::move(summary);
+  result.frames = static_cast<int>(frames.size());
+  result.failed = failed;
+  result.unconverged = unconverged;
+  return result;
+}
+
+}  // namespace brainshift::apps

@@ -1,0 +1,37 @@
+#pragma once
+/// @file
+/// @brief Replay: registers each recorded frame of a sequence in order (DIR/frame_*/doppler.nii.gz,
+/// optional bmode.nii.gz), each warm-started from the previous converged frame's result; a frame
+/// that fails is reported and skipped, the rest go on. Writes RES/frame_NNN/ (as register does,
+/// result_report.hpp) and RES/replay.json with per-frame reports and the latency summary
+/// (median, p95, max; seconds). What `brainshift replay` runs.
+
+#include "apps/workflow/progress.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+
+namespace brainshift::apps {
+
+/// The inputs of replay (the flags of `brainshift replay`).
+struct ReplayOptions {
+  std::filesystem::path model;     ///< MODEL folder from prepare
+  std::filesystem::path sequence;  ///< folder of frame_*/ (doppler.nii.gz, optional bmode.nii.gz)
+  std::filesystem::path out;       ///< result folder RES (replaced atomically)
+};
+
+/// What replay did (replay.json's content and its counts).
+struct ReplayResult {
+  nlohmann::json summary;  ///< RES/replay.json: model, sequence, frames[], latency_s, counts
+  int frames = 0;          ///< frame_* folders found
+  int failed = 0;          ///< frames that threw (reported, skipped)
+  int unconverged = 0;     ///< frames registered without meeting the convergence test
+};
+
+/// Registers every frame and writes RES. \throws brainshift::Error, one line, when the sequence
+/// folder is missing or has no frame_* folders, the model cannot be opened, or RES cannot be
+/// written (a frame's own failure is recorded in the summary instead).
+ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress);
+
+}  // namespace brainshift::apps

@@ -1,0 +1,151 @@
+#include "apps/workflow/result_report.hpp"
+
+#include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/result_fields.hpp"
+#include "apps/workflow/result_overlay.hpp"
+#include "core/logger.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/io/mesh_io.hpp"
+
+#include <chrono>
+#include <fstream>
+
+namespace brainshift::apps {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+nlohmann::json matrix_json(const Eigen::Matrix4d& m) {
+  nlohmann::json j = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) j.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
+  return j;
+}
+
+}  // namespace
+
+nlohmann::json registration_report(const constraints::RegistrationResult& r) {
+  using constraints::ConstraintSet;
+  nlohmann::json j;
+  j["iterations"] = r.iterations;
+  j["converged"] = r.converged;
+  j["stop"] = constraints::to_string(r.stop);
+  j["stop_reason"] = r.stop_reason;
+  auto rows = [&](ConstraintSet k) { return r.rows_by_set[static_cast<std::size_t>(k)]; };
+  const auto& last = r.history.empty() ? constraints::IterationRecord{} : r.history.back();
+  j["constraints"] = {
+      {"vessels", {{"pairs", last.vessel_pairs}, {"rows", rows(ConstraintSet::VESSELS)}}},
+      {"footprint", {{"pairs", last.footprint_pairs}, {"rows", rows(ConstraintSet::FOOTPRINT)}}},
+      {"dura", {{"rows", rows(ConstraintSet::DURA)}}},
+      {"landmarks", {{"rows", rows(ConstraintSet::LANDMARK)}}},
+      {"total_rows", last.rows}};
+  j["rigid"] = {{"model_from_intraop", matrix_json(r.rigid.transform.matrix())},
+                {"converged", r.rigid.converged},
+                {"stop_reason", r.rigid.stop_reason},
+                {"rms_before_mm", r.rigid.rms_before_mm},
+                {"rms_after_mm", r.rigid.rms_after_mm},
+                {"weak_dofs", r.rigid.weak_dofs}};
+  j["timing"] = {{"rigid", r.seconds.rigid},
+                 {"pairing", r.seconds.pairing},
+                 {"free_motion", r.seconds.free_motion},
+                 {"delassus", r.seconds.delassus},
+                 {"pgs", r.seconds.pgs},
+                 {"correction", r.seconds.correction},
+                 {"noise", r.seconds.noise},
+                 {"registration", r.seconds.total}};
+  j["history"] = nlohmann::json::array();
+  for (const auto& h : r.history)
+    j["history"].push_back({{"vessel_pairs", h.vessel_pairs},
+                            {"footprint_pairs", h.footprint_pairs},
+                            {"dura_rows", h.dura_rows},
+                            {"rows", h.rows},
+                            {"max_increment_mm", h.max_increment_mm},
+                            {"pgs_iterations", h.pgs_iterations},
+                            {"pgs_residual", h.pgs_residual},
+                            {"pgs_stop", constraints::to_string(h.pgs_stop)},
+                            {"pairing_changed", h.pairing_changed},
+                            {"pairing_frozen", h.pairing_frozen},
+                            {"trust_radius_mm", h.trust_radius_mm},
+                            {"seconds", h.seconds},
+                            {"stage", constraints::to_string(h.stage)},
+                            {"pairing", constraints::to_string(h.pairing)},
+                            {"trust", constraints::to_string(h.trust)},
+                            {"finite", h.finite},
+                            {"vessel_compliance_ratio", h.vessel_compliance_ratio},
+                            {"diagnosis", h.diagnosis}});
+  j["stages"] = nlohmann::json::array();
+  for (const auto& st : r.stages)
+    j["stages"].push_back({{"stage", constraints::to_string(st.kind)},
+                           {"stop", constraints::to_string(st.stop)},
+                           {"first_iteration", st.first_iteration},
+                           {"iterations", st.iterations},
+                           {"vessel_compliance_ratio", st.vessel_compliance_ratio}});
+  j["noise"] = {{"valid", r.noise.valid},         {"vessel_compliance_ratio", r.noise.ratio},
+                {"scatter_mm", r.noise.sigma_mm}, {"effective_dof", r.noise.effective_dof},
+                {"rows", r.noise.rows},           {"message", r.noise.message}};
+  j["cold_retry"] = r.cold_retry;
+  j["max_displacement_mm"] =
+      r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
+  return j;
+}
+
+nlohmann::json result_report(const Session& s, const constraints::RegistrationResult& r,
+                             const IntraopInputs& in, const nlohmann::json& extra) {
+  nlohmann::json report = registration_report(r);
+  report["intraop"] = in.report;
+  if (extra.is_object()) report.merge_patch(extra);
+  report["model"] = s.model_report;
+  report["timing"]["load_model"] = s.seconds_load;
+  report["timing"]["extraction"] = in.seconds;
+  return report;
+}
+
+void write_result(const std::filesystem::path& res, const Session& s,
+                  const constraints::RegistrationResult& r, const IntraopInputs& in,
+                  const imaging::VolumeF* mri, const nlohmann::json& extra) {
+  const auto t0 = Clock::now();
+  // Everything is written in the intra-operative frame (result_fields.hpp).
+  const ResultFields f = compute_result_fields(s, r, mri);
+  write_result(res, s, r, in, mri, f, extra, since(t0));
+}
+
+void write_result(const std::filesystem::path& res, const Session& s,
+                  const constraints::RegistrationResult& r, const IntraopInputs& in,
+                  const imaging::VolumeF* mri, const ResultFields& f, const nlohmann::json& extra,
+                  double seconds_fields) {
+  const auto t0 = Clock::now();
+  const core::TetMesh& mesh = s.model->mesh();
+  nlohmann::json report = result_report(s, r, in, extra);
+  report["uncertainty"] = uncertainty_report(s, f.uncertainty, in.data);
+  write_folder_atomically(res, [&](const std::filesystem::path& dir) {
+    auto t = Clock::now();
+    const auto done = [&t](const char* what) {
+      logger().debug("register: wrote {} in {:.3f} s", what, since(t));
+      t = Clock::now();
+    };
+    imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &f.u_intra);
+    done("deformed.vtu");
+    imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
+    done("displacement.nii.gz");
+    imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
+    imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
+    done("the two Slicer transforms");
+    imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
+    done("uncertainty.nii.gz");
+    if (f.warped_mri) imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
+    done("warped_mri.nii.gz");
+    write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr,
+                         f.displacement, in.data, &f.uncertainty.map);
+    done("overlay.png");
+    report["timing"]["outputs"] = seconds_fields + since(t0);
+    double total = 0;
+    for (const char* k : {"load_model", "extraction", "registration", "outputs"})
+      total += report["timing"][k].get<double>();
+    report["timing"]["total"] = total;
+    std::ofstream(dir / "report.json") << report.dump(2) << '\n';
+  });
+}
+
+}  // namespace brainshift::apps

@@ -1,0 +1,107 @@
+#include "apps/workflow/session.hpp"
+
+#include "apps/workflow/compliance_cache.hpp"
+#include "apps/workflow/intraop_footprint.hpp"
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "imaging/io/image_io.hpp"
+#include "imaging/vessels/skeleton_graph.hpp"
+
+#include <chrono>
+
+namespace brainshift::apps {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+void mesh_box(const core::TetMesh& mesh, Vector3d& lo, Vector3d& hi) {
+  lo = mesh.nodes().colwise().minCoeff().transpose();
+  hi = mesh.nodes().colwise().maxCoeff().transpose();
+}
+
+}  // namespace
+
+Session open_session(const std::filesystem::path& model_dir) {
+  const auto t0 = Clock::now();
+  Session s;
+  s.loaded = load_model(model_dir);
+  const auto& sc = s.loaded.scene;
+  constraints::ComplianceOptions compliance = sc.compliance;
+  const std::filesystem::path cache = model_dir / compliance_cache_file;
+  std::string cache_problem;
+  if (compliance.strategy != constraints::ComplianceStrategy::SPARSE_SOLVE &&
+      std::filesystem::exists(cache)) {
+    try {
+      compliance.precomputed = std::make_shared<const constraints::ComplianceBlock>(
+          workflow::read_compliance_cache(cache));
+    } catch (const Error& e) {
+      cache_problem = e.what();
+      logger().warn("{}; the compliance block will be recomputed", cache_problem);
+    }
+  }
+  s.model = std::make_unique<constraints::RegistrationModel>(sc.mesh, sc.fixed_nodes, sc.skeleton,
+                                                             sc.surface, compliance);
+  s.seconds_load = since(t0);
+  const auto& op = s.model->mechanics().compliance();
+  std::string status = op.cache_status();
+  if (!cache_problem.empty())
+    status = "unreadable (" + cache_problem + "); computed";
+  else if (status == "computed" && !compliance.precomputed)
+    status = "absent; computed";
+  s.model_report = {{"nodes", sc.mesh.num_nodes()},
+                    {"tets", sc.mesh.num_tets()},
+                    {"compliance",
+                     {{"strategy", constraints::to_string(op.strategy())},
+                      {"block_nodes", op.block_nodes().size()},
+                      {"block_mib", static_cast<double>(op.block_bytes()) / (1 << 20)},
+                      {"cache", status}}},
+                    {"seconds_prepare", s.model->seconds_prepare()}};
+  return s;
+}
+
+IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
+                           const std::optional<std::filesystem::path>& bmode,
+                           const imaging::VesselExtractionOptions& vessels) {
+  const auto t0 = Clock::now();
+  IntraopInputs in;
+  const imaging::VolumeF d = imaging::read_volume(doppler);
+  BS_VERIFY(d.components == 1, doppler.string() << ": expected a scalar Doppler volume, got "
+                                                << d.components << " components");
+  Vector3d lo, hi;
+  mesh_box(s.model->mesh(), lo, hi);
+  BS_VERIFY(grid_overlaps(d.geometry, lo, hi, 5.0),
+            doppler.string()
+                << ": does not overlap the model (different space or patient? check the tracking)");
+  const imaging::VesselExtractionResult v = imaging::extract_vessels(d, vessels);
+  BS_VERIFY(v.non_finite_voxels < d.geometry.voxel_count(),
+            doppler.string() << ": every voxel is NaN or infinite");
+  BS_VERIFY(v.status == imaging::VesselStatus::OK,
+            doppler.string() << ": no vessels found (" << v.message << ")");
+  in.data.vessel_points = imaging::to_skeleton(v.graph).points;
+  in.report["doppler"] = {
+      {"file", doppler.string()},           {"threshold", v.threshold},
+      {"threshold_rule", v.threshold_rule}, {"branches", v.branch_count},
+      {"length_mm", v.total_length_mm},     {"points", in.data.vessel_points.rows()},
+      {"nan_voxels", v.non_finite_voxels}};
+  if (bmode) {
+    const IntraopFootprint f = footprint_from_bmode(*bmode);
+    in.data.footprint_points = f.points;
+    in.data.footprint_normals = f.normals;
+    in.report["bmode"] = f.report;
+  }
+  in.seconds = since(t0);
+  return in;
+}
+
+imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri) {
+  imaging::VolumeF image = imaging::read_volume(mri);
+  BS_VERIFY(
+      same_grid(image.geometry, s.loaded.preop_grid),
+      mri.string() << ": not on the grid of the model's labels (another patient or another scan?)");
+  return image;
+}
+
+}  // namespace brainshift::apps

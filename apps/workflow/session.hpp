@@ -1,0 +1,48 @@
+#pragma once
+/// @file
+/// @brief A prepared MODEL opened for intra-operative work (Session) and the intra-operative
+/// inputs read from the images, in the model's (pre-operative) frame: what `register`, `replay`,
+/// `bench` and the Slicer module BrainshiftRegister share. Positions in mm, world RAS.
+
+#include "apps/workflow/model_folder.hpp"
+#include "constraints/registration/registration.hpp"
+#include "imaging/io/volume.hpp"
+#include "imaging/vessels/vessel_extraction.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+namespace brainshift::apps {
+
+/// A prepared model ready for intra-operative work (loaded once, reused by replay).
+struct Session {
+  LoadedModel loaded;
+  std::unique_ptr<constraints::RegistrationModel> model;
+  double seconds_load = 0.0;
+  nlohmann::json model_report;  ///< how the model was set up (compliance strategy, cache status)
+};
+/// Loads MODEL and prepares it for registration, adopting MODEL/compliance.bin when it is
+/// present and belongs to this model (else the block is recomputed and the report says why; a
+/// stale or damaged cache is a warning, not an error: it only costs time).
+Session open_session(const std::filesystem::path& model_dir);
+
+/// Intra-operative data from the images, in the model's frame. Throws (one line naming the
+/// file) for an unreadable, empty, all-NaN or non-overlapping Doppler volume.
+struct IntraopInputs {
+  constraints::IntraopData data;
+  nlohmann::json report;  ///< what extraction found (counts, thresholds)
+  double seconds = 0.0;
+};
+/// `vessels`: extraction settings (the defaults suit the intra-operative Doppler).
+IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
+                           const std::optional<std::filesystem::path>& bmode,
+                           const imaging::VesselExtractionOptions& vessels = {});
+
+/// Reads the pre-operative MRI to warp and checks it lies on the model's grid (same patient and
+/// scan). \throws brainshift::Error naming the file otherwise.
+imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri);
+
+}  // namespace brainshift::apps
