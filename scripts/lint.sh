@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Formatting and naming checks (issue 17; STYLE.md §3).
 # Usage:
-#   scripts/lint.sh                 check every C++ file against .clang-format (fails on the first
-#                                   unformatted file, naming it); a few seconds, run by scripts/test.sh
+#   scripts/lint.sh                 check that no C++ file is over 600 lines (STYLE.md), then every
+#                                   C++ file against .clang-format (fails on the first unformatted
+#                                   file, naming it); a few seconds, run by scripts/test.sh
 #   scripts/lint.sh --fix           apply .clang-format to every C++ file in place
 #   scripts/lint.sh --tidy [FILES]  clang-tidy (.clang-tidy: the naming rules) on FILES, default all
 #                                   .cpp files; needs build/compile_commands.json; ~10 s per file
@@ -26,6 +27,15 @@ case "${1:-}" in
     clang-tidy -p build --quiet "${targets[@]}"
     ;;
   "")
+    # No C++ source file over max_lines lines (STYLE.md; issue 17): split it by responsibility.
+    max_lines=600
+    too_long=$(git ls-files -- '*.cpp' '*.hpp' | xargs wc -l | awk -v m="$max_lines" '$2 != "total" && $1 > m {print $2 " (" $1 " lines)"}')
+    if [ -n "$too_long" ]; then
+      while IFS= read -r f; do
+        echo "lint: $f is over $max_lines lines; split it (STYLE.md: files <= $max_lines lines)" >&2
+      done <<<"$too_long"
+      exit 1
+    fi
     # One clang-format process for all files; its warnings name each unformatted file.
     if ! out=$(clang-format --style=file --dry-run -Werror "${files[@]}" 2>&1); then
       mapfile -t bad < <(printf '%s\n' "$out" | grep -oE '^[^:]+\.(cpp|hpp):' | sort -u | tr -d ':')
