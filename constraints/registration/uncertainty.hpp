@@ -69,8 +69,10 @@ struct UncertaintyOptions {
   /// How s² is estimated from the rows: DISCREPANCY (the fitted rows' residual against its
   /// expectation: the scatter the data show about the answer sets the scale) or MAXIMUM_LIKELIHOOD
   /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it).
-  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD };
+  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD, HELD_OUT };
   ScaleEstimator scale_estimator = ScaleEstimator::MAXIMUM_LIKELIHOOD;
+  /// The pose of the rigid start is an unknown with a flat prior (adds the rigid term).
+  bool rigid_term = true;
   int solve_block = 192;  ///< right-hand sides per solve when computing the prior term
   [[nodiscard]] std::string validate() const;
 };
@@ -85,6 +87,14 @@ struct NodalVariance {
   double quadratic = 0.0;     ///< δᵀ (W + A)⁻¹ δ when NodalVarianceExtras::delta was given
   double residual_sq = 0.0;  ///< ‖A (W + A)⁻¹ δ‖²: the fitted rows' residual (mm²), with delta
   double residual_dof = 0.0;  ///< tr(A (W + A)⁻¹ A) (mm²/(mN·mm)): E‖r‖² = s² × this
+  /// #N: the rigid term tr(R_n M⁺ R_nᵀ) (mm/mN) with NodalVarianceExtras::rigid_rows (else 0):
+  /// the variance the unknown pose of the rigid start adds (see predict_uncertainty()).
+  Eigen::VectorXd rigid;
+  index_t rigid_rank = 0;          ///< rank of M = Grᵀ (W + A)⁻¹ Gr (≤ 6; 0 without rigid_rows)
+  double restricted_quadratic = 0.0;  ///< δᵀ P δ, P = S⁻¹ − S⁻¹ Gr M⁺ Grᵀ S⁻¹ (S⁻¹ without Gr)
+  double heldout_quadratic = 0.0;  ///< Σ_b w_bᵀ (P_bb)⁺ w_b, w = P δ, over the held-out blocks
+  double heldout_rows = 0.0;       ///< rows in the held-out blocks (Σ_b rank P_bb)
+  index_t heldout_blocks = 0;      ///< blocks held out
 };
 
 /// Optional inputs of nodal_variance().
@@ -95,6 +105,19 @@ struct NodalVarianceExtras {
   bool noise_relative = false;
   /// Row values δ (m): NodalVariance::quadratic is then δᵀ (W + A)⁻¹ δ.
   const Eigen::VectorXd* delta = nullptr;
+  /// m×6: each row's sensitivity to a small rigid motion of the whole model, g_jᵀ = [d_jᵀ,
+  /// ((p_j − c) × d_j)ᵀ] (translation mm, rotation rad about c): with it the rigid pose is an
+  /// unknown of the model with a flat prior (NodalVariance::rigid, restricted_quadratic).
+  const Eigen::MatrixXd* rigid_rows = nullptr;
+  /// #N×3 points (mm) where the rigid basis h_n = [I, −[x_n − c]×] is evaluated, and c (mm); with
+  /// rigid_rows.
+  const MatrixX3d* rigid_points = nullptr;
+  Vector3d rigid_centre = Vector3d::Zero();
+  /// #N rotations taking a node's frame of K0⁻¹ to the rigid basis' frame (identity if null).
+  const std::vector<Matrix3d>* node_rotations = nullptr;
+  /// m block ids (≥ 0: held out together to give NodalVariance::heldout_*; < 0: never held
+  /// out), with delta.
+  const std::vector<index_t>* blocks = nullptr;
 };
 
 /// The nodal traces of K0⁻¹ − K0⁻¹ G (Gᵀ K0⁻¹ G + diag(noise))⁻¹ Gᵀ K0⁻¹.
@@ -121,6 +144,14 @@ struct UncertaintyResult {
   index_t rows = 0;               ///< data rows used
   index_t exact_nodes = 0;        ///< nodes with an exact prior term (the rest interpolated)
   index_t solved_nodes = 0;  ///< of them, solved for (the others read from the compliance block)
+  Eigen::VectorXd node_posterior;  ///< #N: deformable posterior trace without s² (mm/mN)
+  Eigen::VectorXd node_rigid;      ///< #N: rigid term without s² (mm/mN)
+  double s2_ml = 0.0;              ///< the candidate scales (mN·mm; 0 when not estimated)
+  double s2_discrepancy = 0.0;
+  double s2_restricted = 0.0;
+  double s2_heldout = 0.0;
+  index_t heldout_blocks = 0;  ///< vessel blocks behind s2_heldout
+  index_t rigid_rank = 0;      ///< pose directions the rows determine (6 = all)
   std::string estimation;    ///< one line: how s² and α were estimated
   double seconds = 0.0;
 };
