@@ -31,6 +31,10 @@ CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args) {
   c->add_option("--sequence", args.sequence, "folder with frame_*/doppler.nii.gz (+ bmode.nii.gz)")
       ->required();
   c->add_option("--out", args.out, "result folder RES")->required();
+  c->add_option("--uncertainty", args.uncertainty,
+                "predicted error (uncertainty.nii.gz, ~0.1-0.2 s a frame): every frame, only the "
+                "last frame, or none")
+      ->check(CLI::IsMember({"every", "last", "none"}));
   return c;
 }
 
@@ -68,8 +72,10 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
                                                   : std::nullopt);
         const constraints::RegistrationResult r = constraints::register_model(
             *s.model, in.data, s.loaded.scene.options, previous ? &*previous : nullptr);
+        const bool with_uncertainty =
+            args.uncertainty == "every" || (args.uncertainty == "last" && f == frames.back());
         write_result(dir / name, s, r, in, nullptr,
-                     {{"frame", name}, {"warm_start", previous.has_value()}});
+                     {{"frame", name}, {"warm_start", previous.has_value()}}, with_uncertainty);
         const double seconds = in.seconds + r.seconds.total;
         latency.push_back(seconds);
         entry.update({{"status", r.converged ? "ok" : "not_converged"},
@@ -78,7 +84,8 @@ int run_replay(const ReplayArgs& args, std::ostream& out) {
                       {"stop_reason", r.stop_reason},
                       {"cold_retry", r.cold_retry},
                       {"latency_s", seconds},
-                      {"warm_start", previous.has_value()}});
+                      {"warm_start", previous.has_value()},
+                      {"uncertainty", with_uncertainty}});
         if (!r.converged) ++unconverged;
         if (r.converged) previous = r;  // warm-start only from a trustworthy frame
       } catch (const Error& e) {

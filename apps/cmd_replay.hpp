@@ -9,6 +9,7 @@
 
 #include <filesystem>
 #include <iosfwd>
+#include <string>
 
 namespace CLI {
 class App;
@@ -20,6 +21,10 @@ struct ReplayArgs {
   std::filesystem::path model;
   std::filesystem::path sequence;
   std::filesystem::path out;
+  /// Predicted error per frame: "every" (default), "last" (the last frame folder only) or
+  /// "none"; a frame without it has no uncertainty.nii.gz and report `uncertainty` =
+  /// {"computed": false}.
+  std::string uncertainty = "every";
 };
 
 CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args);

@@ -47,6 +47,7 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
                                              const constraints::RegistrationResult& r) {
   const core::TetMesh& mesh = s.model->mesh();
   ResultUncertainty u;
+  u.computed = true;
   u.nodal = constraints::predict_uncertainty(*s.model, r, s.loaded.scene.options);
   const auto t0 = std::chrono::steady_clock::now();
   // Rasterise [tr Σ, 1, 0] as a "displacement" with no rigid part: component 0 interpolates the

@@ -18,6 +18,7 @@
 namespace brainshift::apps {
 
 struct ResultUncertainty {
+  bool computed = false;  ///< false: skipped (replay --uncertainty); nothing below is set
   constraints::UncertaintyResult nodal;
   imaging::VolumeF map;    ///< predicted error (mm), one component, pre-operative grid
   double median_mm = 0.0;  ///< over the voxels inside the mesh
