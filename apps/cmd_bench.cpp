@@ -94,7 +94,7 @@ struct Row {
   /// Predicted error (issue 16; runs of ours only, else unset): its cost, the median over the
   /// free nodes, the mean at the landmarks (all, near, far as above) and its calibration against
   /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
-  std::optional<double> unc_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
+  std::optional<double> unc_s, unc_cpu_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
   std::optional<imaging::UncertaintyCalibration> unc_calibration;
 };
 
@@ -282,6 +282,7 @@ void score_uncertainty(Row& row, const constraints::RegistrationModel& model,
   const constraints::UncertaintyResult u =
       constraints::predict_uncertainty(model, r, RegistrationOptions{});
   row.unc_s = u.seconds;
+  row.unc_cpu_s = u.cpu_seconds;
   std::vector<double> free;
   for (index_t i = 0; i < model.mesh().num_nodes(); ++i)
     if (!model.mechanics().dofs().is_fixed_node(i)) free.push_back(u.node_sigma_mm[i]);
@@ -458,6 +459,7 @@ nlohmann::json row_json(const Row& r) {
   };
   const auto& cal = r.unc_calibration;
   j["uncertainty_s"] = opt(r.unc_s);
+  j["uncertainty_cpu_s"] = opt(r.unc_cpu_s);
   j["uncertainty_median_mm"] = opt(r.unc_median_mm);
   j["uncertainty_landmarks_mean_mm"] = opt(r.unc_landmarks_mm);
   j["uncertainty_near_mean_mm"] = opt(r.unc_near_mm);

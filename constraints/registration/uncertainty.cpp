@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <map>
 #include <tuple>
 
@@ -150,9 +151,9 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
                                            << " rows (expected ×6)");
       BS_VERIFY(extras.rigid_points && extras.rigid_points->rows() == n,
                 "uncertainty: the rigid term needs " << n << " node positions");
-      BS_VERIFY(!extras.node_rotations || extras.node_rotations->size() == std::size_t(n),
-                "uncertainty: " << extras.node_rotations->size() << " rotations for " << n
-                                << " nodes");
+      BS_VERIFY(
+          !extras.node_rotations || extras.node_rotations->size() == std::size_t(n),
+          "uncertainty: " << extras.node_rotations->size() << " rotations for " << n << " nodes");
       SiGr = llt.solve(Gr);
       Mp = pseudo_inverse(Gr.transpose() * SiGr, out.rigid_rank);
       const Eigen::MatrixXd Q = Y * SiGr;  // f×6
@@ -192,9 +193,9 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
       }
       out.restricted_quadratic = extras.delta->dot(pw);
       if (extras.blocks) {
-        BS_VERIFY(extras.blocks->size() == std::size_t(G.cols()),
-                  "uncertainty: " << extras.blocks->size() << " block ids for " << G.cols()
-                                  << " rows");
+        BS_VERIFY(
+            extras.blocks->size() == std::size_t(G.cols()),
+            "uncertainty: " << extras.blocks->size() << " block ids for " << G.cols() << " rows");
         std::map<index_t, std::vector<index_t>> members;
         for (index_t j = 0; j < G.cols(); ++j)
           if ((*extras.blocks)[std::size_t(j)] >= 0)
@@ -314,6 +315,7 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                                       const RegistrationOptions& options,
                                       const UncertaintyOptions& uo) {
   const auto t0 = std::chrono::steady_clock::now();
+  const std::clock_t c0 = std::clock();
   const ConstrainedModel& mech = model.mechanics();
   const core::TetMesh& mesh = model.mesh();
   const core::DofMap& dofs = mech.dofs();
@@ -484,6 +486,7 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
       out.s2 * (out.estimated ? Eigen::VectorXd(nv.posterior + nv.rigid) : nv.prior);
   out.node_sigma_mm = out.node_variance.cwiseSqrt();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
   return out;
 }
 
