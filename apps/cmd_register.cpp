@@ -214,8 +214,7 @@ nlohmann::json result_report(const Session& s, const constraints::RegistrationRe
 
 void write_result(const std::filesystem::path& res, const Session& s,
                   const constraints::RegistrationResult& r, const IntraopInputs& in,
-                  const imaging::VolumeF* mri, const nlohmann::json& extra,
-                  bool with_uncertainty) {
+                  const imaging::VolumeF* mri, const nlohmann::json& extra, bool with_uncertainty) {
   const auto t0 = Clock::now();
   // Everything is written in the intra-operative frame (result_fields.hpp).
   const ResultFields f = compute_result_fields(s, r, mri, with_uncertainty);
@@ -229,9 +228,8 @@ void write_result(const std::filesystem::path& res, const Session& s,
   const auto t0 = Clock::now();
   const core::TetMesh& mesh = s.model->mesh();
   nlohmann::json report = result_report(s, r, in, extra);
-  report["uncertainty"] = f.uncertainty.computed
-                              ? uncertainty_report(s, f.uncertainty, in.data)
-                              : nlohmann::json{{"computed", false}};
+  report["uncertainty"] = f.uncertainty.computed ? uncertainty_report(s, f.uncertainty, in.data)
+                                                 : nlohmann::json{{"computed", false}};
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
     auto t = Clock::now();
     const auto done = [&t](const char* what) {

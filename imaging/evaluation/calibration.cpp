@@ -43,7 +43,7 @@ double spearman(const std::vector<double>& a, const std::vector<double>& b) {
 }
 
 std::pair<double, double> per_axis_within_sigma_pct(const std::vector<double>& predicted_mm,
-                                                     ConstRef<MatrixX3d> error_mm) {
+                                                    ConstRef<MatrixX3d> error_mm) {
   BS_VERIFY(static_cast<Eigen::Index>(predicted_mm.size()) == error_mm.rows(),
             "uncertainty calibration: " << predicted_mm.size() << " predicted errors and "
                                         << error_mm.rows() << " error vectors");

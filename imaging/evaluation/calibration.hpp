@@ -43,7 +43,7 @@ double spearman(const std::vector<double>& a, const std::vector<double>& b);
 /// the per-axis convention above), over the 3P components: {within 1, within 2}.
 /// \throws brainshift::Error on different sizes or non-finite / negative values.
 std::pair<double, double> per_axis_within_sigma_pct(const std::vector<double>& predicted_mm,
-                                                     ConstRef<MatrixX3d> error_mm);
+                                                    ConstRef<MatrixX3d> error_mm);
 
 /// Calibration of predicted errors (mm, ≥ 0) against actual errors (mm).
 /// \throws brainshift::Error on different sizes or non-finite / negative values.

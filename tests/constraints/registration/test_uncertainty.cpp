@@ -228,9 +228,8 @@ RotatedRows rotated_rows(const Box& b, int rows, unsigned seed) {
   std::normal_distribution<double> g;
   RotatedRows out;
   for (index_t i = 0; i < b.mesh.num_nodes(); ++i)
-    out.R.push_back(
-        Eigen::AngleAxisd(0.3 * g(rng), Vector3d(g(rng), g(rng), g(rng)).normalized())
-            .toRotationMatrix());
+    out.R.push_back(Eigen::AngleAxisd(0.3 * g(rng), Vector3d(g(rng), g(rng), g(rng)).normalized())
+                        .toRotationMatrix());
   std::vector<Eigen::Triplet<double>> t;
   out.Gr.resize(rows, 6);
   for (int j = 0; j < rows; ++j) {
@@ -241,8 +240,7 @@ RotatedRows rotated_rows(const Box& b, int rows, unsigned seed) {
     const Vector3d gd = out.R[std::size_t(n)].transpose() * d;
     for (int c = 0; c < 3; ++c) t.emplace_back(b.model->dofs().free_index(3 * n + c), j, gd[c]);
     out.Gr.row(j).head<3>() = d.transpose();
-    out.Gr.row(j).tail<3>() =
-        (b.mesh.nodes().row(n).transpose() - out.centre).cross(d).transpose();
+    out.Gr.row(j).tail<3>() = (b.mesh.nodes().row(n).transpose() - out.centre).cross(d).transpose();
     out.node.push_back(n);
     out.dir.push_back(d);
   }
@@ -294,8 +292,8 @@ TEST(Uncertainty, RigidTermMatchesADenseAugmentedModelWithAFlatPosePrior) {
   ex.rigid_points = &x;
   ex.rigid_centre = rr.centre;
   ex.node_rotations = &rr.R;
-  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(),
-                                          rr.G, a, exact_prior(), ex);
+  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), rr.G,
+                                          a, exact_prior(), ex);
   EXPECT_EQ(nv.rigid_rank, 6);  // 40 rows in random directions determine the pose
   // λ = 1e5 × the largest prior trace: the flat prior's limit to O(1e-5) relative, well above
   // the dense solve's round-off (≈ 1e-16 × λ / prior ≈ 1e-11).
@@ -331,8 +329,8 @@ TEST(Uncertainty, HeldOutAndRestrictedScalesMatchDenseRefits) {
   ex.node_rotations = &rr.R;
   ex.delta = &delta;
   ex.blocks = &blocks;
-  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(),
-                                          rr.G, a, exact_prior(), ex);
+  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), rr.G,
+                                          a, exact_prior(), ex);
   const double lambda = 1e5 * nv.prior.maxCoeff();
   const Eigen::MatrixXd S = dense_rigid(b, rr, a, lambda).second;
   // Restricted: δᵀ S⁻¹ δ of the augmented model → δᵀ P δ as λ → ∞.
