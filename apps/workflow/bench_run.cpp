@@ -38,6 +38,7 @@ void score_uncertainty(BenchRow& row, const constraints::RegistrationModel& mode
   const constraints::UncertaintyResult u =
       constraints::predict_uncertainty(model, r, RegistrationOptions{});
   row.unc_s = u.seconds;
+  row.unc_cpu_s = u.cpu_seconds;
   std::vector<double> free;
   for (index_t i = 0; i < model.mesh().num_nodes(); ++i)
     if (!model.mechanics().dofs().is_fixed_node(i)) free.push_back(u.node_sigma_mm[i]);

@@ -64,7 +64,7 @@ struct BenchRow {
   /// Predicted error (issue 16; runs of ours only, else unset): its cost, the median over the
   /// free nodes, the mean at the landmarks (all, near, far as above) and its calibration against
   /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
-  std::optional<double> unc_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
+  std::optional<double> unc_s, unc_cpu_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
   std::optional<imaging::UncertaintyCalibration> unc_calibration;
 };
 

@@ -101,6 +101,7 @@ nlohmann::json row_json(const BenchRow& r) {
   };
   const auto& cal = r.unc_calibration;
   j["uncertainty_s"] = opt(r.unc_s);
+  j["uncertainty_cpu_s"] = opt(r.unc_cpu_s);
   j["uncertainty_median_mm"] = opt(r.unc_median_mm);
   j["uncertainty_landmarks_mean_mm"] = opt(r.unc_landmarks_mm);
   j["uncertainty_near_mean_mm"] = opt(r.unc_near_mm);

@@ -55,8 +55,10 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
                                                   : std::nullopt);
         const constraints::RegistrationResult r = constraints::register_model(
             *s.model, in.data, s.loaded.scene.options, previous ? &*previous : nullptr);
+        const bool with_uncertainty =
+            args.uncertainty == "every" || (args.uncertainty == "last" && f == frames.back());
         write_result(dir / name, s, r, in, nullptr,
-                     {{"frame", name}, {"warm_start", previous.has_value()}});
+                     {{"frame", name}, {"warm_start", previous.has_value()}}, with_uncertainty);
         const double seconds = in.seconds + r.seconds.total;
         latency.push_back(seconds);
         entry.update({{"status", r.converged ? "ok" : "not_converged"},
@@ -65,7 +67,8 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
                       {"stop_reason", r.stop_reason},
                       {"cold_retry", r.cold_retry},
                       {"latency_s", seconds},
-                      {"warm_start", previous.has_value()}});
+                      {"warm_start", previous.has_value()},
+                      {"uncertainty", with_uncertainty}});
         if (!r.converged) ++unconverged;
         if (r.converged) previous = r;  // warm-start only from a trustworthy frame
       } catch (const Error& e) {

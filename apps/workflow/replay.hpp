@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <string>
 
 namespace brainshift::apps {
 
@@ -19,6 +20,10 @@ struct ReplayOptions {
   std::filesystem::path model;     ///< MODEL folder from prepare
   std::filesystem::path sequence;  ///< folder of frame_*/ (doppler.nii.gz, optional bmode.nii.gz)
   std::filesystem::path out;       ///< result folder RES (replaced atomically)
+  /// Predicted error per frame: "every" (default), "last" (the last frame folder only) or
+  /// "none"; a frame without it has no uncertainty.nii.gz and report `uncertainty` =
+  /// {"computed": false}.
+  std::string uncertainty = "every";
 };
 
 /// What replay did (replay.json's content and its counts).

@@ -9,7 +9,7 @@
 namespace brainshift::apps {
 
 ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
-                                   const imaging::VolumeF* mri) {
+                                   const imaging::VolumeF* mri, bool with_uncertainty) {
   const core::TetMesh& mesh = s.model->mesh();
   BS_VERIFY(r.positions.rows() == mesh.num_nodes(), "the registration result has "
                                                         << r.positions.rows() << " positions for "
@@ -49,7 +49,7 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
     wo.rigid = f.intraop_from_model.matrix();
     f.warped_mri = imaging::warp_image(*mri, mesh, f.u_intra, wo);
   }
-  f.uncertainty = compute_result_uncertainty(s, r);
+  if (with_uncertainty) f.uncertainty = compute_result_uncertainty(s, r);
   return f;
 }
 

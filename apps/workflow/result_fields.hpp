@@ -42,9 +42,10 @@ struct ResultFields {
   ResultUncertainty uncertainty;  ///< predicted error (uncertainty.nii.gz; result_uncertainty.hpp)
 };
 
-/// Computes the fields of a result (and warps `mri` when given, on its own grid).
+/// Computes the fields of a result (and warps `mri` when given, on its own grid); the predicted
+/// error only when `with_uncertainty` (else ResultUncertainty::computed is false).
 /// \throws brainshift::Error when the result's positions do not fit the model.
 ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
-                                   const imaging::VolumeF* mri);
+                                   const imaging::VolumeF* mri, bool with_uncertainty = true);
 
 }  // namespace brainshift::apps

@@ -104,10 +104,10 @@ nlohmann::json result_report(const Session& s, const constraints::RegistrationRe
 
 void write_result(const std::filesystem::path& res, const Session& s,
                   const constraints::RegistrationResult& r, const IntraopInputs& in,
-                  const imaging::VolumeF* mri, const nlohmann::json& extra) {
+                  const imaging::VolumeF* mri, const nlohmann::json& extra, bool with_uncertainty) {
   const auto t0 = Clock::now();
   // Everything is written in the intra-operative frame (result_fields.hpp).
-  const ResultFields f = compute_result_fields(s, r, mri);
+  const ResultFields f = compute_result_fields(s, r, mri, with_uncertainty);
   write_result(res, s, r, in, mri, f, extra, since(t0));
 }
 
@@ -118,7 +118,8 @@ void write_result(const std::filesystem::path& res, const Session& s,
   const auto t0 = Clock::now();
   const core::TetMesh& mesh = s.model->mesh();
   nlohmann::json report = result_report(s, r, in, extra);
-  report["uncertainty"] = uncertainty_report(s, f.uncertainty, in.data);
+  report["uncertainty"] = f.uncertainty.computed ? uncertainty_report(s, f.uncertainty, in.data)
+                                                 : nlohmann::json{{"computed", false}};
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
     auto t = Clock::now();
     const auto done = [&t](const char* what) {
@@ -132,12 +133,15 @@ void write_result(const std::filesystem::path& res, const Session& s,
     imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
     imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
     done("the two Slicer transforms");
-    imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
-    done("uncertainty.nii.gz");
+    if (f.uncertainty.computed) {
+      imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
+      done("uncertainty.nii.gz");
+    }
     if (f.warped_mri) imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
     done("warped_mri.nii.gz");
     write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr,
-                         f.displacement, in.data, &f.uncertainty.map);
+                         f.displacement, in.data,
+                         f.uncertainty.computed ? &f.uncertainty.map : nullptr);
     done("overlay.png");
     report["timing"]["outputs"] = seconds_fields + since(t0);
     double total = 0;

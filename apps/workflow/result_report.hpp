@@ -18,10 +18,12 @@ namespace brainshift::apps {
 
 /// Writes RES (report.json, deformed.vtu, displacement.nii.gz, preop_to_intraop.nrrd,
 /// intraop_to_preop.nrrd, overlay.png, warped_mri.nii.gz with an MRI from read_preop_mri())
-/// atomically. `extra` is merged into the report.
+/// atomically. `extra` is merged into the report. Without `with_uncertainty` the predicted
+/// error is skipped: no uncertainty.nii.gz, report `uncertainty` = {"computed": false}.
 void write_result(const std::filesystem::path& res, const Session& s,
                   const constraints::RegistrationResult& r, const IntraopInputs& in,
-                  const imaging::VolumeF* mri, const nlohmann::json& extra);
+                  const imaging::VolumeF* mri, const nlohmann::json& extra,
+                  bool with_uncertainty = true);
 
 struct ResultFields;
 /// As above with the fields already computed (compute_result_fields() with the same `mri`);

@@ -47,6 +47,7 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
                                              const constraints::RegistrationResult& r) {
   const core::TetMesh& mesh = s.model->mesh();
   ResultUncertainty u;
+  u.computed = true;
   u.nodal = constraints::predict_uncertainty(*s.model, r, s.loaded.scene.options);
   const auto t0 = std::chrono::steady_clock::now();
   // Rasterise [tr Σ, 1, 0] as a "displacement" with no rigid part: component 0 interpolates the
@@ -90,12 +91,21 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
   j["estimation"] = u.nodal.estimation;
   j["estimated"] = u.nodal.estimated;
   j["s2_mn_mm"] = u.nodal.s2;
+  // The other estimates of s² (diagnostics: their spread says how well the model fits) and the
+  // pose directions the rows determine.
+  j["s2_candidates_mn_mm"] = {{"maximum_likelihood", u.nodal.s2_ml},
+                              {"restricted", u.nodal.s2_restricted},
+                              {"held_out_blocks", u.nodal.s2_heldout},
+                              {"discrepancy", u.nodal.s2_discrepancy}};
+  j["held_out_blocks"] = u.nodal.heldout_blocks;
+  j["rigid_rank"] = u.nodal.rigid_rank;
   j["vessel_alpha_mm_per_mn"] = u.nodal.vessel_alpha;
   j["vessel_noise_sigma_mm"] = u.nodal.noise_sigma_mm;
   j["rows"] = u.nodal.rows;
   j["exact_nodes"] = u.nodal.exact_nodes;
   j["seconds"] = u.nodal.seconds + u.seconds_map;
   j["seconds_nodal"] = u.nodal.seconds;
+  j["cpu_seconds_nodal"] = u.nodal.cpu_seconds;
   j["seconds_map"] = u.seconds_map;
   return j;
 }

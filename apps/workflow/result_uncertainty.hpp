@@ -6,7 +6,8 @@
 /// The map is on the grid of displacement.nii.gz (the pre-operative grid, rest frame): at each
 /// voxel centre inside the mesh, sqrt of the barycentrically interpolated nodal tr Σ (mm), the
 /// RMS length of the predicted 3-D error of the displacement there; 0 outside the brain (and
-/// ≈ 0 in the fixed region, whose displacement is prescribed).
+/// the rigid term alone in the fixed region, whose deformation is prescribed but which moves with
+/// the uncertain pose).
 
 #include "apps/workflow/session.hpp"
 #include "constraints/registration/uncertainty.hpp"
@@ -17,6 +18,7 @@
 namespace brainshift::apps {
 
 struct ResultUncertainty {
+  bool computed = false;  ///< false: skipped (replay --uncertainty); nothing below is set
   constraints::UncertaintyResult nodal;
   imaging::VolumeF map;    ///< predicted error (mm), one component, pre-operative grid
   double median_mm = 0.0;  ///< over the voxels inside the mesh
@@ -31,7 +33,8 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
 
 /// report.json → `uncertainty`: at_tumour_mm (at the centroid of the tumour's tetrahedra, null
 /// without a tumour material), at_landmarks (when `data` has landmarks: model points' predicted
-/// error, mm), median_mm, p95_mm, estimation, seconds and the estimated parameters.
+/// error, mm), median_mm, p95_mm, estimation, seconds and the estimated parameters (s² and its
+/// candidate estimates, the held-out blocks, the rigid term's rank).
 nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                                   const constraints::IntraopData& data);
 

@@ -1,12 +1,16 @@
 #include "constraints/registration/uncertainty.hpp"
 
 #include "constraints/registration/registration_stage.hpp"
+#include "constraints/registration/vessel_blocks.hpp"
 #include "core/error.hpp"
 #include "core/solver/nodal_rotations.hpp"
+
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <map>
 #include <tuple>
 
@@ -65,6 +69,27 @@ std::vector<index_t> coarse_nodes(const core::DofMap& dofs, ConstRef<MatrixX3d> 
   return out;
 }
 
+/// Pseudo-inverse of a small symmetric positive semi-definite matrix (eigenvalues below 1e-10 ×
+/// the largest dropped) and its rank.
+Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& a, index_t& rank) {
+  rank = 0;
+  if (a.rows() == 0) return a;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(0.5 * (a + a.transpose()));
+  const Eigen::VectorXd& l = es.eigenvalues();
+  const double top = l.maxCoeff();
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(l.size());
+  if (std::isfinite(top) && top > 0)
+    for (Eigen::Index i = 0; i < l.size(); ++i)
+      if (l[i] > 1e-10 * top) inv[i] = 1.0 / l[i], ++rank;
+  return es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
+}
+
+Matrix3d cross_matrix(const Vector3d& v) {
+  Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
 }  // namespace
 
 std::string UncertaintyOptions::validate() const {
@@ -100,6 +125,7 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
   NodalVariance out;
   out.prior = Eigen::VectorXd::Zero(n);
   out.posterior = Eigen::VectorXd::Zero(n);
+  out.rigid = Eigen::VectorXd::Zero(n);
 
   // Data term per DOF: column norms² of L⁻¹ Yᵀ, Y = K0⁻¹ G, L the Cholesky factor of W + A.
   Eigen::VectorXd reduction = Eigen::VectorXd::Zero(f);
@@ -115,6 +141,38 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
     const Eigen::LLT<Eigen::MatrixXd> llt(S);
     BS_VERIFY(llt.info() == Eigen::Success,
               "uncertainty: the data rows' covariance is not positive definite");
+    // The rigid pose as an unknown with a flat prior (universal kriging): M = Grᵀ S⁻¹ Gr, and
+    // the node's rigid term tr(R_n M⁺ R_nᵀ), R_n = h_n − Rot_n (K0⁻¹ G S⁻¹ Gr)_n.
+    Eigen::MatrixXd SiGr, Mp;
+    if (extras.rigid_rows) {
+      const Eigen::MatrixXd& Gr = *extras.rigid_rows;
+      BS_VERIFY(Gr.rows() == G.cols() && Gr.cols() == 6,
+                "uncertainty: rigid rows " << Gr.rows() << "×" << Gr.cols() << " for " << G.cols()
+                                           << " rows (expected ×6)");
+      BS_VERIFY(extras.rigid_points && extras.rigid_points->rows() == n,
+                "uncertainty: the rigid term needs " << n << " node positions");
+      BS_VERIFY(
+          !extras.node_rotations || extras.node_rotations->size() == std::size_t(n),
+          "uncertainty: " << extras.node_rotations->size() << " rotations for " << n << " nodes");
+      SiGr = llt.solve(Gr);
+      Mp = pseudo_inverse(Gr.transpose() * SiGr, out.rigid_rank);
+      const Eigen::MatrixXd Q = Y * SiGr;  // f×6
+      out.rigid = Eigen::VectorXd::Zero(n);
+      for (index_t i = 0; i < n; ++i) {
+        Eigen::Matrix<double, 3, 6> h;
+        h.leftCols<3>().setIdentity();
+        h.rightCols<3>() =
+            -cross_matrix(extras.rigid_points->row(i).transpose() - extras.rigid_centre);
+        Eigen::Matrix<double, 3, 6> q = Eigen::Matrix<double, 3, 6>::Zero();
+        for (int c = 0; c < 3; ++c)
+          if (const index_t fi = dofs.free_index(3 * i + c); fi >= 0) q.row(c) = Q.row(fi);
+        const Eigen::Matrix<double, 3, 6> rm =
+            h - (extras.node_rotations ? (*extras.node_rotations)[std::size_t(i)]
+                                       : Matrix3d::Identity()) *
+                    q;
+        out.rigid[i] = std::max(0.0, (rm * Mp * rm.transpose()).trace());
+      }
+    }
     if (extras.delta) {
       // ML: δᵀ (W + A)⁻¹ δ. Discrepancy: the fitted rows' residual r = A (W + A)⁻¹ δ against its
       // expectation E‖r‖² = s² tr(A (W + A)⁻¹ A).
@@ -124,6 +182,41 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
       out.residual_sq = (a.array() * w.array()).matrix().squaredNorm();
       const Eigen::MatrixXd Sinv = llt.solve(Eigen::MatrixXd::Identity(S.rows(), S.cols()));
       out.residual_dof = (a.array().square() * Sinv.diagonal().array()).sum();
+      // Restricted (rigid pose projected out) and held-out-block forms: P = S⁻¹ − S⁻¹Gr M⁺ GrᵀS⁻¹,
+      // Pδ ~ N(0, s² P), so each block's w_bᵀ (P_bb)⁺ w_b ~ s² χ²(rank P_bb): the closed form of
+      // the residuals at blocks held out of the linear-Gaussian fit.
+      Eigen::VectorXd pw = w;
+      Eigen::MatrixXd P = Sinv;
+      if (extras.rigid_rows) {
+        pw -= SiGr * (Mp * (SiGr.transpose() * *extras.delta));
+        P -= SiGr * Mp * SiGr.transpose();
+      }
+      out.restricted_quadratic = extras.delta->dot(pw);
+      if (extras.blocks) {
+        BS_VERIFY(
+            extras.blocks->size() == std::size_t(G.cols()),
+            "uncertainty: " << extras.blocks->size() << " block ids for " << G.cols() << " rows");
+        std::map<index_t, std::vector<index_t>> members;
+        for (index_t j = 0; j < G.cols(); ++j)
+          if ((*extras.blocks)[std::size_t(j)] >= 0)
+            members[(*extras.blocks)[std::size_t(j)]].push_back(j);
+        for (const auto& [id, rows] : members) {
+          const auto k = static_cast<Eigen::Index>(rows.size());
+          Eigen::MatrixXd pb(k, k);
+          Eigen::VectorXd wb(k);
+          for (Eigen::Index a1 = 0; a1 < k; ++a1) {
+            wb[a1] = pw[rows[std::size_t(a1)]];
+            for (Eigen::Index a2 = 0; a2 < k; ++a2)
+              pb(a1, a2) = P(rows[std::size_t(a1)], rows[std::size_t(a2)]);
+          }
+          index_t rank = 0;
+          const Eigen::MatrixXd pinv = pseudo_inverse(pb, rank);
+          if (rank == 0) continue;
+          out.heldout_quadratic += wb.dot(pinv * wb);
+          out.heldout_rows += static_cast<double>(rank);
+          ++out.heldout_blocks;
+        }
+      }
     }
     const Eigen::MatrixXd Zt = llt.matrixL().solve(Y.transpose());
     reduction = Zt.colwise().squaredNorm().transpose();
@@ -222,6 +315,7 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                                       const RegistrationOptions& options,
                                       const UncertaintyOptions& uo) {
   const auto t0 = std::chrono::steady_clock::now();
+  const std::clock_t c0 = std::clock();
   const ConstrainedModel& mech = model.mechanics();
   const core::TetMesh& mesh = model.mesh();
   const core::DofMap& dofs = mech.dofs();
@@ -265,6 +359,25 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   SparseMatrix G(dofs.num_free(), m);
   G.setFromTriplets(t.begin(), t.end());
   out.rows = m;
+  // The rows' rigid sensitivities about their centroid, and the vessel rows' CV blocks.
+  Eigen::MatrixXd rigid_rows(m, 6);
+  Vector3d centre = Vector3d::Zero();
+  std::vector<Vector3d> at(static_cast<std::size_t>(m));
+  for (index_t j = 0; j < m; ++j) {
+    at[std::size_t(j)] = r.data_rows[used[std::size_t(j)]].stencil.position(r.positions);
+    centre += at[std::size_t(j)] / static_cast<double>(m);
+  }
+  const std::vector<index_t> segment_block =
+      segment_blocks(model.skeleton(), options.noise.block_length_mm);
+  std::vector<index_t> blocks(static_cast<std::size_t>(m), -1);
+  for (index_t j = 0; j < m; ++j) {
+    const ConstraintRow& row = r.data_rows[used[std::size_t(j)]];
+    rigid_rows.row(j).head<3>() = row.direction.transpose();
+    rigid_rows.row(j).tail<3>() = (at[std::size_t(j)] - centre).cross(row.direction).transpose();
+    if (row.set == ConstraintSet::VESSELS && row.feature >= 0 &&
+        static_cast<std::size_t>(row.feature) < segment_block.size())
+      blocks[std::size_t(j)] = segment_block[static_cast<std::size_t>(row.feature)];
+  }
 
   // δ_free: the rows' violation if the model relaxed to its unloaded shape (as the step's).
   Eigen::VectorXd delta_free(m);
@@ -290,6 +403,13 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   extras.known_prior = &known;
   extras.noise_relative = true;
   extras.delta = &delta_free;
+  extras.blocks = &blocks;
+  if (uo.rigid_term) {
+    extras.rigid_rows = &rigid_rows;
+    extras.rigid_points = &r.positions;
+    extras.rigid_centre = centre;
+    extras.node_rotations = &R;
+  }
   const NodalVariance nv =
       usable ? nodal_variance(mech.factor(), dofs, mesh.nodes(), G, ratio, uo, extras)
              : nodal_variance(mech.factor(), dofs, mesh.nodes(), SparseMatrix(dofs.num_free(), 0),
@@ -300,28 +420,51 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio
                                                               : options.noise.max_ratio;
   out.vessel_alpha = out.vessel_ratio * scale;
-  char buf[600];
+  char buf[700];
   if (usable) {
-    // ML scale of δ_free ~ N(0, s² (W + A)).
-    const bool discrepancy = uo.scale_estimator == UncertaintyOptions::ScaleEstimator::DISCREPANCY;
-    const double quad =
-        discrepancy ? nv.residual_sq * static_cast<double>(m) / std::max(nv.residual_dof, 1e-300)
-                    : nv.quadratic;
-    if (quad > 0 && std::isfinite(quad) && scale > 0) {
-      out.s2 = uo.calibration * quad / static_cast<double>(m);
+    const double md = static_cast<double>(m);
+    out.s2_ml = nv.quadratic / md;
+    out.s2_discrepancy = nv.residual_sq / std::max(nv.residual_dof, 1e-300);
+    out.s2_restricted =
+        nv.restricted_quadratic / std::max(1.0, md - static_cast<double>(nv.rigid_rank));
+    out.s2_heldout = nv.heldout_rows > 0 ? nv.heldout_quadratic / nv.heldout_rows : 0.0;
+    out.heldout_blocks = nv.heldout_blocks;
+    out.rigid_rank = nv.rigid_rank;
+    using SE = UncertaintyOptions::ScaleEstimator;
+    const char* how = "";
+    double s2 = 0.0;
+    switch (uo.scale_estimator) {
+      case SE::DISCREPANCY:
+        s2 = out.s2_discrepancy;
+        how = "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))";
+        break;
+      case SE::MAXIMUM_LIKELIHOOD:
+        s2 = out.s2_ml;
+        how = "by maximum likelihood (δ_free ~ N(0, s²(W + A)))";
+        break;
+      case SE::HELD_OUT:
+        s2 = nv.heldout_rows > 0 ? out.s2_heldout : out.s2_restricted;
+        how = nv.heldout_rows > 0
+                  ? "from the residuals at held-out vessel blocks (closed-form leave-one-block-out "
+                    "of the linear-Gaussian fit, pose projected out)"
+                  : "by restricted maximum likelihood (no vessel blocks to hold out)";
+        break;
+    }
+    if (s2 > 0 && std::isfinite(s2) && scale > 0) {
+      out.s2 = uo.calibration * s2;
       out.estimated = true;
+      out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
       std::snprintf(
           buf, sizeof buf,
-          "s² %s of the %lld data rows = %.4g mN·mm%s; α = the "
-          "registration's vessel compliance (ratio %.3g × median diag W %.4g mm/mN), hard rows "
-          "%.3g × it; "
-          "implied vessel-row scatter %.3g mm; dura rows not used",
-          discrepancy
-              ? "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))"
-              : "by maximum likelihood (δ_free ~ N(0, s²(W + A)))",
-          static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
-          out.vessel_ratio, scale, uo.hard_row_ratio, std::sqrt(out.s2 * out.vessel_alpha));
-      out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
+          "s² %s of the %lld data rows = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
+          "held out); α = the registration's vessel compliance (ratio %.3g × median diag W "
+          "%.4g mm/mN), hard rows %.3g × it; implied vessel-row scatter %.3g mm; %s; dura rows "
+          "not used",
+          how, static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
+          out.s2_ml, static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale,
+          uo.hard_row_ratio, out.noise_sigma_mm,
+          uo.rigid_term ? "the pose of the rigid start is an unknown of the model (rigid term)"
+                        : "pose taken as known");
     }
   }
   if (!out.estimated) {
@@ -337,9 +480,13 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                   static_cast<long long>(m), uo.no_data_median_mm);
   }
   out.estimation = buf;
-  out.node_variance = out.s2 * (out.estimated ? nv.posterior : nv.prior);
+  out.node_posterior = nv.posterior;
+  out.node_rigid = nv.rigid;
+  out.node_variance =
+      out.s2 * (out.estimated ? Eigen::VectorXd(nv.posterior + nv.rigid) : nv.prior);
   out.node_sigma_mm = out.node_variance.cwiseSqrt();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  out.cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
   return out;
 }
 

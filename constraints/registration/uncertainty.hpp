@@ -7,8 +7,18 @@
 /// the elastic prior u ~ N(0, s² C), C = R K0⁻¹ Rᵀ the warped compliance at the final rotations
 /// (mm/mN), and the data rows (vessels, footprint, landmarks; linearised at the final state)
 /// observe δ_free = H u + e with e ~ N(0, s² A), A = diag(εᵢ) the rows' compliance. Then
-///   Σ(x) = s² (J_x C J_xᵀ − J_x C Hᵀ (H C Hᵀ + A)⁻¹ H C J_xᵀ)      (mm²)
+///   Σ(x) = s² (J_x C J_xᵀ − J_x C Hᵀ (H C Hᵀ + A)⁻¹ H C J_xᵀ + R_x M⁺ R_xᵀ)      (mm²)
 /// and the predicted error at x is sqrt(tr Σ(x)) (mm): the RMS length of the 3-D error vector.
+///
+/// The last term (the rigid term, UncertaintyOptions::rigid_term) is what the pose of the
+/// registration's rigid start adds: the start estimates the pose from the same rows, so the pose
+/// is an unknown of the model with a flat prior (universal kriging: the displacement is
+/// h_x θ + R u, θ = (translation, small rotation about the rows' centroid c), h_x =
+/// [I, −[x − c]×]). With Gr the rows' sensitivities to θ (m×6), S = H C Hᵀ + A and
+/// M = Grᵀ S⁻¹ Gr, R_x = h_x − J_x C Hᵀ S⁻¹ Gr: small where the rows pin the pose and the
+/// deformation together, growing with the lever arm from the rows (a rotation error), also on
+/// the fixed nodes (they move with the pose). Directions of θ the rows cannot determine are
+/// left out (pseudo-inverse; NodalVariance::rigid_rank says how many are determined).
 ///
 /// How the pieces are computed (cost grows like the registration's: sparse solves with the
 /// factor it already has):
@@ -25,7 +35,7 @@
 ///   A stochastic (Hutchinson) estimator is not used: K0⁻¹ is a dense Green's function (~1/r),
 ///   whose off-diagonal mass makes the estimate's relative error O(1) at any affordable number of
 ///   probes, while unit loads on the coarse set are exact at the same cost.
-/// - fixed nodes have zero variance (their DOFs are eliminated).
+/// - fixed nodes have zero deformable variance (their DOFs are eliminated); the rigid term only.
 ///
 /// Rows that are not data: dura rows (a boundary condition of the model, not a measurement) are
 /// not used, and neither are unilateral footprint rows that are separated at the final state
@@ -36,9 +46,14 @@
 /// median diag W, as in StepOptions::compliance_ratio), and s² is the maximum-likelihood scale of
 /// the linear-Gaussian model, δ_free ~ N(0, s² (W + A)): s² = δ_freeᵀ (W + A)⁻¹ δ_free / m
 /// (m rows), with δ_free what the rows would be violated by if the model relaxed to its unloaded
-/// shape at the final rotations (the default; UncertaintyOptions::scale_estimator also offers the
-/// discrepancy principle, which measured worse on the phantoms: docs/BENCHMARKS.md, "Predicted
-/// error"). `calibration` (dimensionless, default 1) multiplies s².
+/// shape at the final rotations (the default). Also computed, as diagnostics and options
+/// (UncertaintyOptions::scale_estimator): the discrepancy principle; the restricted ML
+/// δᵀ P δ / (m − rank M), P = S⁻¹ − S⁻¹ Gr M⁺ Grᵀ S⁻¹ (pose projected out); and the scale from
+/// held-out vessel blocks (vessel_blocks.hpp; closed-form leave-one-block-out of the linear-
+/// Gaussian fit: w = P δ, Σ_b w_bᵀ (P_bb)⁺ w_b / Σ_b rank P_bb). On the phantoms ML with the
+/// rigid term measured best (docs/BENCHMARKS.md, "Predicted error"): the held-out scale matches
+/// ML where the model fits and is lower on deep_tumour_one_side_vessels, where it under-predicts.
+/// `calibration` (dimensionless, default 1) multiplies s².
 /// Positions in mm, model (pre-operative, world RAS) frame.
 
 #include "constraints/registration/registration.hpp"
@@ -69,8 +84,10 @@ struct UncertaintyOptions {
   /// How s² is estimated from the rows: DISCREPANCY (the fitted rows' residual against its
   /// expectation: the scatter the data show about the answer sets the scale) or MAXIMUM_LIKELIHOOD
   /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it).
-  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD };
+  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD, HELD_OUT };
   ScaleEstimator scale_estimator = ScaleEstimator::MAXIMUM_LIKELIHOOD;
+  /// The pose of the rigid start is an unknown with a flat prior (adds the rigid term).
+  bool rigid_term = true;
   int solve_block = 192;  ///< right-hand sides per solve when computing the prior term
   [[nodiscard]] std::string validate() const;
 };
@@ -85,6 +102,14 @@ struct NodalVariance {
   double quadratic = 0.0;     ///< δᵀ (W + A)⁻¹ δ when NodalVarianceExtras::delta was given
   double residual_sq = 0.0;  ///< ‖A (W + A)⁻¹ δ‖²: the fitted rows' residual (mm²), with delta
   double residual_dof = 0.0;  ///< tr(A (W + A)⁻¹ A) (mm²/(mN·mm)): E‖r‖² = s² × this
+  /// #N: the rigid term tr(R_n M⁺ R_nᵀ) (mm/mN) with NodalVarianceExtras::rigid_rows (else 0):
+  /// the variance the unknown pose of the rigid start adds (see predict_uncertainty()).
+  Eigen::VectorXd rigid;
+  index_t rigid_rank = 0;  ///< rank of M = Grᵀ (W + A)⁻¹ Gr (≤ 6; 0 without rigid_rows)
+  double restricted_quadratic = 0.0;  ///< δᵀ P δ, P = S⁻¹ − S⁻¹ Gr M⁺ Grᵀ S⁻¹ (S⁻¹ without Gr)
+  double heldout_quadratic = 0.0;  ///< Σ_b w_bᵀ (P_bb)⁺ w_b, w = P δ, over the held-out blocks
+  double heldout_rows = 0.0;       ///< rows in the held-out blocks (Σ_b rank P_bb)
+  index_t heldout_blocks = 0;      ///< blocks held out
 };
 
 /// Optional inputs of nodal_variance().
@@ -95,11 +120,24 @@ struct NodalVarianceExtras {
   bool noise_relative = false;
   /// Row values δ (m): NodalVariance::quadratic is then δᵀ (W + A)⁻¹ δ.
   const Eigen::VectorXd* delta = nullptr;
+  /// m×6: each row's sensitivity to a small rigid motion of the whole model, g_jᵀ = [d_jᵀ,
+  /// ((p_j − c) × d_j)ᵀ] (translation mm, rotation rad about c): with it the rigid pose is an
+  /// unknown of the model with a flat prior (NodalVariance::rigid, restricted_quadratic).
+  const Eigen::MatrixXd* rigid_rows = nullptr;
+  /// #N×3 points (mm) where the rigid basis h_n = [I, −[x_n − c]×] is evaluated, and c (mm); with
+  /// rigid_rows.
+  const MatrixX3d* rigid_points = nullptr;
+  Vector3d rigid_centre = Vector3d::Zero();
+  /// #N rotations taking a node's frame of K0⁻¹ to the rigid basis' frame (identity if null).
+  const std::vector<Matrix3d>* node_rotations = nullptr;
+  /// m block ids (≥ 0: held out together to give NodalVariance::heldout_*; < 0: never held
+  /// out), with delta.
+  const std::vector<index_t>* blocks = nullptr;
 };
 
 /// The nodal traces of K0⁻¹ − K0⁻¹ G (Gᵀ K0⁻¹ G + diag(noise))⁻¹ Gᵀ K0⁻¹.
 /// @param[in] factor CHOLMOD factor of K0_ff (free DOFs of `dofs`).
-/// @param[in] dofs the DOF map (fixed nodes: zero variance).
+/// @param[in] dofs the DOF map (fixed nodes: zero deformable variance).
 /// @param[in] nodes #N×3 rest positions (mm), for the coarse grid and the interpolation.
 /// @param[in] G #free × m: the data rows, transposed, on the free DOFs (may have 0 columns).
 /// @param[in] noise m compliances (mm/mN, > 0).
@@ -112,7 +150,7 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
 /// The predicted error of a registration.
 struct UncertaintyResult {
   bool estimated = false;         ///< s² came from the data (false: no data rows; see estimation)
-  Eigen::VectorXd node_sigma_mm;  ///< #N: sqrt(tr Σ_n), mm; 0 on fixed nodes
+  Eigen::VectorXd node_sigma_mm;  ///< #N: sqrt(tr Σ_n), mm; the rigid term alone on fixed nodes
   Eigen::VectorXd node_variance;  ///< #N: tr Σ_n, mm²
   double s2 = 0.0;                ///< prior scale (mN·mm)
   double vessel_alpha = 0.0;      ///< the vessel rows' compliance (mm/mN)
@@ -121,8 +159,17 @@ struct UncertaintyResult {
   index_t rows = 0;               ///< data rows used
   index_t exact_nodes = 0;        ///< nodes with an exact prior term (the rest interpolated)
   index_t solved_nodes = 0;  ///< of them, solved for (the others read from the compliance block)
-  std::string estimation;    ///< one line: how s² and α were estimated
-  double seconds = 0.0;
+  Eigen::VectorXd node_posterior;  ///< #N: deformable posterior trace without s² (mm/mN)
+  Eigen::VectorXd node_rigid;      ///< #N: rigid term without s² (mm/mN)
+  double s2_ml = 0.0;              ///< the candidate scales (mN·mm; 0 when not estimated)
+  double s2_discrepancy = 0.0;
+  double s2_restricted = 0.0;
+  double s2_heldout = 0.0;
+  index_t heldout_blocks = 0;  ///< vessel blocks behind s2_heldout
+  index_t rigid_rank = 0;      ///< pose directions the rows determine (6 = all)
+  std::string estimation;      ///< one line: how s² and α were estimated
+  double seconds = 0.0;        ///< wall time
+  double cpu_seconds = 0.0;    ///< process CPU time over the same span (all threads)
 };
 
 /// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final

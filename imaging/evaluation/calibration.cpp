@@ -42,6 +42,27 @@ double spearman(const std::vector<double>& a, const std::vector<double>& b) {
   return saa > 0 && sbb > 0 ? sab / std::sqrt(saa * sbb) : 0.0;
 }
 
+std::pair<double, double> per_axis_within_sigma_pct(const std::vector<double>& predicted_mm,
+                                                    ConstRef<MatrixX3d> error_mm) {
+  BS_VERIFY(static_cast<Eigen::Index>(predicted_mm.size()) == error_mm.rows(),
+            "uncertainty calibration: " << predicted_mm.size() << " predicted errors and "
+                                        << error_mm.rows() << " error vectors");
+  if (predicted_mm.empty()) return {0.0, 0.0};
+  int in1 = 0, in2 = 0;
+  for (std::size_t i = 0; i < predicted_mm.size(); ++i) {
+    const double s = predicted_mm[i] / std::sqrt(3.0);
+    BS_VERIFY(std::isfinite(s) && s >= 0 && error_mm.row(Eigen::Index(i)).allFinite(),
+              "uncertainty calibration: error " << i << " is negative or not finite");
+    for (int c = 0; c < 3; ++c) {
+      const double e = std::abs(error_mm(Eigen::Index(i), c));
+      in1 += e <= s;
+      in2 += e <= 2 * s;
+    }
+  }
+  const double n = 3.0 * static_cast<double>(predicted_mm.size());
+  return {100.0 * in1 / n, 100.0 * in2 / n};
+}
+
 UncertaintyCalibration calibrate_uncertainty(const std::vector<double>& predicted_mm,
                                              const std::vector<double>& actual_mm) {
   BS_VERIFY(predicted_mm.size() == actual_mm.size(),

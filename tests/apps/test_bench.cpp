@@ -78,6 +78,35 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
   EXPECT_NE(md.find("| cases | standard | constraint_icp |"), std::string::npos) << md;
 }
 
+// The predicted error's calibration on one phantom case against its independent (TLED) truth
+// (issue 16): the bench's uncertainty columns for our default loop.
+TEST(Bench, PredictedErrorIsCalibratedOnAPhantomCase) {
+  const tests::TempFolder dir;
+  const auto out = dir / "bench";
+  const CliRun r =
+      run_brainshift(dir, "bench --quick --suite cases --cases large_shift --out " + q(out));
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  const auto j = read_json(out / "results.json");
+  const nlohmann::json* ours = nullptr;
+  for (const auto& run : j["runs"])
+    if (run["method"] == "constraint_icp") ours = &run;
+  ASSERT_NE(ours, nullptr) << j.dump();
+  const auto& u = *ours;
+  SCOPED_TRACE(u.dump());
+  // The issue's bars, on 14 landmarks. Measured (seed 1, 2026-12-02, full bench): Spearman 0.65,
+  // 100 % within 2 sigma, far 1.78 > near 1.11 mm, RMS ratio 0.91. Asked: Spearman ≥ 0.3
+  // (clearly positive; one landmark swapped moves it by ≈ 0.05); within 2 sigma (the 3-D
+  // convention: a calibrated Gaussian gives 99.3 %) between 70 and 100 %; larger far (> 10 mm)
+  // from the vessels than near (≤ 5 mm); RMS of actual / predicted within [0.5, 2] (1 =
+  // calibrated; a factor 2 either way is what the issue calls uncalibrated).
+  EXPECT_GE(u["uncertainty_spearman"].get<double>(), 0.3);
+  EXPECT_GE(u["uncertainty_within_2_sigma_pct"].get<double>(), 70.0);
+  EXPECT_GT(u["uncertainty_far_mean_mm"].get<double>(),
+            u["uncertainty_near_mean_mm"].get<double>());
+  EXPECT_GT(u["uncertainty_rms_ratio"].get<double>(), 0.5);
+  EXPECT_LT(u["uncertainty_rms_ratio"].get<double>(), 2.0);
+}
+
 TEST(Bench, BadArgumentsAreOneLineErrors) {
   const tests::TempFolder dir;
   expect_one_line_error(run_brainshift(dir, "bench --quick --cases nosuch --out " + q(dir / "b")),

@@ -143,11 +143,12 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   EXPECT_LT(cal["rms_actual_over_predicted"].get<double>(), 3.0) << cal.dump();
   EXPECT_GE(cal["within_2_sigma_pct"].get<double>(), 50.0) << cal.dump();
 
-  // Replay with a broken frame in the middle: it is reported and skipped, the others register.
+  // Replay with a broken frame in the middle: it is reported and skipped, the others register;
+  // the predicted error only for the last frame (--uncertainty last).
   std::ofstream(ph / "intraop/frame_001/doppler.nii.gz") << "not an image";
   const auto rep = dir / "replay";
-  r = run_brainshift(
-      dir, "replay --model " + q(model) + " --sequence " + q(ph / "intraop") + " --out " + q(rep));
+  r = run_brainshift(dir, "replay --model " + q(model) + " --sequence " + q(ph / "intraop") +
+                              " --out " + q(rep) + " --uncertainty last");
   EXPECT_EQ(r.exit_code, 2) << r.out << r.err;  // some frames failed (or did not converge)
   const auto summary = read_json(rep / "replay.json");
   ASSERT_EQ(summary["frames"].size(), 3u);
@@ -158,6 +159,10 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   for (const char* k : {"median", "p95", "max"})
     EXPECT_GT(summary["latency_s"][k].get<double>(), 0.0) << k;
   EXPECT_TRUE(std::filesystem::exists(rep / "frame_002" / "report.json"));
+  EXPECT_TRUE(std::filesystem::exists(rep / "frame_002" / "uncertainty.nii.gz"));
+  EXPECT_FALSE(std::filesystem::exists(rep / "frame_000" / "uncertainty.nii.gz"));
+  EXPECT_FALSE(read_json(rep / "frame_000" / "report.json")["uncertainty"]["computed"].get<bool>());
+  EXPECT_FALSE(summary["frames"][0]["uncertainty"].get<bool>());
 
   // Bad inputs: one line naming the file and the problem, nothing half-written.
   const auto bad = dir / "bad_out";

@@ -203,11 +203,154 @@ TEST(Uncertainty, AHandfulOfVesselPointsPredictsALargerErrorThanTheFullSet) {
   MatrixX3d deep(1, 3);
   deep << 0.0, 0.0, -12.0;  // 10 mm below the lowest vessel, 10 mm above the fixed base
   EXPECT_LT(at_vessels.mean(), sigma_at(scene.mesh, u_all.node_variance, deep)[0] * 2.0);
-  // Fixed nodes: no variance.
+  // Fixed nodes: no deformable variance (their pose is uncertain: the rigid term only).
   for (index_t i = 0; i < scene.mesh.num_nodes(); ++i)
     if (scene.model->mechanics().dofs().is_fixed_node(i)) {
-      EXPECT_EQ(u_all.node_sigma_mm[i], 0.0);
+      EXPECT_EQ(u_all.node_posterior[i], 0.0);
     }
+}
+
+/// Rows observing random directions d_j at random free nodes, in the world frame of nodes that
+/// carry random rotations R_n: G = (H R)ᵀ on the free DOFs and each row's rigid sensitivity
+/// [d_j, (x_j − c) × d_j]; plus the row's node.
+struct RotatedRows {
+  SparseMatrix G;
+  Eigen::MatrixXd Gr;
+  std::vector<index_t> node;
+  std::vector<Vector3d> dir;
+  std::vector<Matrix3d> R;
+  Vector3d centre{3.0, -2.0, 25.0};
+};
+
+RotatedRows rotated_rows(const Box& b, int rows, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<index_t> pick(0, b.mesh.num_nodes() - 1);
+  std::normal_distribution<double> g;
+  RotatedRows out;
+  for (index_t i = 0; i < b.mesh.num_nodes(); ++i)
+    out.R.push_back(Eigen::AngleAxisd(0.3 * g(rng), Vector3d(g(rng), g(rng), g(rng)).normalized())
+                        .toRotationMatrix());
+  std::vector<Eigen::Triplet<double>> t;
+  out.Gr.resize(rows, 6);
+  for (int j = 0; j < rows; ++j) {
+    index_t n;
+    do n = pick(rng);
+    while (b.model->dofs().is_fixed_node(n));
+    const Vector3d d = Vector3d(g(rng), g(rng), g(rng)).normalized();
+    const Vector3d gd = out.R[std::size_t(n)].transpose() * d;
+    for (int c = 0; c < 3; ++c) t.emplace_back(b.model->dofs().free_index(3 * n + c), j, gd[c]);
+    out.Gr.row(j).head<3>() = d.transpose();
+    out.Gr.row(j).tail<3>() = (b.mesh.nodes().row(n).transpose() - out.centre).cross(d).transpose();
+    out.node.push_back(n);
+    out.dir.push_back(d);
+  }
+  out.G = SparseMatrix(b.free_dofs(), rows);
+  out.G.setFromTriplets(t.begin(), t.end());
+  return out;
+}
+
+/// Dense reference of the rigid pose as an unknown: z = [u_free; θ] with covariance
+/// blkdiag(K⁻¹, λ I) and λ large (the flat prior's limit), the world displacement of node n
+/// R_n u_n + h_n θ, conditioned on the rows y = B z + e, e ~ N(0, diag a). Returns the world
+/// nodal traces and the rows' marginal covariance B Cz Bᵀ + diag a.
+std::pair<Eigen::VectorXd, Eigen::MatrixXd> dense_rigid(const Box& b, const RotatedRows& rr,
+                                                        const Eigen::VectorXd& a, double lambda) {
+  const Eigen::MatrixXd K = Eigen::MatrixXd(b.model->dofs().restrict(b.model->rest_stiffness()));
+  const index_t f = K.rows(), m = rr.Gr.rows(), n = b.mesh.num_nodes();
+  Eigen::MatrixXd Cz = Eigen::MatrixXd::Zero(f + 6, f + 6);
+  Cz.topLeftCorner(f, f) = K.inverse();
+  Cz.bottomRightCorner(6, 6) = lambda * Eigen::MatrixXd::Identity(6, 6);
+  Eigen::MatrixXd B(m, f + 6);
+  B.leftCols(f) = Eigen::MatrixXd(rr.G).transpose();
+  B.rightCols(6) = rr.Gr;
+  Eigen::MatrixXd S = B * Cz * B.transpose();
+  S.diagonal() += a;
+  const Eigen::MatrixXd Pz = Cz - Cz * B.transpose() * S.ldlt().solve(B * Cz);
+  Eigen::VectorXd tr = Eigen::VectorXd::Zero(n);
+  for (index_t i = 0; i < n; ++i) {
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(3, f + 6);
+    for (int c = 0; c < 3; ++c)
+      if (const index_t fi = b.model->dofs().free_index(3 * i + c); fi >= 0)
+        T.block(0, fi, 3, 1) = rr.R[std::size_t(i)].col(c);
+    T.block<3, 3>(0, f).setIdentity();
+    const Vector3d x = b.mesh.nodes().row(i).transpose() - rr.centre;
+    Matrix3d cx;
+    cx << 0, -x.z(), x.y(), x.z(), 0, -x.x(), -x.y(), x.x(), 0;
+    T.block<3, 3>(0, f + 3) = -cx;
+    tr[i] = (T * Pz * T.transpose()).trace();
+  }
+  return {tr, S};
+}
+
+TEST(Uncertainty, RigidTermMatchesADenseAugmentedModelWithAFlatPosePrior) {
+  const Box b;
+  const RotatedRows rr = rotated_rows(b, 40, 3);
+  const Eigen::VectorXd a = Eigen::VectorXd::Constant(40, 2e-4);
+  NodalVarianceExtras ex;
+  ex.rigid_rows = &rr.Gr;
+  const MatrixX3d x = b.mesh.nodes();
+  ex.rigid_points = &x;
+  ex.rigid_centre = rr.centre;
+  ex.node_rotations = &rr.R;
+  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), rr.G,
+                                          a, exact_prior(), ex);
+  EXPECT_EQ(nv.rigid_rank, 6);  // 40 rows in random directions determine the pose
+  // λ = 1e5 × the largest prior trace: the flat prior's limit to O(1e-5) relative, well above
+  // the dense solve's round-off (≈ 1e-16 × λ / prior ≈ 1e-11).
+  const double lambda = 1e5 * nv.prior.maxCoeff();
+  const Eigen::VectorXd ref = dense_rigid(b, rr, a, lambda).first;
+  const Eigen::VectorXd ours = nv.posterior + nv.rigid;
+  const double tol = 1e-4 * ref.maxCoeff();
+  for (index_t i = 0; i < b.mesh.num_nodes(); ++i)
+    EXPECT_NEAR(ours[i], ref[i], tol) << "node " << i;
+  // The fixed nodes move with the pose: their variance is the rigid term alone, and positive.
+  for (index_t i = 0; i < b.mesh.num_nodes(); ++i)
+    if (b.model->dofs().is_fixed_node(i)) {
+      EXPECT_EQ(nv.posterior[i], 0.0);
+      EXPECT_GT(nv.rigid[i], 0.0);
+    }
+}
+
+TEST(Uncertainty, HeldOutAndRestrictedScalesMatchDenseRefits) {
+  const Box b;
+  const RotatedRows rr = rotated_rows(b, 36, 5);
+  const Eigen::VectorXd a = Eigen::VectorXd::Constant(36, 3e-4);
+  std::vector<index_t> blocks(36);
+  for (int j = 0; j < 36; ++j) blocks[std::size_t(j)] = j < 30 ? j / 6 : -1;  // 5 blocks of 6
+  std::mt19937 rng(9);
+  std::normal_distribution<double> g;
+  Eigen::VectorXd delta(36);
+  for (int j = 0; j < 36; ++j) delta[j] = g(rng);
+  NodalVarianceExtras ex;
+  ex.rigid_rows = &rr.Gr;
+  const MatrixX3d x = b.mesh.nodes();
+  ex.rigid_points = &x;
+  ex.rigid_centre = rr.centre;
+  ex.node_rotations = &rr.R;
+  ex.delta = &delta;
+  ex.blocks = &blocks;
+  const NodalVariance nv = nodal_variance(b.model->factor(), b.model->dofs(), b.mesh.nodes(), rr.G,
+                                          a, exact_prior(), ex);
+  const double lambda = 1e5 * nv.prior.maxCoeff();
+  const Eigen::MatrixXd S = dense_rigid(b, rr, a, lambda).second;
+  // Restricted: δᵀ S⁻¹ δ of the augmented model → δᵀ P δ as λ → ∞.
+  EXPECT_NEAR(nv.restricted_quadratic, delta.dot(S.ldlt().solve(delta)),
+              1e-3 * nv.restricted_quadratic);
+  // Held out: refit without each block (the others' conditional mean and covariance) and sum
+  // r_bᵀ V_b⁻¹ r_b; 1e-3 relative (the λ limit).
+  double quad = 0.0;
+  for (int blk = 0; blk < 5; ++blk) {
+    std::vector<int> in, out;
+    for (int j = 0; j < 36; ++j) (blocks[std::size_t(j)] == blk ? out : in).push_back(j);
+    const Eigen::MatrixXd Soo = S(in, in), Sbo = S(out, in), Sbb = S(out, out);
+    const Eigen::LDLT<Eigen::MatrixXd> l(Soo);
+    const Eigen::VectorXd r = delta(out) - Sbo * l.solve(Eigen::VectorXd(delta(in)));
+    const Eigen::MatrixXd V = Sbb - Sbo * l.solve(Eigen::MatrixXd(Sbo.transpose()));
+    quad += r.dot(V.ldlt().solve(r));
+  }
+  EXPECT_NEAR(nv.heldout_quadratic, quad, 1e-3 * quad);
+  EXPECT_EQ(nv.heldout_blocks, 5);
+  EXPECT_EQ(nv.heldout_rows, 30.0);
 }
 
 TEST(Uncertainty, BadOptionsAreRefused) {

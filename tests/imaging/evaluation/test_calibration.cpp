@@ -52,5 +52,29 @@ TEST(Calibration, ACalibratedGaussianMatchesTheChiDistribution) {
   EXPECT_GT(c.spearman, 0.3);           // error grows with σ (measured ≈ 0.5)
 }
 
+TEST(Calibration, PerAxisSharesOfACalibratedGaussianAreTheNormalOnes) {
+  // The same kind of sample, error vectors kept: each component against σ/√3.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(0.5, 5.0);
+  std::normal_distribution<double> g;
+  std::vector<double> predicted;
+  MatrixX3d e(20000, 3);
+  for (int i = 0; i < 20000; ++i) {
+    predicted.push_back(u(rng));
+    for (int c = 0; c < 3; ++c) e(i, c) = predicted.back() / std::sqrt(3.0) * g(rng);
+  }
+  const auto [in1, in2] = per_axis_within_sigma_pct(predicted, e);
+  // 60,000 components: binomial standard error ≤ 0.2 %; asked within 1 %.
+  EXPECT_NEAR(in1, expected_per_axis_within_1_sigma_pct, 1.0);
+  EXPECT_NEAR(in2, expected_per_axis_within_2_sigma_pct, 1.0);
+  // Boundary counts as inside: σ = √3 → per-axis 1; components 1, 2, 3 → 1/3 and 2/3.
+  MatrixX3d one(1, 3);
+  one << 1.0, -2.0, 3.0;
+  const auto [b1, b2] = per_axis_within_sigma_pct({std::sqrt(3.0)}, one);
+  EXPECT_NEAR(b1, 100.0 / 3.0, 1e-9);
+  EXPECT_NEAR(b2, 200.0 / 3.0, 1e-9);
+  EXPECT_THROW((void)per_axis_within_sigma_pct({1.0, 1.0}, one), Error);
+}
+
 }  // namespace
 }  // namespace brainshift::imaging
