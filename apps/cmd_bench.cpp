@@ -64,8 +64,8 @@ struct Row {
                        ///< constraint_sets
   std::string value;   ///< the swept setting
   std::string method;  ///< constraint_icp | rigid_only | prescribed_displacement; full runs also
-                       ///< block_cv | gcv_compliance | dura_sliding | dura_unilateral
-                       ///< (variants of ours)
+                       ///< block_cv | block_cv_1se | block_cv_paired | block_cv_paired_smooth |
+                       ///< gcv_compliance | dura_sliding | dura_unilateral (variants of ours)
   index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0,
           footprint_points = 0;
   index_t rows = 0;
@@ -644,6 +644,10 @@ CLI::App* add_bench_command(CLI::App& app, BenchArgs& args) {
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
   c->add_flag("--keep-work", args.keep_work, "keep DIR/work (phantoms and models)");
+  c->add_option("--refine", args.refine,
+                "mesh refinement of the cases suite's models (as prepare --refine)")
+      ->check(CLI::Range(0.5, 4.0))
+      ->capture_default_str();
   c->add_option("--real-data", args.real_data,
                 "real data folder: the icbm_* cases read DIR/icbm152/labels.nii.gz and are skipped "
                 "when it is "
@@ -685,6 +689,7 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
   nlohmann::json meta = {
       {"machine", machine()},
       {"seed", args.seed},
+      {"refine", args.refine},
       {"quick", args.quick},
       {"repeat", args.repeat},
       {"suite", args.suite},
@@ -721,7 +726,7 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
           const CaseData& c = case_data(name);
           const auto model_dir = work / name / "model";
           progress.stage(name + ": prepare");
-          const double prepare_s = prepare(c, model_dir, 1.0);
+          const double prepare_s = prepare(c, model_dir, args.refine);
           if (name == "standard") standard_prepare_s = prepare_s;
           Session s = open_session(model_dir);
           constraints::IntraopData data;
@@ -730,6 +735,10 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
           // Variants of our loop (full runs only; --quick keeps the three methods):
           // block_cv — the vessel compliance chosen by leave-one-branch-out cross-validation in a
           // SMOOTH stage, from a rigid-only global start (off by default: bimodal with the mesh);
+          // block_cv_1se / block_cv_paired / block_cv_paired_smooth — the same with the
+          // one-standard-error rule, with the paired test against ε → ∞ (deform only if the
+          // held-out gain exceeds its standard error), and with the paired test on the CV curve
+          // smoothed over ±3 neighbouring ratios (issue 14 item 3, a stable choice);
           // gcv_compliance — the same stage at the compliance chosen by generalised
           // cross-validation; dura_sliding / dura_unilateral — dura contact
           // outside the craniotomy on (the default is none): what the boundary conditions do off
@@ -741,6 +750,12 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             variants["block_cv"] = o;
             variants["block_cv"].noise.enabled = true;
             variants["block_cv"].global_start.bulk_response = false;
+            variants["block_cv_1se"] = variants["block_cv"];
+            variants["block_cv_1se"].noise.one_standard_error = true;
+            variants["block_cv_paired"] = variants["block_cv"];
+            variants["block_cv_paired"].noise.paired_test = true;
+            variants["block_cv_paired_smooth"] = variants["block_cv_paired"];
+            variants["block_cv_paired_smooth"].noise.smooth_neighbours = 3;
             variants["gcv_compliance"] = o;
             variants["gcv_compliance"].noise.enabled = true;
             variants["gcv_compliance"].global_start.bulk_response = false;
@@ -750,7 +765,9 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             variants["dura_unilateral"] = o;
             variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
             methods.insert(methods.end(),
-                           {"block_cv", "gcv_compliance", "dura_sliding", "dura_unilateral"});
+                           {"block_cv", "block_cv_1se", "block_cv_paired",
+                            "block_cv_paired_smooth", "gcv_compliance", "dura_sliding",
+                            "dura_unilateral"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {
