@@ -765,9 +765,8 @@ int run_bench(const BenchArgs& args, std::ostream& out) {
             variants["dura_unilateral"] = o;
             variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
             methods.insert(methods.end(),
-                           {"block_cv", "block_cv_1se", "block_cv_paired",
-                            "block_cv_paired_smooth", "gcv_compliance", "dura_sliding",
-                            "dura_unilateral"});
+                           {"block_cv", "block_cv_1se", "block_cv_paired", "block_cv_paired_smooth",
+                            "gcv_compliance", "dura_sliding", "dura_unilateral"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {

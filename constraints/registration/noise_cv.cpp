@@ -183,7 +183,8 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
       scores.size() == finite_candidates + 1) {
     std::size_t best_finite = finite_candidates;
     for (std::size_t k = 0; k < finite_candidates; ++k)
-      if (std::isfinite(total(k)) && (best_finite == finite_candidates || total(k) < total(best_finite)))
+      if (std::isfinite(total(k)) &&
+          (best_finite == finite_candidates || total(k) < total(best_finite)))
         best_finite = k;
     const std::size_t start = finite_candidates;
     double mean = 0, sq = 0;
@@ -197,8 +198,8 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     // Per row (mm²), as CV itself: the per-block sums are over ~m/B rows.
     est.paired_gain_mm2 = mean * static_cast<double>(nb) / md;
     est.paired_se_mm2 = se * static_cast<double>(nb) / md;
-    const bool deform = best_finite < finite_candidates && std::isfinite(mean) &&
-                        mean > options.paired_test_z * se;
+    const bool deform =
+        best_finite < finite_candidates && std::isfinite(mean) && mean > options.paired_test_z * se;
     if (!deform) {
       chosen = start;
     } else if (!std::isfinite(eps_of[chosen])) {
@@ -245,8 +246,8 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     est.message += buf;
   }
   if (options.smooth_neighbours > 0)
-    est.message += "; CV curve smoothed over ±" + std::to_string(options.smooth_neighbours) +
-                   " ratios";
+    est.message +=
+        "; CV curve smoothed over ±" + std::to_string(options.smooth_neighbours) + " ratios";
   return est;
 }
 

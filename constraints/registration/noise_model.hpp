@@ -116,7 +116,7 @@ struct NoiseEstimate {
   /// on held-out blocks, (Σ_B d_B) / m (mm²), and its standard error (mm², same unit).
   double paired_gain_mm2 = 0.0;
   double paired_se_mm2 = 0.0;
-  std::string message;           ///< one line
+  std::string message;  ///< one line
 };
 
 /// GCV choice of the vessel-row compliance.
