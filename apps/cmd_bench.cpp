@@ -24,6 +24,10 @@ CLI::App* add_bench_command(CLI::App& app, BenchArgs& args) {
       ->check(CLI::Range(1, 50))
       ->capture_default_str();
   c->add_flag("--keep-work", args.keep_work, "keep DIR/work (phantoms and models)");
+  c->add_option("--refine", args.refine,
+                "mesh refinement of the cases suite's models (as prepare --refine)")
+      ->check(CLI::Range(0.5, 4.0))
+      ->capture_default_str();
   c->add_option("--real-data", args.real_data,
                 "real data folder: the icbm_* cases read DIR/icbm152/labels.nii.gz and are skipped "
                 "when it is "

@@ -51,6 +51,7 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
   nlohmann::json& meta = result.meta;
   meta = {{"machine", machine()},
           {"seed", args.seed},
+          {"refine", args.refine},
           {"quick", args.quick},
           {"repeat", args.repeat},
           {"suite", args.suite},
@@ -87,7 +88,7 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
           const CaseData& c = case_data(name);
           const auto model_dir = work / name / "model";
           progress.stage(name + ": prepare");
-          const double prepare_s = prepare_case(c, model_dir, 1.0);
+          const double prepare_s = prepare_case(c, model_dir, args.refine);
           if (name == "standard") standard_prepare_s = prepare_s;
           Session s = open_session(model_dir);
           constraints::IntraopData data;
@@ -96,6 +97,10 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
           // Variants of our loop (full runs only; --quick keeps the three methods):
           // block_cv — the vessel compliance chosen by leave-one-branch-out cross-validation in a
           // SMOOTH stage, from a rigid-only global start (off by default: bimodal with the mesh);
+          // block_cv_1se / block_cv_paired / block_cv_paired_smooth — the same with the
+          // one-standard-error rule, with the paired test against ε → ∞ (deform only if the
+          // held-out gain exceeds its standard error), and with the paired test on the CV curve
+          // smoothed over ±3 neighbouring ratios (issue 14 item 3, a stable choice);
           // gcv_compliance — the same stage at the compliance chosen by generalised
           // cross-validation; dura_sliding / dura_unilateral — dura contact
           // outside the craniotomy on (the default is none): what the boundary conditions do off
@@ -107,6 +112,12 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["block_cv"] = o;
             variants["block_cv"].noise.enabled = true;
             variants["block_cv"].global_start.bulk_response = false;
+            variants["block_cv_1se"] = variants["block_cv"];
+            variants["block_cv_1se"].noise.one_standard_error = true;
+            variants["block_cv_paired"] = variants["block_cv"];
+            variants["block_cv_paired"].noise.paired_test = true;
+            variants["block_cv_paired_smooth"] = variants["block_cv_paired"];
+            variants["block_cv_paired_smooth"].noise.smooth_neighbours = 3;
             variants["gcv_compliance"] = o;
             variants["gcv_compliance"].noise.enabled = true;
             variants["gcv_compliance"].global_start.bulk_response = false;
@@ -116,7 +127,8 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["dura_unilateral"] = o;
             variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
             methods.insert(methods.end(),
-                           {"block_cv", "gcv_compliance", "dura_sliding", "dura_unilateral"});
+                           {"block_cv", "block_cv_1se", "block_cv_paired", "block_cv_paired_smooth",
+                            "gcv_compliance", "dura_sliding", "dura_unilateral"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {

@@ -39,6 +39,9 @@ struct BenchOptions {
   std::uint32_t seed = 1;          ///< phantom seed
   int repeat = 1;                  ///< registrations per run; the median run's times are recorded
   bool keep_work = false;          ///< keep DIR/work (phantoms and models)
+  /// Mesh refinement of the cases suite's models (`prepare --refine`; 1: the default mesh). A
+  /// stability check of the loop's choices against the mesh.
+  double refine = 1.0;
   /// Real data (the icbm_* cases read DIR/icbm152/labels.nii.gz); absent: those cases are
   /// skipped with a message (results.json → skipped). Default: $BRAINSHIFT_DATA, else
   /// ../shared/data.

@@ -34,7 +34,8 @@ struct BenchRow {
                        ///< constraint_sets
   std::string value;   ///< the swept setting
   std::string method;  ///< constraint_icp | rigid_only | prescribed_displacement; full runs also
-                       ///< block_cv | gcv_compliance | dura_sliding | dura_unilateral
+                       ///< block_cv | block_cv_1se | block_cv_paired | block_cv_paired_smooth |
+                       ///< gcv_compliance | dura_sliding | dura_unilateral
                        ///< (variants of ours)
   index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0,
           footprint_points = 0;

@@ -123,6 +123,21 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     eps_of.push_back(eps);
     scores.push_back(std::move(s));
   }
+  if (options.smooth_neighbours > 0) {
+    // The CV curve smoothed over neighbouring ratios, per block (ε → ∞ is added after this).
+    const auto h = static_cast<std::ptrdiff_t>(options.smooth_neighbours);
+    const auto n = static_cast<std::ptrdiff_t>(scores.size());
+    std::vector<std::vector<double>> smoothed(scores.size(), std::vector<double>(nb, 0.0));
+    for (std::ptrdiff_t k = 0; k < n; ++k) {
+      const std::ptrdiff_t lo = std::max<std::ptrdiff_t>(0, k - h), hi = std::min(n - 1, k + h);
+      for (std::ptrdiff_t j = lo; j <= hi; ++j)
+        for (std::size_t b = 0; b < nb; ++b)
+          smoothed[static_cast<std::size_t>(k)][b] +=
+              scores[static_cast<std::size_t>(j)][b] / static_cast<double>(hi - lo + 1);
+    }
+    scores = std::move(smoothed);
+  }
+  const std::size_t finite_candidates = scores.size();
   if (options.consider_start) {
     std::vector<double> s(nb, 0.0);
     for (std::size_t b = 0; b < nb; ++b)
@@ -161,6 +176,36 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
         break;
       }
     }
+  // The paired test: deform (at the best finite candidate, or the one-SE rule's among the finite
+  // ones) only if it beats ε → ∞ on the held-out blocks by more than z standard errors of the
+  // mean per-block gain; otherwise keep the start.
+  if (options.paired_test && options.consider_start && nb >= 2 &&
+      scores.size() == finite_candidates + 1) {
+    std::size_t best_finite = finite_candidates;
+    for (std::size_t k = 0; k < finite_candidates; ++k)
+      if (std::isfinite(total(k)) &&
+          (best_finite == finite_candidates || total(k) < total(best_finite)))
+        best_finite = k;
+    const std::size_t start = finite_candidates;
+    double mean = 0, sq = 0;
+    if (best_finite < finite_candidates) {
+      for (std::size_t b = 0; b < nb; ++b) mean += scores[start][b] - scores[best_finite][b];
+      mean /= static_cast<double>(nb);
+      for (std::size_t b = 0; b < nb; ++b)
+        sq += std::pow(scores[start][b] - scores[best_finite][b] - mean, 2);
+    }
+    const double se = std::sqrt(sq / static_cast<double>(nb - 1) / static_cast<double>(nb));
+    // Per row (mm²), as CV itself: the per-block sums are over ~m/B rows.
+    est.paired_gain_mm2 = mean * static_cast<double>(nb) / md;
+    est.paired_se_mm2 = se * static_cast<double>(nb) / md;
+    const bool deform =
+        best_finite < finite_candidates && std::isfinite(mean) && mean > options.paired_test_z * se;
+    if (!deform) {
+      chosen = start;
+    } else if (!std::isfinite(eps_of[chosen])) {
+      chosen = best_finite;  // the one-SE rule went to ε → ∞, which the test rejected
+    }
+  }
   est.cv_rms_mm = std::sqrt(total(chosen));
   est.cv_best_rms_mm = std::sqrt(total(best));
   if (!std::isfinite(eps_of[chosen])) {
@@ -193,6 +238,16 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
                   est.cv_rms_mm, est.cv_best_rms_mm, est.cv_start_rms_mm, est.sigma_mm,
                   est.effective_dof);
   est.message = buf;
+  if (options.paired_test) {
+    std::snprintf(buf, sizeof buf,
+                  "; paired test: deformation gains %.3f ± %.3f mm² per row on held-out branches "
+                  "(z %.2g)",
+                  est.paired_gain_mm2, est.paired_se_mm2, options.paired_test_z);
+    est.message += buf;
+  }
+  if (options.smooth_neighbours > 0)
+    est.message +=
+        "; CV curve smoothed over ±" + std::to_string(options.smooth_neighbours) + " ratios";
   return est;
 }
 

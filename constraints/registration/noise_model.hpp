@@ -71,6 +71,18 @@ struct NoiseOptions {
   /// minimum the cost on near-rigid cases is ≤ 0.11 mm against rigid alone (docs/BENCHMARKS.md,
   /// "Never worse than rigid").
   bool one_standard_error = false;
+  /// BLOCK_CV: the paired test (issue 14 item 3). Deform only when the best finite compliance
+  /// predicts the held-out blocks better than ε → ∞ (no deformation beyond the start) by more
+  /// than `paired_test_z` standard errors of the mean per-block difference
+  /// d_B = ‖e_B(∞)‖² − ‖e_B(ε*)‖² (paired over the blocks, as the one-SE rule); otherwise keep
+  /// the start. Unlike the one-SE rule it does not move a kept deformation to a smoother ratio.
+  /// Needs consider_start. Off by default (docs/BENCHMARKS.md, "Never worse than rigid, v3").
+  bool paired_test = false;
+  double paired_test_z = 1.0;  ///< standard errors the gain must exceed (≥ 0)
+  /// BLOCK_CV: each finite candidate's per-block scores averaged over this many grid neighbours
+  /// on each side (log-spaced ratios; 0: none) before the choice, so that one narrow dip of the
+  /// CV curve does not decide. ε → ∞ is not smoothed.
+  int smooth_neighbours = 0;
   /// Search range of the ratio ε / median(diag W) (dimensionless, as
   /// StepOptions::compliance_ratio).
   double min_ratio = 0.02;
@@ -100,7 +112,11 @@ struct NoiseEstimate {
   double cv_rms_mm = 0.0;        ///< BLOCK_CV: √CV at the choice, held-out error per row (mm)
   double cv_best_rms_mm = 0.0;   ///< BLOCK_CV: √CV at its minimum (≤ cv_rms_mm; one-SE rule)
   double cv_start_rms_mm = 0.0;  ///< BLOCK_CV: √CV of ε → ∞, i.e. rms δ_free (mm)
-  std::string message;           ///< one line
+  /// BLOCK_CV with the paired test: mean per-row gain of the best finite compliance over ε → ∞
+  /// on held-out blocks, (Σ_B d_B) / m (mm²), and its standard error (mm², same unit).
+  double paired_gain_mm2 = 0.0;
+  double paired_se_mm2 = 0.0;
+  std::string message;  ///< one line
 };
 
 /// GCV choice of the vessel-row compliance.

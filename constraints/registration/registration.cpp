@@ -127,74 +127,6 @@ FilterOptions RegistrationOptions::default_vessel_filter() {
   return f;
 }
 
-std::string to_string(RegistrationStop stop) {
-  switch (stop) {
-    case RegistrationStop::CONVERGED:
-      return "converged";
-    case RegistrationStop::MAX_ITERATIONS:
-      return "max_iterations";
-    case RegistrationStop::NO_DATA:
-      return "no_data";
-    case RegistrationStop::NOT_SETTLING:
-      return "not_settling";
-    case RegistrationStop::DIVERGED:
-      return "diverged";
-    case RegistrationStop::INSUFFICIENT_DATA:
-      return "insufficient_data";
-  }
-  BS_UNREACHABLE();
-}
-
-std::string to_string(StageKind kind) {
-  switch (kind) {
-    case StageKind::HELD:
-      return "held";
-    case StageKind::FREE:
-      return "free";
-    case StageKind::SMOOTH:
-      return "smooth";
-  }
-  BS_UNREACHABLE();
-}
-
-std::string to_string(PairingMode mode) {
-  switch (mode) {
-    case PairingMode::FRESH:
-      return "fresh";
-    case PairingMode::HELD:
-      return "held";
-    case PairingMode::FROZEN:
-      return "frozen";
-  }
-  BS_UNREACHABLE();
-}
-
-std::string to_string(TrustDecision d) {
-  switch (d) {
-    case TrustDecision::NONE:
-      return "none";
-    case TrustDecision::GROW:
-      return "grow";
-    case TrustDecision::SHRINK:
-      return "shrink";
-  }
-  BS_UNREACHABLE();
-}
-
-std::string to_string(StageStop stop) {
-  switch (stop) {
-    case StageStop::SETTLED:
-      return "settled";
-    case StageStop::ITERATION_CAP:
-      return "iteration_cap";
-    case StageStop::NOT_SETTLING:
-      return "not_settling";
-    case StageStop::DIVERGED:
-      return "diverged";
-  }
-  BS_UNREACHABLE();
-}
-
 // ===== Start (issue 14 item 2; global_start.hpp)
 // =====================================================
 
@@ -322,6 +254,41 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data,
   return in;
 }
 
+/// The start's state (issue 14 item 3): the rest nodes plus the bulk response to the start's
+/// accepted bulk shift s, u_n = R_n M⁻¹ s, with R_n the node's load response (column k: axis k)
+/// and M the mean of R over the vessel points' nearest nodes (load_basis()'s normalisation, so
+/// the vessel points see the shift the start found); a translation by s without the load basis;
+/// the rest nodes when no bulk shift was accepted. A warm start's state is its own positions.
+MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
+                          const RegistrationResult& res, const RegistrationOptions& options,
+                          const RegistrationResult* initial) {
+  if (initial) return initial->positions;
+  const core::TetMesh& mesh = model.mesh();
+  MatrixX3d x = mesh.nodes();
+  if (!res.shift.accepted || !res.shift.shift.allFinite()) return x;
+  const Vector3d s = res.shift.shift;
+  if (!options.shift_load_basis) return x.rowwise() + s.transpose();
+  const auto& response = model.load_response();
+  auto raw = [&](Eigen::Index node) {
+    Matrix3d r;
+    for (Eigen::Index k = 0; k < 3; ++k)
+      r.col(k) = response[static_cast<std::size_t>(k)].row(node).transpose();
+    return r;
+  };
+  const MatrixX3d& p = in.vessel_points;
+  if (p.rows() == 0) return x;
+  Matrix3d mean = Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    Eigen::Index node = 0;
+    (mesh.nodes().rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    mean += raw(node) / static_cast<double>(p.rows());
+  }
+  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return x;
+  const Vector3d a = mean.inverse() * s;
+  for (Eigen::Index n = 0; n < x.rows(); ++n) x.row(n) += (raw(n) * a).transpose();
+  return x.allFinite() ? x : MatrixX3d(mesh.nodes());
+}
+
 RegistrationStop stop_of(StageStop s) {
   switch (s) {
     case StageStop::SETTLED:
@@ -355,9 +322,7 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
       break;
     case RegistrationStop::DIVERGED:
       std::snprintf(buf, sizeof buf,
-                    "diverged: the step of iteration %d (%s stage) was not finite (%s); the "
-                    "positions are those "
-                    "of the last finite iterate",
+                    "diverged: the step of iteration %d (%s stage) was not finite (%s)",
                     res.iterations, to_string(last.stage).c_str(), last.diagnosis.c_str());
       break;
     case RegistrationStop::MAX_ITERATIONS:
@@ -553,6 +518,18 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
       res.stop = RegistrationStop::INSUFFICIENT_DATA;
       res.stop_reason = "insufficient data: " + why + " (" + res.stop_reason + ")";
     }
+  }
+  // A stop that cannot be trusted returns the start's state, never a half-deformed one.
+  if (res.stop == RegistrationStop::DIVERGED || res.stop == RegistrationStop::INSUFFICIENT_DATA) {
+    state.positions = start_positions(model, in, res, options, initial);
+    state.warm.clear();
+    res.positions = state.positions;
+    res.displacement = res.positions - mesh.nodes();
+    res.data_rows = data_rows_at(in, state);
+    res.lambda.clear();
+    res.start_returned = true;
+    res.stop_reason += initial ? "; the warm start's positions are returned"
+                               : "; the start's rigid + bulk state is returned (no deformation)";
   }
   res.seconds.total = seconds_since(t_start);
 

@@ -20,8 +20,9 @@
 /// skeleton's line; the probe footprint is unilateral; the dura holds the surface outside the
 /// craniotomy; landmarks are points), take one constrained static step (constrained_step.hpp);
 /// a stage settles when the largest nodal increment is below a tolerance (and, except HELD, the
-/// pairing set is stable). A step whose increment is not finite ends the registration DIVERGED
-/// (positions: the last finite iterate); it never counts as converged.
+/// pairing set is stable). A step whose increment is not finite ends the registration DIVERGED;
+/// it never counts as converged. A DIVERGED or INSUFFICIENT_DATA stop returns the start's state
+/// (rigid pose plus the bulk response to the start's bulk shift), never a half-deformed one.
 ///
 /// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
 /// that halves when a step turns back on the previous one (negative cosine between successive
@@ -214,8 +215,9 @@ enum class RegistrationStop {
   NOT_SETTLING,       ///< the trust region shrank below the increment tolerance: the model cannot
                       ///< meet the constraints (inconsistent data, or beyond the corotational
                       ///< iteration's reach); positions are the last finite iterate
-  DIVERGED,           ///< a step's increment was not finite; positions are the last finite iterate
-  INSUFFICIENT_DATA,  ///< settled, but on too few or too scattered vessel points to be trusted
+  DIVERGED,           ///< a step's increment was not finite; positions are the start's state
+  INSUFFICIENT_DATA,  ///< settled, but on too few or too scattered vessel points to be trusted;
+                      ///< positions are the start's state (RegistrationResult::start_returned)
 };
 std::string to_string(RegistrationStop stop);
 
@@ -253,6 +255,11 @@ struct RegistrationResult {
   std::vector<StageRecord> stages;  ///< in the order run
   NoiseEstimate noise;              ///< the noise model's estimate (valid = false when not run)
   bool cold_retry = false;          ///< a warm start did not converge and this is the cold answer
+  /// The loop stopped DIVERGED or INSUFFICIENT_DATA, so its deformed state is not returned:
+  /// positions are the start's state instead — the model at rest plus the global start's bulk
+  /// response (the rigid transform is in `rigid`), or a warm start's positions — and `lambda` is
+  /// empty. The stop and its reason are kept (exit 2); `history` still records what was tried.
+  bool start_returned = false;
   std::array<index_t, num_constraint_sets> rows_by_set{};  ///< of the last iteration
   StageTimes seconds;
   /// The data rows (vessels, footprint, landmarks; no dura) of the last pairs, rebuilt at the
@@ -276,6 +283,8 @@ RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& d
 /// @param[in] initial warm start: a previous result (its positions, rigid transform and λ are
 /// reused; the rigid fit is then skipped) or nullptr for the rest shape. A warm start that does
 /// not converge is retried cold (options.cold_retry).
+/// A stop that cannot be trusted (DIVERGED, INSUFFICIENT_DATA) returns the start's state
+/// (rigid + bulk response), never a half-deformed one (RegistrationResult::start_returned).
 /// \throws brainshift::Error on invalid options or non-finite / mis-sized inputs. A registration
 /// that does not converge is a status (stop, stop_reason), never an exception; positions are
 /// always finite.

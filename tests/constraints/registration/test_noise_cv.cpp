@@ -227,6 +227,105 @@ TEST(NoiseCv, OneBlockOrTooFewRowsKeepTheCurrentCompliance) {
   EXPECT_FALSE(nan.valid);
 }
 
+NoiseOptions paired() {
+  NoiseOptions o = wide();
+  o.paired_test = true;
+  return o;
+}
+
+TEST(NoiseCv, PairedTestKeepsTheStartWhenTheResidualIsNoiseAlone) {
+  // Pure rigid motion, already taken out by the start, plus white noise: the rows' residual is
+  // noise alone, and no deformation predicts a held-out block better than none except by chance,
+  // so the paired test (gain > 1 standard error) keeps the start. (Per-block offsets are not
+  // "noise alone" here: 20 random offsets have a smooth trend the prior explains, which the test
+  // rightly keeps — see PureCorrelatedNoiseKeepsTheStart.)
+  const int m = 240;
+  const Eigen::MatrixXd W = kernel(m, 0.05);
+  int kept = 0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    std::mt19937 rng(300 + seed);
+    std::normal_distribution<double> white(0.0, 0.3);
+    Eigen::VectorXd y(m);
+    for (Eigen::Index i = 0; i < m; ++i) y[i] = white(rng);
+    const NoiseEstimate e =
+        choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 12), 1.0, 0.2, paired());
+    ASSERT_TRUE(e.valid) << e.message;
+    if (e.keep_start) ++kept;
+    EXPECT_TRUE(std::isfinite(e.paired_gain_mm2)) << e.message;
+    EXPECT_GE(e.paired_se_mm2, 0.0) << e.message;
+    // When chance makes it deform, the deformation is tiny: a gain below 5 % of the noise
+    // variance (0.09 mm² per row) and a soft fit (< 20 of 240 degrees of freedom).
+    if (!e.keep_start) {
+      EXPECT_LT(e.paired_gain_mm2, 0.05 * 0.09) << e.message;
+      EXPECT_LT(e.effective_dof, 20.0) << e.message;
+    }
+    std::cout << "[ paired ] seed " << seed << ": " << e.message << "\n";
+  }
+  // A one-sided test at one standard error fires by chance on ~16 % of null draws (more, as the
+  // best of 71 candidates is tested): at least 7 of 10 must keep the start.
+  EXPECT_GE(kept, 7);
+}
+
+TEST(NoiseCv, PairedTestDeformsWhenThereIsARealDeformation) {
+  // A smooth deformation the mechanics can explain (a draw of the prior) plus white noise: the
+  // deformation predicts held-out blocks far better than none, on every draw, at the CV minimum
+  // (the paired test does not move a kept deformation to a smoother ratio).
+  const int m = 240;
+  const Eigen::MatrixXd W = kernel(m, 0.05);
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    std::mt19937 rng(seed);
+    Eigen::VectorXd y = draw_signal(W, 1.0, rng);
+    std::normal_distribution<double> n(0.0, 0.3);
+    for (Eigen::Index i = 0; i < m; ++i) y[i] += n(rng);
+    NoiseOptions at_minimum = wide();
+    const NoiseEstimate minimum =
+        choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4), 1.0, 0.2, at_minimum);
+    const NoiseEstimate e =
+        choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4), 1.0, 0.2, paired());
+    ASSERT_TRUE(e.valid) << e.message;
+    EXPECT_FALSE(e.keep_start) << e.message;
+    EXPECT_EQ(e.ratio, minimum.ratio) << e.message;
+    // The gain is many standard errors (signal variance ~1 mm² per row against 0.09 of noise).
+    EXPECT_GT(e.paired_gain_mm2, 3.0 * e.paired_se_mm2) << e.message;
+  }
+}
+
+TEST(NoiseCv, SmoothingTheCurveKeepsTheChoiceNearTheTrueRatio) {
+  // White noise of known level: the smoothed curve's minimum stays within a decade of σ²/τ (the
+  // unsmoothed one's tolerance above), and no smoothing gives exactly the plain choice.
+  const int m = 240;
+  const Eigen::MatrixXd W = kernel(m, 0.05);
+  const double sigma = 0.3;
+  std::mt19937 rng(11);
+  Eigen::VectorXd y = draw_signal(W, 1.0, rng);
+  std::normal_distribution<double> n(0.0, sigma);
+  for (Eigen::Index i = 0; i < m; ++i) y[i] += n(rng);
+  NoiseOptions plain = wide(), zero = wide(), smooth = wide();
+  zero.smooth_neighbours = 0;
+  smooth.smooth_neighbours = 3;
+  const auto blocks = consecutive_blocks(m, 4);
+  const NoiseEstimate a = choose_vessel_compliance(W, y, all_rows(m), blocks, 1.0, 0.2, plain);
+  const NoiseEstimate b = choose_vessel_compliance(W, y, all_rows(m), blocks, 1.0, 0.2, zero);
+  const NoiseEstimate c = choose_vessel_compliance(W, y, all_rows(m), blocks, 1.0, 0.2, smooth);
+  ASSERT_TRUE(a.valid && c.valid) << a.message << " / " << c.message;
+  EXPECT_EQ(a.ratio, b.ratio);
+  EXPECT_FALSE(c.keep_start) << c.message;
+  EXPECT_LT(std::abs(std::log10(c.ratio / (sigma * sigma))), 1.0) << c.message;
+}
+
+TEST(NoiseCv, PairedTestOptionsAreValidated) {
+  NoiseOptions o;
+  o.paired_test = true;
+  o.consider_start = false;
+  EXPECT_FALSE(o.validate().empty());  // the test compares against ε → ∞
+  o = NoiseOptions{};
+  o.paired_test_z = -1.0;
+  EXPECT_FALSE(o.validate().empty());
+  o = NoiseOptions{};
+  o.smooth_neighbours = -1;
+  EXPECT_FALSE(o.validate().empty());
+}
+
 TEST(VesselBlocks, BranchesEndAtJunctionsAndEndsAndLongOnesAreCut) {
   // A "Y": trunk 0-1-2-3 (3 segments of 10 mm) to the junction 3, arms 3-4-5 and 3-6.
   core::Skeleton s;

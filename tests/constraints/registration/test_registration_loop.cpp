@@ -114,12 +114,11 @@ TEST(RegistrationLoop, ANonFiniteStepInTheSmoothingStageEndsDiverged) {
   EXPECT_EQ(r.stop, RegistrationStop::DIVERGED) << r.stop_reason;
   EXPECT_FALSE(r.converged);
   ASSERT_TRUE(r.positions.allFinite());
-  // The positions are exactly the FREE stage's answer (the loop is deterministic), the last
-  // finite iterate of a settled stage.
-  RegistrationOptions free_only = o;
-  free_only.inspect_step = nullptr;
-  free_only.noise.enabled = false;
-  EXPECT_EQ(r.positions, register_model(*s.model, d, free_only).positions);
+  // A DIVERGED stop is not trusted, wherever it happened: the start's state is returned (here
+  // the rest shape: identity start, no bulk-shift search), exactly.
+  EXPECT_TRUE(r.start_returned);
+  EXPECT_EQ(r.positions, s.mesh.nodes());
+  EXPECT_TRUE(r.lambda.empty());
   EXPECT_EQ(r.stages.back().kind, StageKind::SMOOTH);
   EXPECT_EQ(r.stages.back().stop, StageStop::DIVERGED);
 }
@@ -159,18 +158,28 @@ TEST(RegistrationLoop, ABulkShiftIsFollowedByHeldPairsThenFreePairing) {
   expect_consistent_stages(r);
 }
 
-TEST(RegistrationLoop, ANonFiniteStepEndsDivergedWithTheLastFinitePositions) {
+/// The mean displacement at the nodes nearest the vessel points (the start's bulk basis is
+/// normalised so that this is the bulk shift itself).
+Vector3d mean_at_nearest_nodes(const MatrixX3d& rest, const MatrixX3d& u, const MatrixX3d& p) {
+  Vector3d m = Vector3d::Zero();
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    Eigen::Index node = 0;
+    (rest.rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    m += u.row(node).transpose() / static_cast<double>(p.rows());
+  }
+  return m;
+}
+
+TEST(RegistrationLoop, ANonFiniteStepEndsDivergedWithTheStartsState) {
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
   RegistrationOptions o = options();
+  o.shift_search.enabled = false;  // the start is the rest shape: no bulk shift
   int calls = 0;
-  MatrixX3d last_finite;
   o.inspect_step = [&](StepResult& step) {
     if (++calls == 3)
       step.x(0, 0) = std::numeric_limits<double>::quiet_NaN();  // one NaN, as a bad solve gives
-    else
-      last_finite = step.x;
   };
   const RegistrationResult r = register_model(*s.model, d, o);
   EXPECT_EQ(r.stop, RegistrationStop::DIVERGED) << r.stop_reason;
@@ -178,8 +187,48 @@ TEST(RegistrationLoop, ANonFiniteStepEndsDivergedWithTheLastFinitePositions) {
   EXPECT_EQ(r.iterations, 3);
   EXPECT_FALSE(r.history.back().finite);
   ASSERT_TRUE(r.positions.allFinite());
-  EXPECT_EQ(r.positions, last_finite);  // exactly the iterate of step 2
+  // Not the half-deformed iterate of step 2: exactly the start's state (here the rest shape).
+  EXPECT_TRUE(r.start_returned);
+  EXPECT_EQ(r.positions, s.mesh.nodes());
+  EXPECT_EQ(r.displacement.norm(), 0.0);
   EXPECT_NE(r.stop_reason.find("diverged"), std::string::npos) << r.stop_reason;
+  EXPECT_NE(r.stop_reason.find("start's rigid + bulk state"), std::string::npos) << r.stop_reason;
+}
+
+TEST(RegistrationLoop, ADivergedStopAfterABulkShiftReturnsTheBulkResponse) {
+  // The sag plus a 6 mm bulk translation: the start finds a bulk shift; a NaN in the FREE stage
+  // ends DIVERGED and the answer is the model's bulk response to that shift, not the iterate.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 3);
+  d.vessel_points.rowwise() += Eigen::RowVector3d(0.0, 0.0, -6.0);
+  const RegistrationResult clean = register_model(*s.model, d, options());
+  if (!clean.shift.accepted || clean.stages.empty() || clean.stages[0].kind != StageKind::HELD)
+    GTEST_SKIP() << "the shift search did not accept a bulk shift here: " << clean.shift.message;
+  RegistrationOptions o = options();
+  int calls = 0;
+  o.inspect_step = [&](StepResult& step) {
+    if (++calls == clean.stages[0].iterations + 2)
+      step.x(0, 0) = std::numeric_limits<double>::quiet_NaN();
+  };
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_EQ(r.stop, RegistrationStop::DIVERGED) << r.stop_reason;
+  EXPECT_TRUE(r.start_returned);
+  ASSERT_TRUE(r.positions.allFinite());
+  const Vector3d shift = r.shift.shift;
+  ASSERT_GT(shift.norm(), 1.0);  // accepted shifts are ≥ 1 mm (bulk_min_mm)
+  // The bulk response at the points' nearest nodes averages to the shift (load_basis()'s
+  // normalisation; exact up to rounding, hence 1e-9 mm).
+  // (identity start: the tracked frame is the model frame)
+  const Vector3d at_points = mean_at_nearest_nodes(s.mesh.nodes(), r.displacement, d.vessel_points);
+  EXPECT_LT((at_points - shift).norm(), 1e-9)
+      << at_points.transpose() << " vs " << shift.transpose();
+  // Fixed nodes do not move (the response of a model fixed below z = −22 mm).
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i)
+    if (s.mesh.nodes()(i, 2) < -22) {
+      EXPECT_LT(r.displacement.row(i).norm(), 1e-9) << "node " << i;
+    }
+  EXPECT_TRUE(r.lambda.empty());
 }
 
 TEST(RegistrationLoop, AStepThatCannotBeComputedIsRejectedNotZeroed) {
@@ -310,6 +359,12 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   EXPECT_EQ(r.stop, RegistrationStop::INSUFFICIENT_DATA) << r.stop_reason;
   EXPECT_FALSE(r.converged);
   EXPECT_TRUE(r.positions.allFinite());
+  // Not the deformation fitted to nine points: the start's state (rest, or its bulk response).
+  EXPECT_TRUE(r.start_returned);
+  if (!r.shift.accepted) {
+    EXPECT_EQ(r.positions, s.mesh.nodes());
+  }
+  EXPECT_TRUE(r.lambda.empty());
   EXPECT_NE(r.stop_reason.find("vessel points paired"), std::string::npos) << r.stop_reason;
 }
 
