@@ -4,6 +4,7 @@
 #include "progress.hpp"
 
 #include "apps/workflow/compliance_cache.hpp"
+#include "apps/workflow/scene_io.hpp"
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
@@ -208,7 +209,8 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
   c->add_option("--mra", args.mra, "MR angiogram in the same frame")->required();
   c->add_option("--mri", args.mri, "pre-operative MRI (recorded to check later inputs)");
   c->add_option("--scene-options", args.scene_options,
-                "JSON merged over the default scene (see scene_io.hpp)");
+                "JSON of scene keys and options merged over the default scene (README, "
+                "\"The scene\"); an unknown key is an error naming it");
   c->add_option("--refine", args.mesh_refinement,
                 "mesh refinement (1 ≈ 1.6k nodes on the phantom; node count grows ≈ r^2.7)")
       ->check(CLI::Range(0.25, 6.0));
@@ -221,6 +223,8 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
 int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink& progress_sink) {
   const Progress progress("prepare", progress_sink);
   verify_output_folder(args.out);
+  // The scene options first: a typo must not cost a meshing run (and nothing is written).
+  if (args.scene_options) workflow::check_scene_options(*args.scene_options);
   progress.stage("reading the label volume");
   const imaging::LabelVolume labels = imaging::read_labels(args.labels);
   const std::array<std::int64_t, 256> label_voxels = count_labels(labels);
