@@ -48,11 +48,11 @@ CaseAnatomy label_case_anatomy(const LabelCaseRequest& r, const CaseParameters& 
       {"labels_file", std::filesystem::absolute(r.labels).string()},
       {"brain_volume_ml", a->brain_volume_ml},
       {"hull", "labels 1-3 closed by a 5 mm ball, signed distance smoothed by a 1.5 mm Gaussian"},
-      {"tumour_center_mm", to_json(a->tumour_center)},
+      {"tumour_centre_mm", to_json(a->tumour_center)},
       {"tumour_radius_mm", a->tumour_radius},
       {"tumour_placement", to_string(a->tumour_placement)},
       {"tumour_depth_mm", (a->tumour_center - a->craniotomy_center).norm()},
-      {"craniotomy_center_mm", to_json(a->craniotomy_center)},
+      {"craniotomy_centre_mm", to_json(a->craniotomy_center)},
       {"craniotomy_normal", to_json(a->craniotomy_normal)},
       {"craniotomy_placement",
        to_string(a->craniotomy_placement) +

@@ -310,7 +310,7 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
         {"seconds", solve_seconds},
         {"min_jacobian", truth.result.min_jacobian}}},
       {"probe",
-       {{"face_center_mm", to_json(probe.face_center)}, {"axis", to_json(probe.frame.col(2))}}},
+       {{"face_centre_mm", to_json(probe.face_center)}, {"axis", to_json(probe.frame.col(2))}}},
       {"counts",
        {{"landmarks", summary.landmarks},
         {"vessel_landmarks", summary.vessel_landmarks},
@@ -346,13 +346,13 @@ CaseAnatomy analytic_anatomy(const CaseParameters& p) {
   an.contact.skull = g.skull();
   an.contact.opening_center = g.craniotomy_center_on_skull();
   an.contact.opening_radius = g.craniotomy_radius;
-  an.geometry = {{"center_mm", to_json(g.center)},
+  an.geometry = {{"centre_mm", to_json(g.center)},
                  {"semi_axes_mm", to_json(g.semi_axes)},
                  {"base_depth", g.base_depth},
-                 {"tumour_center_mm", to_json(g.tumour_center())},
+                 {"tumour_centre_mm", to_json(g.tumour_center())},
                  {"tumour_radius_mm", g.tumour_radius},
                  {"ventricle_scale", g.ventricle_scale},
-                 {"craniotomy_center_mm", to_json(g.craniotomy_center_on_brain())},
+                 {"craniotomy_centre_mm", to_json(g.craniotomy_center_on_brain())},
                  {"craniotomy_radius_mm", g.craniotomy_radius},
                  {"skull_gap_mm", g.skull_gap}};
   an.analytic = g;
