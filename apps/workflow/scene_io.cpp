@@ -149,6 +149,10 @@ Scene read_scene(const std::filesystem::path& path) {
     r.integer("version", version, 1, 1);
   }
   BS_VERIFY(r.has("mesh"), file << ": missing key 'mesh' (the tetrahedral mesh, .vtu)");
+  // Every option, from the tables next to the Options structs (options_json.hpp), before any
+  // file is read: a typo costs no mesh loading.
+  Scene s;
+  read_option_fields(j, file, option_fields(s.options, s.compliance), kSceneFileKeys);
   const std::filesystem::path dir = path.parent_path();
   auto resolve = [&](const std::string& key) {
     const std::filesystem::path p = r.text(key);
@@ -162,7 +166,6 @@ Scene read_scene(const std::filesystem::path& path) {
     }
     BS_UNREACHABLE();
   };
-  Scene s;
   s.mesh = with_context("mesh", [](const std::filesystem::path& p) { return read_tet_mesh(p); });
   if (r.has("materials")) {
     const Reader m = r.object("materials", {"youngs_modulus_kpa", "poisson_ratio"});
@@ -203,8 +206,6 @@ Scene read_scene(const std::filesystem::path& path) {
       return to_skeleton(read_skeleton_vtp(p));
     });
 
-  // Every option, from the tables next to the Options structs (options_json.hpp).
-  read_option_fields(j, file, option_fields(s.options, s.compliance), kSceneFileKeys);
   auto& o = s.options;
   BS_VERIFY(o.dura.mode == constraints::DuraOptions::Mode::NONE || s.surface.triangles.rows() > 0,
             file << ": dura contact needs a 'collision_surface'");
