@@ -62,7 +62,7 @@ data_synth::CaseSummary generate(const PhantomArgs& args, const data_synth::Case
   if (!args.tumour.empty()) {
     BS_VERIFY(args.tumour.size() == 4,
               "--tumour needs X,Y,Z,RADIUS, got " << args.tumour.size() << " values");
-    r.tumour_center = Vector3d(args.tumour[0], args.tumour[1], args.tumour[2]);
+    r.tumour_centre = Vector3d(args.tumour[0], args.tumour[1], args.tumour[2]);
     BS_VERIFY(std::isfinite(args.tumour[3]) && args.tumour[3] > 0.0,
               "--tumour radius " << args.tumour[3] << " mm must be positive");
     r.tumour_radius = args.tumour[3];

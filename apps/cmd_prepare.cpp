@@ -15,7 +15,8 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
   c->add_option("--mra", args.mra, "MR angiogram in the same frame")->required();
   c->add_option("--mri", args.mri, "pre-operative MRI (recorded to check later inputs)");
   c->add_option("--scene-options", args.scene_options,
-                "JSON merged over the default scene (see scene_io.hpp)");
+                "JSON of scene keys and options merged over the default scene (README, "
+                "\"The scene\"); an unknown key is an error naming it");
   c->add_option("--refine", args.mesh_refinement,
                 "mesh refinement (1 ≈ 1.6k nodes on the phantom; node count grows ≈ r^2.7)")
       ->check(CLI::Range(0.25, 6.0));

@@ -138,10 +138,10 @@ const WarpScene& warp_scene() {
   static const WarpScene scene = [] {
     const data_synth::PhantomGeometry phantom;
     WarpScene s;
-    s.mesh = data_synth::make_ellipsoid_mesh(phantom.semi_axes, /*cells=*/12, phantom.center);
+    s.mesh = data_synth::make_ellipsoid_mesh(phantom.semi_axes, /*cells=*/12, phantom.centre);
     s.displacement.resize(s.mesh.num_nodes(), 3);
     for (index_t n = 0; n < s.mesh.num_nodes(); ++n) {
-      const Vector3d X = s.mesh.nodes().row(n).transpose() - phantom.center;
+      const Vector3d X = s.mesh.nodes().row(n).transpose() - phantom.centre;
       const double w = std::pow(std::clamp((X.z() + 60.0) / 120.0, 0.0, 1.0), 2.0);
       s.displacement.row(n) =
           Eigen::RowVector3d(2.0 * w * std::sin(X.y() / 25.0), 1.5 * w, -8.0 * w);

@@ -2,6 +2,7 @@
 
 #include "apps/workflow/compliance_cache.hpp"
 #include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/scene_io.hpp"
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
@@ -196,6 +197,8 @@ nlohmann::json input_entry(const std::filesystem::path& p) {
 
 PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   verify_output_folder(o.out);
+  // The scene options first: a typo must not cost a meshing run (and nothing is written).
+  if (o.scene_options) workflow::check_scene_options(*o.scene_options);
   progress.stage("reading the label volume");
   const imaging::LabelVolume labels = imaging::read_labels(o.labels);
   const std::array<std::int64_t, 256> label_voxels = count_labels(labels);

@@ -1,5 +1,7 @@
 #include "apps/workflow/scene_io.hpp"
 
+#include "apps/workflow/options_json.hpp"
+
 #include "core/error.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/mesh_io.hpp"
@@ -16,7 +18,6 @@
 namespace brainshift::workflow {
 namespace {
 
-using constraints::ConstraintSet;
 using imaging::read_node_list;
 using imaging::read_skeleton_vtp;
 using imaging::read_surface_vtp;
@@ -24,8 +25,9 @@ using imaging::read_tet_mesh;
 using imaging::to_skeleton;
 using nlohmann::json;
 
-/// A JSON object being read: checks keys against a known list, types and ranges, and names the
-/// file and the dotted key path in every error.
+/// A JSON object of the scene's own keys (files, materials, fixed region) being read: checks keys
+/// against a known list, types and ranges, and names the file and the dotted key path in every
+/// error. The options are read from their tables (options_json.hpp).
 class Reader {
  public:
   Reader(const json& j, std::string file, std::string where, std::set<std::string> known)
@@ -64,21 +66,9 @@ class Reader {
                                          << lo << ", " << hi << "]");
     out = static_cast<int>(v);
   }
-  void boolean(const std::string& k, bool& out) const {
-    if (!has(k)) return;
-    BS_VERIFY(m_j[k].is_boolean(), m_file << ": '" << name(k) << "' must be true or false");
-    out = m_j[k].get<bool>();
-  }
-  [[nodiscard]] std::string text(const std::string& k,
-                                 const std::set<std::string>& allowed = {}) const {
+  [[nodiscard]] std::string text(const std::string& k) const {
     BS_VERIFY(m_j[k].is_string(), m_file << ": '" << name(k) << "' must be a string");
-    const std::string v = m_j[k].get<std::string>();
-    if (!allowed.empty() && !allowed.count(v)) {
-      std::string list;
-      for (const auto& s : allowed) list += (list.empty() ? "" : "|") + s;
-      BS_VERIFY(false, m_file << ": '" << name(k) << "' = \"" << v << "\" is not one of " << list);
-    }
-    return v;
+    return m_j[k].get<std::string>();
   }
   [[nodiscard]] Vector3d vector3(const std::string& k) const {
     const json& a = m_j[k];
@@ -99,51 +89,34 @@ class Reader {
 
 constexpr double kBig = 1e6;
 
-void read_filter(const Reader& r, constraints::FilterOptions& f) {
-  r.boolean("one_per_feature", f.one_per_feature);
-  r.number("median_threshold_mm", f.median_threshold_mm, 0, kBig, "mm");
-  r.number("min_distance_mm", f.min_distance_mm, 0, kBig, "mm");
-  r.number("max_angle_deg", f.max_angle_deg, 0, 180, "deg");
-  r.integer("max_per_tet", f.max_per_tet, 0, 1000);
-}
-
-const std::set<std::string> kFilterKeys = {"one_per_feature", "median_threshold_mm",
-                                           "min_distance_mm", "max_angle_deg", "max_per_tet"};
-
-void read_solver(const Reader& r, Scene& s) {
-  auto& o = s.options;
-  r.integer("max_iterations", o.max_iterations, 1, 100000);
-  r.number("increment_tolerance_mm", o.increment_tolerance_mm, 1e-9, 100, "mm");
-  r.number("trust_region_mm", o.step.max_increment, 0, 1000, "mm");
-  r.number("pgs_tolerance", o.step.pgs.tolerance, 1e-14, 1, "");
-  r.integer("pgs_max_iterations", o.step.pgs.max_iterations, 1, 1000000);
-  if (r.has("constraint_solver")) {
-    const std::string v = r.text("constraint_solver", {"auto", "active_set", "gauss_seidel"});
-    o.step.solver = v == "auto"         ? constraints::ConstraintSolver::AUTO
-                    : v == "active_set" ? constraints::ConstraintSolver::ACTIVE_SET
-                                        : constraints::ConstraintSolver::GAUSS_SEIDEL;
-  }
-  if (r.has("mechanics")) {
-    const std::string v = r.text("mechanics", {"warped", "unwarped", "linear", "exact"});
-    o.step.mechanics = v == "warped"     ? constraints::Mechanics::WARPED
-                       : v == "unwarped" ? constraints::Mechanics::UNWARPED
-                       : v == "linear"   ? constraints::Mechanics::LINEAR
-                                         : constraints::Mechanics::EXACT;
-  }
-  if (r.has("compliance")) {
-    const Reader c = r.object("compliance", {"vessels", "footprint", "dura", "landmarks"});
-    auto& ratio = o.step.compliance_ratio;
-    c.number("vessels", ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)], 0, 1000);
-    c.number("footprint", ratio[static_cast<std::size_t>(ConstraintSet::FOOTPRINT)], 0, 1000);
-    c.number("dura", ratio[static_cast<std::size_t>(ConstraintSet::DURA)], 0, 1000);
-    c.number("landmarks", ratio[static_cast<std::size_t>(ConstraintSet::LANDMARK)], 0, 1000);
-  }
-  double budget_mib = static_cast<double>(s.compliance.memory_budget_bytes >> 20);
-  r.number("compliance_budget_mib", budget_mib, 0, 1 << 20, "MiB");
-  s.compliance.memory_budget_bytes = static_cast<std::size_t>(budget_mib * 1024 * 1024);
-}
+/// The scene's own keys (its files and their settings); every other key is an option.
+const std::set<std::string> kSceneFileKeys = {"version",  "mesh",  "materials",        "fixed",
+                                              "collision_surface", "vessels"};
 
 }  // namespace
+
+std::set<std::string> scene_option_keys() {
+  constraints::RegistrationOptions o;
+  constraints::ComplianceOptions c;
+  std::set<std::string> keys;
+  for (const OptionField& f : option_fields(o, c)) keys.insert(f.path.substr(0, f.path.find('.')));
+  return keys;
+}
+
+void check_scene_options(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  std::ifstream in(path);
+  BS_VERIFY(in.good(), file << ": cannot open the scene options");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
+  }
+  constraints::RegistrationOptions o;
+  constraints::ComplianceOptions c;
+  read_option_fields(j, file, option_fields(o, c), kSceneFileKeys);
+}
 
 std::vector<index_t> nodes_below(const core::TetMesh& mesh, const Vector3d& direction,
                                  double height_mm) {
@@ -168,14 +141,18 @@ Scene read_scene(const std::filesystem::path& path) {
   } catch (const json::parse_error& e) {
     BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
   }
-  const Reader r(j, file, "",
-                 {"version", "mesh", "materials", "fixed", "collision_surface", "vessels",
-                  "craniotomy", "constraints", "rigid", "pairing", "filter", "solver"});
+  std::set<std::string> top = kSceneFileKeys;
+  for (const auto& k : scene_option_keys()) top.insert(k);
+  const Reader r(j, file, "", top);
   if (r.has("version")) {
     int version = 1;
     r.integer("version", version, 1, 1);
   }
   BS_VERIFY(r.has("mesh"), file << ": missing key 'mesh' (the tetrahedral mesh, .vtu)");
+  // Every option, from the tables next to the Options structs (options_json.hpp), before any
+  // file is read: a typo costs no mesh loading.
+  Scene s;
+  read_option_fields(j, file, option_fields(s.options, s.compliance), kSceneFileKeys);
   const std::filesystem::path dir = path.parent_path();
   auto resolve = [&](const std::string& key) {
     const std::filesystem::path p = r.text(key);
@@ -189,7 +166,6 @@ Scene read_scene(const std::filesystem::path& path) {
     }
     BS_UNREACHABLE();
   };
-  Scene s;
   s.mesh = with_context("mesh", [](const std::filesystem::path& p) { return read_tet_mesh(p); });
   if (r.has("materials")) {
     const Reader m = r.object("materials", {"youngs_modulus_kpa", "poisson_ratio"});
@@ -231,55 +207,8 @@ Scene read_scene(const std::filesystem::path& path) {
     });
 
   auto& o = s.options;
-  if (r.has("craniotomy")) {
-    const Reader c = r.object("craniotomy", {"centre_mm", "radius_mm"});
-    if (c.has("centre_mm")) o.dura.craniotomy_centre = c.vector3("centre_mm");
-    c.number("radius_mm", o.dura.craniotomy_radius_mm, 0, 500, "mm");
-  }
-  if (r.has("constraints")) {
-    const Reader c = r.object("constraints", {"vessels", "footprint", "dura", "landmarks"});
-    c.boolean("vessels", o.use_vessels);
-    c.boolean("footprint", o.use_footprint);
-    c.boolean("landmarks", o.use_landmarks);
-    if (c.has("dura")) {
-      const std::string d = c.text("dura", {"none", "sliding", "unilateral"});
-      o.dura.mode = d == "none"      ? constraints::DuraOptions::Mode::NONE
-                    : d == "sliding" ? constraints::DuraOptions::Mode::SLIDING
-                                     : constraints::DuraOptions::Mode::UNILATERAL;
-    }
-  }
   BS_VERIFY(o.dura.mode == constraints::DuraOptions::Mode::NONE || s.surface.triangles.rows() > 0,
             file << ": dura contact needs a 'collision_surface'");
-  if (r.has("rigid")) {
-    const Reader g =
-        r.object("rigid", {"enabled", "loss", "loss_scale_mm", "max_pair_distance_mm"});
-    bool enabled = o.start == constraints::RigidStart::RIGID;
-    g.boolean("enabled", enabled);
-    o.start = enabled ? constraints::RigidStart::RIGID : constraints::RigidStart::IDENTITY;
-    if (g.has("loss")) {
-      const std::string l = g.text("loss", {"huber", "cauchy", "none"});
-      o.rigid.loss = l == "huber"    ? constraints::RigidInitOptions::Loss::HUBER
-                     : l == "cauchy" ? constraints::RigidInitOptions::Loss::CAUCHY
-                                     : constraints::RigidInitOptions::Loss::NONE;
-    }
-    g.number("loss_scale_mm", o.rigid.loss_scale_mm, 1e-6, 1000, "mm");
-    g.number("max_pair_distance_mm", o.rigid.max_pair_distance_mm, 1e-6, 1000, "mm");
-  }
-  if (r.has("pairing")) {
-    const Reader p = r.object("pairing", {"max_distance_mm", "direction_radius_mm"});
-    p.number("max_distance_mm", o.pair_max_distance_mm, 1e-6, 1000, "mm");
-    p.number("direction_radius_mm", o.direction_radius_mm, 1e-6, 1000, "mm");
-  }
-  if (r.has("filter")) {
-    const Reader f = r.object("filter", {"vessels", "footprint"});
-    if (f.has("vessels")) read_filter(f.object("vessels", kFilterKeys), o.vessel_filter);
-    if (f.has("footprint")) read_filter(f.object("footprint", kFilterKeys), o.footprint_filter);
-  }
-  if (r.has("solver"))
-    read_solver(r.object("solver", {"max_iterations", "increment_tolerance_mm", "trust_region_mm",
-                                    "pgs_tolerance", "pgs_max_iterations", "constraint_solver",
-                                    "mechanics", "compliance", "compliance_budget_mib"}),
-                s);
   const std::string invalid = o.validate();
   BS_VERIFY(invalid.empty(), file << ": " << invalid);
   return s;

@@ -23,6 +23,7 @@
 #include "core/geometry/skeleton.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "core/option_fields.hpp"
 
 #include <vector>
 
@@ -50,6 +51,24 @@ struct DuraOptions {
   [[nodiscard]] std::string validate() const;
 };
 std::string to_string(DuraOptions::Mode mode);
+/// Names of DuraOptions::Mode in the scene, reports and the command line.
+constexpr std::array<core::EnumName<DuraOptions::Mode>, 3> enum_names(DuraOptions::Mode /*tag*/) {
+  return {{{DuraOptions::Mode::NONE, "none"},
+           {DuraOptions::Mode::SLIDING, "sliding"},
+           {DuraOptions::Mode::UNILATERAL, "unilateral"}}};
+}
+
+/// The options' names, ranges and documentation (core/option_fields.hpp). Names are scene paths:
+/// the mode is constraints.dura, the craniotomy its own object.
+template <class V>
+void visit_fields(DuraOptions& o, V&& v) {
+  v("constraints.dura", o.mode, "contact with the dura outside the craniotomy");
+  v("constraints.dura_max_distance_mm", o.max_distance_mm, core::Range{1e-6, 1000},
+    "no dura row for a surface vertex farther than this from the rest surface (mm)");
+  v("craniotomy.centre_mm", o.craniotomy_centre, "centre of the craniotomy (mm, world RAS)");
+  v("craniotomy.radius_mm", o.craniotomy_radius_mm, core::Range{0, 500},
+    "surface vertices nearer than this to the centre are free of the dura (mm)");
+}
 
 /// Sliding-line rows for vessel pairs (`pairs` from segments of `skeleton`, points from `points`).
 void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,

@@ -10,6 +10,7 @@
 
 #include "constraints/registration/pairing.hpp"
 #include "core/config.hpp"
+#include "core/option_fields.hpp"
 
 #include <string>
 #include <vector>
@@ -24,6 +25,20 @@ struct FilterOptions {
   int max_per_tet = 1;               ///< per tetrahedron and kind; ≤ 0 disables subsampling
   [[nodiscard]] std::string validate() const;
 };
+
+/// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
+/// filter.vessels and filter.footprint.
+template <class V>
+void visit_fields(FilterOptions& o, V&& v) {
+  v("one_per_feature", o.one_per_feature, "keep one point per model feature (the nearest)");
+  v("median_threshold_mm", o.median_threshold_mm, core::Range{0, 1e6},
+    "drop pairs farther than the median distance + this");
+  v("min_distance_mm", o.min_distance_mm, core::Range{0, 1e6}, "drop pairs nearer than this");
+  v("max_angle_deg", o.max_angle_deg, core::Range{1e-6, 180},
+    "largest angle between skeleton tangent and local point direction; >= 90 disables it");
+  v("max_per_tet", o.max_per_tet, core::Range{0, 1000},
+    "rows per tetrahedron and kind; 0 disables subsampling");
+}
 
 /// What the filter dropped, by reason.
 struct FilterReport {

@@ -33,6 +33,7 @@
 /// by more than the sampling spread of the vessels shows.
 
 #include "core/config.hpp"
+#include "core/option_fields.hpp"
 
 #include <cstdint>
 #include <string>
@@ -46,6 +47,10 @@ enum class NoiseCriterion : std::uint8_t {
   GCV,       ///< generalised cross-validation (white errors; chases correlated ones)
 };
 std::string to_string(NoiseCriterion c);
+/// Names of NoiseCriterion in the scene, reports and the command line.
+constexpr std::array<core::EnumName<NoiseCriterion>, 2> enum_names(NoiseCriterion /*tag*/) {
+  return {{{NoiseCriterion::BLOCK_CV, "block_cv"}, {NoiseCriterion::GCV, "gcv"}}};
+}
 
 struct NoiseOptions {
   /// Run the SMOOTH stage at the chosen compliance (or keep the start, BLOCK_CV's ε → ∞). On by
@@ -96,6 +101,27 @@ struct NoiseOptions {
   int max_rows = 1200;
   [[nodiscard]] std::string validate() const;
 };
+
+/// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
+/// noise.
+template <class V>
+void visit_fields(NoiseOptions& o, V&& v) {
+  v("enabled", o.enabled, "choose the vessel rows' compliance from the data (SMOOTH stage)");
+  v("criterion", o.criterion, "block cross-validation or generalised cross-validation");
+  v("block_length_mm", o.block_length_mm, core::Range{0, 1e6},
+    "blocks: whole branches (0) or pieces of at most this arc length (mm)");
+  v("consider_start", o.consider_start, "no deformation beyond the start is a candidate");
+  v("one_standard_error", o.one_standard_error,
+    "the smoothest candidate within one standard error of the minimum");
+  v("min_ratio", o.min_ratio, core::Range{1e-12, 1e9}, "smallest compliance ratio searched");
+  v("max_ratio", o.max_ratio, core::Range{1e-12, 1e9}, "largest compliance ratio searched");
+  v("grid", o.grid, core::Range{2, 10000}, "log-spaced candidates between the two");
+  v("change_factor", o.change_factor, core::Range{1, 1e6},
+    "a smoothing stage runs when the ratio changes by more than this factor");
+  v("max_iterations", o.max_iterations, core::Range{1, 100000},
+    "iteration cap of the smoothing stage");
+  v("max_rows", o.max_rows, core::Range{8, 1e6}, "largest Delassus block decomposed (rows)");
+}
 
 /// What the noise model found.
 struct NoiseEstimate {

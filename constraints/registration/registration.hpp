@@ -79,6 +79,10 @@ struct IntraopData {
 /// How the loop starts: IDENTITY (the tracked frame is the model frame; only the bulk shift is
 /// searched, by shift_search) or RIGID (the global start: rigid pose plus bulk response).
 enum class RigidStart { IDENTITY, RIGID };
+/// Names of RigidStart in reports and the command line (the scene spells it rigid.enabled).
+constexpr std::array<core::EnumName<RigidStart>, 2> enum_names(RigidStart /*tag*/) {
+  return {{{RigidStart::IDENTITY, "identity"}, {RigidStart::RIGID, "rigid"}}};
+}
 
 struct RegistrationOptions {
   RigidStart start = RigidStart::IDENTITY;
@@ -148,6 +152,45 @@ struct RegistrationOptions {
   /// The global start's defaults with bulk_response off (see global_start).
   static GlobalStartOptions default_global_start();
 };
+
+/// The options' names, ranges and documentation (core/option_fields.hpp): the scene's groups
+/// constraints, craniotomy, rigid, global_start, shift_search, pairing, filter, solver, noise and
+/// acceptance. `inspect_step` is not an option (tests' fault injection).
+template <class V>
+void visit_fields(RegistrationOptions& o, V&& v) {
+  v("rigid.enabled", core::EnumFlag<RigidStart>{o.start, RigidStart::RIGID, RigidStart::IDENTITY},
+    "start from the global search of the rigid pose (else the identity and the shift search)");
+  v.nest("rigid.", o.rigid);
+  v.nest("global_start.", o.global_start);
+  v.nest("shift_search.", o.shift_search);
+  v("shift_search.stage_iterations", o.shift_stage_iterations, core::Range{0, 100000},
+    "iteration cap of the stage holding the pairs made at the shifted points");
+  v("shift_search.load_basis", o.shift_load_basis,
+    "the shift is the model's response to a uniform load (else a translation)");
+  v("constraints.vessels", o.use_vessels, "register on the vessel points");
+  v("constraints.footprint", o.use_footprint, "register on the probe footprint");
+  v("constraints.landmarks", o.use_landmarks, "register on landmarks");
+  v.nest("", o.dura);
+  v("pairing.max_distance_mm", o.pair_max_distance_mm, core::Range{1e-6, 1000},
+    "no pair beyond this (mm)");
+  v("pairing.direction_radius_mm", o.direction_radius_mm, core::Range{1e-6, 1000},
+    "neighbourhood of the local direction of the vessel points (mm)");
+  v("pairing.refine_distance_mm", o.refine_pair_distance_mm, core::Range{1e-6, 1000},
+    "after the bulk-shift stage, fresh pairs only within this (mm)");
+  v.nest("filter.vessels.", o.vessel_filter);
+  v.nest("filter.footprint.", o.footprint_filter);
+  v.nest("solver.", o.step);
+  v("solver.max_iterations", o.max_iterations, core::Range{1, 100000},
+    "iterations of the HELD and FREE stages together");
+  v("solver.increment_tolerance_mm", o.increment_tolerance_mm, core::Range{1e-9, 100},
+    "settled when the largest nodal increment is below this (mm)");
+  v("solver.cold_retry", o.cold_retry, "a warm start that does not converge is rerun cold");
+  v.nest("noise.", o.noise);
+  v("acceptance.min_vessel_pairs", o.min_vessel_pairs, core::Range{0, 1e9},
+    "fewer paired vessel points at the end: INSUFFICIENT_DATA");
+  v("acceptance.max_scatter_mm", o.max_scatter_mm, core::Range{1e-6, 1000},
+    "a larger scatter of the vessel points: INSUFFICIENT_DATA (mm)");
+}
 
 /// Seconds per stage, summed over iterations.
 struct StageTimes {

@@ -22,6 +22,7 @@
 
 #include "core/config.hpp"
 #include "core/geometry/skeleton.hpp"
+#include "core/option_fields.hpp"
 
 #include <string>
 
@@ -44,6 +45,32 @@ struct RigidInitOptions {
   /// Empty when valid, else what is wrong and how to fix it.
   [[nodiscard]] std::string validate() const;
 };
+
+/// Names of RigidInitOptions::Loss in the scene, reports and the command line.
+constexpr std::array<core::EnumName<RigidInitOptions::Loss>, 3> enum_names(
+    RigidInitOptions::Loss /*tag*/) {
+  return {{{RigidInitOptions::Loss::HUBER, "huber"},
+           {RigidInitOptions::Loss::CAUCHY, "cauchy"},
+           {RigidInitOptions::Loss::NONE, "none"}}};
+}
+
+/// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under rigid.
+template <class V>
+void visit_fields(RigidInitOptions& o, V&& v) {
+  v("loss", o.loss, "robust loss on the point-to-feature distance");
+  v("loss_scale_mm", o.loss_scale_mm, core::Range{1e-6, 1000}, "scale k of the loss (mm)");
+  v("max_icp_iterations", o.max_icp_iterations, core::Range{1, 10000}, "pair/solve rounds");
+  v("max_pair_distance_mm", o.max_pair_distance_mm, core::Range{1e-6, 1000},
+    "pairs farther than this are dropped each round (mm)");
+  v("footprint_weight", o.footprint_weight, core::Range{0, 1e6},
+    "weight of a footprint pair relative to a vessel pair");
+  v("convergence_mm", o.convergence_mm, core::Range{1e-12, 100},
+    "stop when the transform changes by less than this (mm)");
+  v("max_solver_iterations", o.max_solver_iterations, core::Range{1, 10000},
+    "Levenberg-Marquardt iterations per round");
+  v("weak_dof_ratio", o.weak_dof_ratio, core::Range{1e-12, 0.999999},
+    "lambda / lambda_max below which a degree of freedom is reported weak");
+}
 
 /// Outcome of rigid_init(). Numbers are always finite.
 struct RigidInitResult {

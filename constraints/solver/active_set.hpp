@@ -23,6 +23,12 @@ enum class ConstraintSolver {
   GAUSS_SEIDEL  ///< projected block Gauss–Seidel only
 };
 std::string to_string(ConstraintSolver s);
+/// Names of ConstraintSolver in the scene, reports and the command line.
+constexpr std::array<core::EnumName<ConstraintSolver>, 3> enum_names(ConstraintSolver /*tag*/) {
+  return {{{ConstraintSolver::AUTO, "auto"},
+           {ConstraintSolver::ACTIVE_SET, "active_set"},
+           {ConstraintSolver::GAUSS_SEIDEL, "gauss_seidel"}}};
+}
 
 /// Solves with the chosen method; same contract as solve_pgs().
 /// @param[in] direct_max_rows row count above which AUTO uses Gauss–Seidel.

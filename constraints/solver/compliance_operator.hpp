@@ -20,6 +20,7 @@
 #include "core/assembly/dof_map.hpp"
 #include "core/config.hpp"
 #include "core/fem/corotational.hpp"
+#include "core/option_fields.hpp"
 #include "core/solver/cholmod_factor.hpp"
 #include "core/solver/warped_compliance.hpp"
 
@@ -33,6 +34,12 @@ namespace brainshift::constraints {
 
 enum class ComplianceStrategy { AUTO, DENSE_BLOCK, SPARSE_SOLVE };
 std::string to_string(ComplianceStrategy s);
+/// Names of ComplianceStrategy in the scene, reports and the command line.
+constexpr std::array<core::EnumName<ComplianceStrategy>, 3> enum_names(ComplianceStrategy /*tag*/) {
+  return {{{ComplianceStrategy::AUTO, "auto"},
+           {ComplianceStrategy::DENSE_BLOCK, "dense_block"},
+           {ComplianceStrategy::SPARSE_SOLVE, "sparse_solve"}}};
+}
 
 /// A precomputed dense compliance block C = K0_ff⁻¹ on the DOFs of `nodes` (mm/mN).
 struct ComplianceBlock {
@@ -57,6 +64,19 @@ struct ComplianceOptions {
   /// A block saved by an earlier preparation of the same model (checked before it is used).
   std::shared_ptr<const ComplianceBlock> precomputed;
 };
+
+/// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
+/// solver, prefixed compliance_. `precomputed` is not an option (the model folder's cache).
+template <class V>
+void visit_fields(ComplianceOptions& o, V&& v) {
+  v("strategy", o.strategy, "dense compliance block, sparse solves, or auto (by the budget)");
+  v("budget_mib", core::MebiBytes{o.memory_budget_bytes}, core::Range{0, 1 << 20},
+    "memory for the dense compliance block (MiB)");
+  v("precompute_chunk", o.precompute_chunk, core::Range{1, 100000},
+    "right-hand sides per CHOLMOD solve when precomputing the block");
+  v("precompute_threads", o.precompute_threads, core::Range{1, 256},
+    "threads precomputing the block (the block is the same bit for bit)");
+}
 
 class ComplianceOperator {
  public:

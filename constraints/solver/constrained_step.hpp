@@ -32,6 +32,13 @@ enum class Mechanics {
           ///< every step (reference for tests and benchmarks; not the fast path)
 };
 std::string to_string(Mechanics m);
+/// Names of Mechanics in the scene, reports and the command line.
+constexpr std::array<core::EnumName<Mechanics>, 4> enum_names(Mechanics /*tag*/) {
+  return {{{Mechanics::WARPED, "warped"},
+           {Mechanics::UNWARPED, "unwarped"},
+           {Mechanics::LINEAR, "linear"},
+           {Mechanics::EXACT, "exact"}}};
+}
 
 struct StepOptions {
   PgsOptions pgs;
@@ -62,6 +69,32 @@ struct StepOptions {
   /// registration's noise model (noise_model.hpp).
   bool keep_system = false;
 };
+
+/// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
+/// solver. `keep_system` is not an option (the registration loop sets it for its noise model).
+template <class V>
+void visit_fields(StepOptions& o, V&& v) {
+  v("trust_region_mm", o.max_increment, core::Range{0, 1000},
+    "largest nodal move of one step (mm); 0: unlimited");
+  v("constraint_solver", o.solver, "direct active set, Gauss-Seidel, or auto (by the row count)");
+  v("mechanics", o.mechanics, "how the step treats rotations");
+  auto& ratio = o.compliance_ratio;
+  v("compliance.vessels", ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)],
+    core::Range{0, 1000}, "compliance of the vessel rows / median diag W; 0: hard");
+  v("compliance.footprint", ratio[static_cast<std::size_t>(ConstraintSet::FOOTPRINT)],
+    core::Range{0, 1000}, "compliance of the footprint rows / median diag W; 0: hard");
+  v("compliance.dura", ratio[static_cast<std::size_t>(ConstraintSet::DURA)], core::Range{0, 1000},
+    "compliance of the dura rows / median diag W; 0: hard");
+  v("compliance.landmarks", ratio[static_cast<std::size_t>(ConstraintSet::LANDMARK)],
+    core::Range{0, 1000}, "compliance of the landmark rows / median diag W; 0: hard");
+  v("relaxation", o.relaxation, core::Range{1e-6, 1},
+    "relaxation of the elastic part of the step, in (0, 1]");
+  v("gravity_mm_s2", o.gravity, "body acceleration (mm/s^2, world RAS)");
+  v("density_kg_mm3", o.density, core::Range{0, 1}, "tissue density (kg/mm^3)");
+  v("plausible_violation_mm", o.plausible_violation, core::Range{1e-6, 1e6},
+    "violations beyond this are flagged in the step's diagnosis (mm)");
+  v.nest("pgs_", o.pgs);
+}
 
 struct StepResult {
   MatrixX3d x;             ///< new nodal positions (#N×3, mm)

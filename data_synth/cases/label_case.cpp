@@ -27,7 +27,7 @@ CaseAnatomy label_case_anatomy(const LabelCaseRequest& r, const CaseParameters& 
   const imaging::LabelVolume labels = imaging::read_labels(r.labels);
   LabelAnatomyOptions o;
   o.craniotomy = r.craniotomy;
-  o.tumour_center = r.tumour_center;
+  o.tumour_centre = r.tumour_centre;
   o.tumour_radius = r.tumour_radius;
   o.up = -p.load.gravity_direction;
   o.craniotomy_radius = p.geometry.craniotomy_radius;
@@ -42,17 +42,17 @@ CaseAnatomy label_case_anatomy(const LabelCaseRequest& r, const CaseParameters& 
   an.mesh = make_label_mesh(*a, p.mesh);
   apply_resection(p, an.mesh);
   an.contact.hull = a->skull;
-  an.contact.opening_center = a->craniotomy_center + a->skull_gap * a->craniotomy_normal;
+  an.contact.opening_centre = a->craniotomy_centre + a->skull_gap * a->craniotomy_normal;
   an.contact.opening_radius = a->craniotomy_radius;
   an.geometry = {
       {"labels_file", std::filesystem::absolute(r.labels).string()},
       {"brain_volume_ml", a->brain_volume_ml},
       {"hull", "labels 1-3 closed by a 5 mm ball, signed distance smoothed by a 1.5 mm Gaussian"},
-      {"tumour_center_mm", to_json(a->tumour_center)},
+      {"tumour_centre_mm", to_json(a->tumour_centre)},
       {"tumour_radius_mm", a->tumour_radius},
       {"tumour_placement", to_string(a->tumour_placement)},
-      {"tumour_depth_mm", (a->tumour_center - a->craniotomy_center).norm()},
-      {"craniotomy_center_mm", to_json(a->craniotomy_center)},
+      {"tumour_depth_mm", (a->tumour_centre - a->craniotomy_centre).norm()},
+      {"craniotomy_centre_mm", to_json(a->craniotomy_centre)},
       {"craniotomy_normal", to_json(a->craniotomy_normal)},
       {"craniotomy_placement",
        to_string(a->craniotomy_placement) +

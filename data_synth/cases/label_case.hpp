@@ -23,7 +23,7 @@ struct LabelCaseRequest {
   std::string case_name = "standard";  ///< the recipe: one of case_names()
   std::uint32_t seed = 1;
   std::optional<Vector3d> craniotomy;  ///< near the brain surface, mm (default: label_anatomy.hpp)
-  std::optional<Vector3d> tumour_center;  ///< inside the brain, mm
+  std::optional<Vector3d> tumour_centre;  ///< inside the brain, mm
   std::optional<double> tumour_radius;    ///< mm
   /// Truth mesh cell, mm. prepare's clinical model has edges of ~10 mm; 5 mm keeps the truth
   /// mesh independent and finer (≈ 15k nodes on an adult brain).

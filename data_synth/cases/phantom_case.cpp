@@ -64,7 +64,7 @@ TruthState solve_truth(const CaseParameters& p, const CaseAnatomy& an, const Tle
 /// The probe on the deformed cortex under the craniotomy, pressed in by probe_indent, looking
 /// along the inward normal of the rest surface there.
 Probe place_probe(const CaseParameters& p, const CaseAnatomy& an, const TruthField& field) {
-  const Vector3d cc = an.shape.craniotomy_center;
+  const Vector3d cc = an.shape.craniotomy_centre;
   const Vector3d n = an.shape.surface_normal(cc);
   constexpr double inside = 0.5;  // mm: sample the field just inside the surface
   const Vector3d surface = field.deform(cc - inside * n) + inside * n;
@@ -93,7 +93,7 @@ std::vector<Vector3d> choose_landmarks(const CaseParameters& p, const CaseAnatom
   const double r = an.shape.tumour_radius + p.deep_landmark_offset;
   for (int axis = 0; axis < 3; ++axis)
     for (const double sign : {-1.0, 1.0}) {
-      const Vector3d X = an.shape.tumour_center + sign * r * Vector3d::Unit(axis);
+      const Vector3d X = an.shape.tumour_centre + sign * r * Vector3d::Unit(axis);
       if (an.shape.label_at(X) == imaging::BRAIN && field.try_displacement_at(X)) out.push_back(X);
     }
   return out;
@@ -109,7 +109,7 @@ ShiftStats shift_stats(const CaseAnatomy& an, const MatrixX3d& u, const std::vec
                        const std::vector<Vector3d>& intra) {
   ShiftStats s;
   const PhantomMesh& pm = an.mesh;
-  const Vector3d cc = an.shape.craniotomy_center;
+  const Vector3d cc = an.shape.craniotomy_centre;
   double sum = 0.0;
   int count = 0;
   for (const index_t i : pm.surface_nodes) {
@@ -141,7 +141,7 @@ json to_json(const ShiftStats& s) {
 std::vector<Vector3d> in_truth_frame(const CaseParameters& p, const Probe& probe,
                                      std::vector<Vector3d> x) {
   if (p.truth_in_image_frame)
-    for (Vector3d& q : x) q = p.tracking.apply(q, probe.face_center);
+    for (Vector3d& q : x) q = p.tracking.apply(q, probe.face_centre);
   return x;
 }
 
@@ -261,7 +261,7 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
   for (index_t v = 0; v < moved.rows(); ++v) {
     moved.row(v) += truth.result.displacement.row(ventricles.node_of_vertex[std::size_t(v)]);
     if (p.truth_in_image_frame)
-      moved.row(v) = p.tracking.apply(moved.row(v).transpose(), probe.face_center).transpose();
+      moved.row(v) = p.tracking.apply(moved.row(v).transpose(), probe.face_centre).transpose();
   }
   write_surface_vtp(root / "truth/ventricles_preop.vtp", ventricles.vertices, ventricles.faces);
   write_surface_vtp(root / "truth/ventricles_intraop.vtp", moved, ventricles.faces);
@@ -310,7 +310,7 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
         {"seconds", solve_seconds},
         {"min_jacobian", truth.result.min_jacobian}}},
       {"probe",
-       {{"face_center_mm", to_json(probe.face_center)}, {"axis", to_json(probe.frame.col(2))}}},
+       {{"face_centre_mm", to_json(probe.face_centre)}, {"axis", to_json(probe.frame.col(2))}}},
       {"counts",
        {{"landmarks", summary.landmarks},
         {"vessel_landmarks", summary.vessel_landmarks},
@@ -344,15 +344,15 @@ CaseAnatomy analytic_anatomy(const CaseParameters& p) {
   an.mesh = make_phantom_mesh(g, p.mesh);
   apply_resection(p, an.mesh);
   an.contact.skull = g.skull();
-  an.contact.opening_center = g.craniotomy_center_on_skull();
+  an.contact.opening_centre = g.craniotomy_centre_on_skull();
   an.contact.opening_radius = g.craniotomy_radius;
-  an.geometry = {{"center_mm", to_json(g.center)},
+  an.geometry = {{"centre_mm", to_json(g.centre)},
                  {"semi_axes_mm", to_json(g.semi_axes)},
                  {"base_depth", g.base_depth},
-                 {"tumour_center_mm", to_json(g.tumour_center())},
+                 {"tumour_centre_mm", to_json(g.tumour_centre())},
                  {"tumour_radius_mm", g.tumour_radius},
                  {"ventricle_scale", g.ventricle_scale},
-                 {"craniotomy_center_mm", to_json(g.craniotomy_center_on_brain())},
+                 {"craniotomy_centre_mm", to_json(g.craniotomy_centre_on_brain())},
                  {"craniotomy_radius_mm", g.craniotomy_radius},
                  {"skull_gap_mm", g.skull_gap}};
   an.analytic = g;
@@ -368,11 +368,11 @@ imaging::LabelVolume case_labels(const CaseParameters& p) {
   const Ellipsoid brain = p.geometry.brain_ellipsoid();
   // Horn: a thin cylinder forward (+A) from the anterior tip of the left ventricle.
   const Ellipsoid v = p.geometry.ventricle(0);
-  const Vector3d a = v.center + Vector3d(0.0, 0.9 * v.semi_axes.y(), 0.0);
+  const Vector3d a = v.centre + Vector3d(0.0, 0.9 * v.semi_axes.y(), 0.0);
   const Vector3d b = a + Vector3d(0.0, 25.0, -5.0);
   // Sulcus: the one-voxel slab through the voxel column nearest to 30 mm left of the centre.
   const int sulcus_i =
-      int(std::lround(g.world_to_index(p.geometry.center - Vector3d(30.0, 0, 0)).x()));
+      int(std::lround(g.world_to_index(p.geometry.centre - Vector3d(30.0, 0, 0)).x()));
   for (int k = 0; k < g.size[2]; ++k)
     for (int j = 0; j < g.size[1]; ++j)
       for (int i = 0; i < g.size[0]; ++i) {

@@ -15,7 +15,7 @@ bool all_finite(const Vector3d& v) { return v.allFinite(); }
 
 std::string PhantomGeometry::validate() const {
   std::ostringstream s;
-  if (!all_finite(center) || !all_finite(tumour_offset) || !all_finite(ventricle_offset) ||
+  if (!all_finite(centre) || !all_finite(tumour_offset) || !all_finite(ventricle_offset) ||
       !all_finite(craniotomy_direction))
     s << "phantom positions must be finite";
   else if (!((semi_axes.array() > 0).all() && semi_axes.allFinite()))
@@ -24,8 +24,8 @@ std::string PhantomGeometry::validate() const {
     s << "base_depth must be in (0, 1], got " << base_depth;
   else if (!(tumour_radius > 0.0))
     s << "tumour_radius must be positive, got " << tumour_radius << " mm";
-  else if (!inside_brain(tumour_center()))
-    s << "tumour centre " << tumour_center().transpose() << " is outside the brain";
+  else if (!inside_brain(tumour_centre()))
+    s << "tumour centre " << tumour_centre().transpose() << " is outside the brain";
   else if (!(ventricle_scale >= 0.0) || !((ventricle_semi_axes.array() > 0).all()))
     s << "ventricle scale must be >= 0 and semi-axes positive";
   else if (!(craniotomy_direction.norm() > 0.0))
@@ -38,32 +38,32 @@ std::string PhantomGeometry::validate() const {
 }
 
 Ellipsoid PhantomGeometry::skull() const {
-  return {center, semi_axes + Vector3d::Constant(skull_gap)};
+  return {centre, semi_axes + Vector3d::Constant(skull_gap)};
 }
 
-double PhantomGeometry::base_level() const { return center.z() - base_depth * semi_axes.z(); }
+double PhantomGeometry::base_level() const { return centre.z() - base_depth * semi_axes.z(); }
 
 Ellipsoid PhantomGeometry::ventricle(int side) const {
   BS_VERIFY(side == 0 || side == 1, "ventricle side must be 0 (left) or 1 (right), got " << side);
   const double sign = side == 0 ? -1.0 : 1.0;
-  return {center + ventricle_offset + Vector3d(sign * 0.5 * ventricle_spacing, 0.0, 0.0),
+  return {centre + ventricle_offset + Vector3d(sign * 0.5 * ventricle_spacing, 0.0, 0.0),
           ventricle_semi_axes * ventricle_scale};
 }
 
 namespace {
-/// Point where the ray center + s·d meets the ellipsoid with the given semi-axes.
-Vector3d ray_hit(const Vector3d& center, const Vector3d& semi_axes, const Vector3d& d) {
+/// Point where the ray centre + s·d meets the ellipsoid with the given semi-axes.
+Vector3d ray_hit(const Vector3d& centre, const Vector3d& semi_axes, const Vector3d& d) {
   const Vector3d u = d.normalized();
-  return center + u / u.cwiseQuotient(semi_axes).norm();
+  return centre + u / u.cwiseQuotient(semi_axes).norm();
 }
 }  // namespace
 
-Vector3d PhantomGeometry::craniotomy_center_on_brain() const {
-  return ray_hit(center, semi_axes, craniotomy_direction);
+Vector3d PhantomGeometry::craniotomy_centre_on_brain() const {
+  return ray_hit(centre, semi_axes, craniotomy_direction);
 }
 
-Vector3d PhantomGeometry::craniotomy_center_on_skull() const {
-  return ray_hit(center, skull().semi_axes, craniotomy_direction);
+Vector3d PhantomGeometry::craniotomy_centre_on_skull() const {
+  return ray_hit(centre, skull().semi_axes, craniotomy_direction);
 }
 
 bool PhantomGeometry::inside_brain(const Vector3d& x) const {
@@ -72,7 +72,7 @@ bool PhantomGeometry::inside_brain(const Vector3d& x) const {
 
 imaging::Label PhantomGeometry::label_at(const Vector3d& x) const {
   if (!inside_brain(x)) return imaging::BACKGROUND;
-  if ((x - tumour_center()).squaredNorm() <= tumour_radius * tumour_radius) return imaging::TUMOUR;
+  if ((x - tumour_centre()).squaredNorm() <= tumour_radius * tumour_radius) return imaging::TUMOUR;
   if (ventricle_scale > 0.0 && (ventricle(0).contains(x) || ventricle(1).contains(x)))
     return imaging::VENTRICLES;
   return imaging::BRAIN;
@@ -106,7 +106,7 @@ imaging::LabelVolume make_label_volume(const PhantomGeometry& g, const PhantomIm
   const std::string bad_options = o.validate();
   BS_VERIFY(bad_options.empty(), "invalid phantom image options: " << bad_options);
   // Skull bounding box corners, in the image axes (mm, relative to the world origin).
-  const Vector3d lo_w = g.center - g.skull().semi_axes, hi_w = g.center + g.skull().semi_axes;
+  const Vector3d lo_w = g.centre - g.skull().semi_axes, hi_w = g.centre + g.skull().semi_axes;
   Vector3d lo = Vector3d::Constant(1e300), hi = Vector3d::Constant(-1e300);
   for (int c = 0; c < 8; ++c) {
     const Vector3d p((c & 1) ? hi_w.x() : lo_w.x(), (c & 2) ? hi_w.y() : lo_w.y(),

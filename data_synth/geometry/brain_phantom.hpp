@@ -22,20 +22,20 @@ namespace brainshift::data_synth {
 struct PhantomGeometry {
   /// Centre of the brain ellipsoid, world RAS mm. The default puts the base plane (S = −18.5) half
   /// way between 1 mm voxel centres, so that voxel counts are not biased by half a layer.
-  Vector3d center{1.5, -17.0, 14.5};
+  Vector3d centre{1.5, -17.0, 14.5};
   Vector3d semi_axes{70.0, 85.0, 60.0};  ///< brain ellipsoid semi-axes along R, A, S, mm
-  /// Flattened base: the brain is cut by the plane S = center.S − base_depth·semi_axes.S
+  /// Flattened base: the brain is cut by the plane S = centre.S − base_depth·semi_axes.S
   /// (dimensionless, in (0, 1]; 1 = no cut).
   double base_depth = 0.55;
   Vector3d tumour_offset{28.0, 22.0, 30.0};  ///< tumour centre − brain centre, mm (superficial)
   double tumour_radius = 12.0;               ///< mm, > 0
-  /// Lateral ventricles: two ellipsoids at center + (±ventricle_spacing/2, 0, 0) + ventricle_offset
+  /// Lateral ventricles: two ellipsoids at centre + (±ventricle_spacing/2, 0, 0) + ventricle_offset
   /// with semi-axes ventricle_semi_axes · ventricle_scale.
   Vector3d ventricle_offset{0.0, 0.0, 8.0};      ///< mm
   Vector3d ventricle_semi_axes{5.0, 22.0, 9.0};  ///< at scale 1, mm
   double ventricle_spacing = 20.0;               ///< distance between the two centres, mm
   double ventricle_scale = 1.0;                  ///< dimensionless, ≥ 0 (0: no ventricles)
-  /// Craniotomy centre: where the ray center + s·direction (s > 0) meets the brain surface
+  /// Craniotomy centre: where the ray centre + s·direction (s > 0) meets the brain surface
   /// (default: superior, over the right hemisphere).
   Vector3d craniotomy_direction{0.45, 0.35, 1.0};
   double craniotomy_radius = 25.0;  ///< radius of the skull opening, mm
@@ -44,18 +44,18 @@ struct PhantomGeometry {
   /// Empty when valid, else the reason (names the value).
   [[nodiscard]] std::string validate() const;
   /// The brain ellipsoid (before the base cut).
-  [[nodiscard]] Ellipsoid brain_ellipsoid() const { return {center, semi_axes}; }
+  [[nodiscard]] Ellipsoid brain_ellipsoid() const { return {centre, semi_axes}; }
   /// The rigid skull: the brain ellipsoid grown by skull_gap on every semi-axis.
   [[nodiscard]] Ellipsoid skull() const;
   /// S coordinate of the flattened base plane, mm.
   [[nodiscard]] double base_level() const;
-  [[nodiscard]] Vector3d tumour_center() const { return center + tumour_offset; }
+  [[nodiscard]] Vector3d tumour_centre() const { return centre + tumour_offset; }
   /// The two ventricle ellipsoids (left then right).
   [[nodiscard]] Ellipsoid ventricle(int side) const;
   /// Craniotomy centre on the brain surface, world RAS mm.
-  [[nodiscard]] Vector3d craniotomy_center_on_brain() const;
+  [[nodiscard]] Vector3d craniotomy_centre_on_brain() const;
   /// Craniotomy centre on the skull (same ray), world RAS mm.
-  [[nodiscard]] Vector3d craniotomy_center_on_skull() const;
+  [[nodiscard]] Vector3d craniotomy_centre_on_skull() const;
   /// True for points inside the brain (any non-background label).
   [[nodiscard]] bool inside_brain(const Vector3d& x) const;
   /// Label at world point x.

@@ -20,9 +20,9 @@ struct BrainShape {
   std::function<Vector3d(const Vector3d&)> closest_surface_point;
   /// Outward unit normal of the outer surface at (or near) a surface point.
   std::function<Vector3d(const Vector3d&)> surface_normal;
-  Vector3d craniotomy_center = Vector3d::Zero();  ///< on the brain surface, mm
+  Vector3d craniotomy_centre = Vector3d::Zero();  ///< on the brain surface, mm
   double craniotomy_radius = 25.0;                ///< mm
-  Vector3d tumour_center = Vector3d::Zero();      ///< mm
+  Vector3d tumour_centre = Vector3d::Zero();      ///< mm
   double tumour_radius = 10.0;                    ///< mm
   /// Vessels stay this S level + 3 mm or above (the flattened base; −∞: no limit), mm.
   double base_level = -1e300;

@@ -8,13 +8,13 @@ namespace brainshift::data_synth {
 double Ellipsoid::volume() const { return 4.0 / 3.0 * std::numbers::pi * semi_axes.prod(); }
 
 Vector3d Ellipsoid::normal(const Vector3d& x) const {
-  const Vector3d g = (x - center).cwiseQuotient(semi_axes.cwiseProduct(semi_axes));
+  const Vector3d g = (x - centre).cwiseQuotient(semi_axes.cwiseProduct(semi_axes));
   const double n = g.norm();
   return n > 0.0 ? Vector3d(g / n) : Vector3d::UnitZ();
 }
 
 Vector3d Ellipsoid::closest_point(const Vector3d& x) const {
-  const Vector3d p = x - center;
+  const Vector3d p = x - centre;
   const Vector3d a2 = semi_axes.cwiseProduct(semi_axes);
   // g(t) = Σ (a_i p_i / (a_i² + t))² − 1 is convex and decreasing on (−min a², ∞).
   auto g = [&](double t) {
@@ -53,7 +53,7 @@ Vector3d Ellipsoid::closest_point(const Vector3d& x) const {
     // Degenerate inside case: radial projection (never worse than a point off the surface).
     q = p / std::sqrt(p.cwiseQuotient(semi_axes).squaredNorm());
   }
-  return center + q;
+  return centre + q;
 }
 
 }  // namespace brainshift::data_synth

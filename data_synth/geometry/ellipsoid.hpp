@@ -10,12 +10,12 @@ namespace brainshift::data_synth {
 
 /// Ellipsoid {x : Σ ((x − c)_i / a_i)² ≤ 1}.
 struct Ellipsoid {
-  Vector3d center = Vector3d::Zero();     ///< c, world RAS mm
+  Vector3d centre = Vector3d::Zero();     ///< c, world RAS mm
   Vector3d semi_axes = Vector3d::Ones();  ///< a (along R, A, S), mm, > 0
 
   /// Σ ((x − c)_i / a_i)², dimensionless: < 1 inside, 1 on the surface, > 1 outside.
   [[nodiscard]] double level(const Vector3d& x) const {
-    return (x - center).cwiseQuotient(semi_axes).squaredNorm();
+    return (x - centre).cwiseQuotient(semi_axes).squaredNorm();
   }
   [[nodiscard]] bool contains(const Vector3d& x) const { return level(x) <= 1.0; }
   /// Volume 4/3 π a₀ a₁ a₂, mm³.

@@ -102,9 +102,9 @@ BrainShape LabelAnatomy::shape() const {
   s.label_at = [self](const Vector3d& x) { return self->filled_label(x); };
   s.closest_surface_point = [h = hull](const Vector3d& x) { return h->closest_point(x); };
   s.surface_normal = [h = hull](const Vector3d& x) { return h->normal(x); };
-  s.craniotomy_center = craniotomy_center;
+  s.craniotomy_centre = craniotomy_centre;
   s.craniotomy_radius = craniotomy_radius;
-  s.tumour_center = tumour_center;
+  s.tumour_centre = tumour_centre;
   s.tumour_radius = tumour_radius;
   return s;
 }
@@ -147,13 +147,13 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
               "craniotomy " << fmt(c) << " mm is outside the brain of " << source << ": "
                             << std::abs(d) << " mm from its surface (at most "
                             << o.max_craniotomy_distance << " mm)");
-    a.craniotomy_center = a.hull->closest_point(c);
+    a.craniotomy_centre = a.hull->closest_point(c);
     a.craniotomy_placement = Placement::GIVEN;
   } else {
-    a.craniotomy_center = furthest_hull_point(*a.hull, craniotomy_direction(o.up));
+    a.craniotomy_centre = furthest_hull_point(*a.hull, craniotomy_direction(o.up));
     a.craniotomy_placement = Placement::DEFAULT;
   }
-  a.craniotomy_normal = a.hull->normal(a.craniotomy_center);
+  a.craniotomy_normal = a.hull->normal(a.craniotomy_centre);
 
   // Tumour: given, the labels' own, or the default beneath the craniotomy.
   Vector3d sum = Vector3d::Zero();
@@ -167,38 +167,38 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
           ++tumour_voxels;
         }
   const double voxel_ml = g.spacing.prod() / 1000.0;
-  if (o.tumour_center) {
-    a.tumour_center = *o.tumour_center;
+  if (o.tumour_centre) {
+    a.tumour_centre = *o.tumour_centre;
     a.tumour_radius = o.tumour_radius.value_or(o.default_tumour_radius);
     a.tumour_placement = Placement::GIVEN;
   } else if (tumour_voxels > 0) {
-    a.tumour_center = sum / double(tumour_voxels);
+    a.tumour_centre = sum / double(tumour_voxels);
     a.tumour_radius =
         std::cbrt(3.0 * double(tumour_voxels) * voxel_ml * 1000.0 / (4.0 * std::numbers::pi));
     a.tumour_placement = Placement::FROM_LABELS;
   } else {
-    a.tumour_center = a.craniotomy_center - o.default_tumour_depth * a.craniotomy_normal;
+    a.tumour_centre = a.craniotomy_centre - o.default_tumour_depth * a.craniotomy_normal;
     a.tumour_radius = o.tumour_radius.value_or(o.default_tumour_radius);
     a.tumour_placement = Placement::DEFAULT;
   }
-  BS_VERIFY(a.tumour_center.allFinite(),
-            "tumour centre " << fmt(a.tumour_center) << " is not finite");
+  BS_VERIFY(a.tumour_centre.allFinite(),
+            "tumour centre " << fmt(a.tumour_centre) << " is not finite");
   BS_VERIFY(std::isfinite(a.tumour_radius) && a.tumour_radius > 0.0,
             "tumour radius " << a.tumour_radius << " mm must be positive");
-  const imaging::Label at_centre = a.voxel_label(a.tumour_center);
+  const imaging::Label at_centre = a.voxel_label(a.tumour_centre);
   BS_VERIFY(
       at_centre == imaging::BRAIN || at_centre == imaging::TUMOUR,
       (a.tumour_placement == Placement::DEFAULT ? "the default tumour centre " : "tumour centre ")
-          << fmt(a.tumour_center) << " mm is outside the brain of " << source << " (label "
+          << fmt(a.tumour_centre) << " mm is outside the brain of " << source << " (label "
           << int(at_centre) << " there)"
           << (a.tumour_placement == Placement::DEFAULT ? "; give --tumour X,Y,Z,RADIUS" : ""));
 
   // Write the tumour into the labels (a given or default sphere), and measure the brain.
   if (a.tumour_placement != Placement::FROM_LABELS) {
     const Vector3d lo =
-        g.world_to_index(a.tumour_center) - (a.tumour_radius / g.spacing.array()).matrix();
+        g.world_to_index(a.tumour_centre) - (a.tumour_radius / g.spacing.array()).matrix();
     const Vector3d hi =
-        g.world_to_index(a.tumour_center) + (a.tumour_radius / g.spacing.array()).matrix();
+        g.world_to_index(a.tumour_centre) + (a.tumour_radius / g.spacing.array()).matrix();
     for (int k = std::max(0, int(std::floor(std::min(lo.z(), hi.z()))));
          k <= std::min(g.size[2] - 1, int(std::ceil(std::max(lo.z(), hi.z())))); ++k)
       for (int j = std::max(0, int(std::floor(std::min(lo.y(), hi.y()))));
@@ -207,7 +207,7 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
              i <= std::min(g.size[0] - 1, int(std::ceil(std::max(lo.x(), hi.x())))); ++i) {
           std::uint8_t& l = a.labels.at(i, j, k);
           if (l != imaging::BACKGROUND &&
-              (g.index_to_world(Vector3d(i, j, k)) - a.tumour_center).norm() <= a.tumour_radius)
+              (g.index_to_world(Vector3d(i, j, k)) - a.tumour_centre).norm() <= a.tumour_radius)
             l = imaging::TUMOUR;
         }
   }
@@ -218,9 +218,9 @@ LabelAnatomy make_label_anatomy(const imaging::LabelVolume& labels, const LabelA
       "label anatomy {}: {:.0f} mL of brain, craniotomy ({:.1f}, {:.1f}, {:.1f}) {}, tumour "
       "({:.1f}, {:.1f}, "
       "{:.1f}) r {:.1f} mm {}",
-      source, a.brain_volume_ml, a.craniotomy_center.x(), a.craniotomy_center.y(),
-      a.craniotomy_center.z(), to_string(a.craniotomy_placement), a.tumour_center.x(),
-      a.tumour_center.y(), a.tumour_center.z(), a.tumour_radius, to_string(a.tumour_placement));
+      source, a.brain_volume_ml, a.craniotomy_centre.x(), a.craniotomy_centre.y(),
+      a.craniotomy_centre.z(), to_string(a.craniotomy_placement), a.tumour_centre.x(),
+      a.tumour_centre.y(), a.tumour_centre.z(), a.tumour_radius, to_string(a.tumour_placement));
   return a;
 }
 

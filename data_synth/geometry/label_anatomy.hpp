@@ -32,7 +32,7 @@ namespace brainshift::data_synth {
 
 struct LabelAnatomyOptions {
   std::optional<Vector3d> craniotomy;     ///< near the brain surface, world RAS mm
-  std::optional<Vector3d> tumour_center;  ///< inside the brain, world RAS mm
+  std::optional<Vector3d> tumour_centre;  ///< inside the brain, world RAS mm
   std::optional<double> tumour_radius;    ///< mm, > 0
   Vector3d up{0.0, 0.0, 1.0};             ///< against gravity (default craniotomy), any length > 0
   double craniotomy_radius = 25.0;        ///< mm
@@ -54,11 +54,11 @@ struct LabelAnatomy {
   imaging::LabelVolume labels;                     ///< the input with the tumour written in
   std::shared_ptr<const DistanceField> hull;       ///< outer brain surface (φ < 0 inside), mm
   std::shared_ptr<const DistanceField> skull;      ///< the hull grown by skull_gap, mm
-  Vector3d craniotomy_center = Vector3d::Zero();   ///< on the hull, mm
+  Vector3d craniotomy_centre = Vector3d::Zero();   ///< on the hull, mm
   Vector3d craniotomy_normal = Vector3d::UnitZ();  ///< outward unit normal of the hull there
   double craniotomy_radius = 25.0;                 ///< mm
   Placement craniotomy_placement = Placement::DEFAULT;
-  Vector3d tumour_center = Vector3d::Zero();  ///< mm
+  Vector3d tumour_centre = Vector3d::Zero();  ///< mm
   double tumour_radius = 10.0;                ///< mm
   Placement tumour_placement = Placement::DEFAULT;
   double skull_gap = 2.5;        ///< mm

@@ -187,9 +187,9 @@ PhantomMesh make_phantom_mesh(const PhantomGeometry& g, const PhantomMeshOptions
   const double h = o.cell_size;
   const int nx = int(std::ceil(g.semi_axes.x() / h)) + 1;
   const int ny = int(std::ceil(g.semi_axes.y() / h)) + 1;
-  const double height = g.center.z() + g.semi_axes.z() - g.base_level();
+  const double height = g.centre.z() + g.semi_axes.z() - g.base_level();
   const CubeTets cubes =
-      make_cube_tets(Vector3d(g.center.x() - nx * h, g.center.y() - ny * h, g.base_level()), h,
+      make_cube_tets(Vector3d(g.centre.x() - nx * h, g.centre.y() - ny * h, g.base_level()), h,
                      {2 * nx, 2 * ny, int(std::ceil(height / h)) + 1},
                      [&](const Vector3d& x) { return g.inside_brain(x); });
   BS_VERIFY(!cubes.ijk.empty(), "phantom mesh is empty: cell_size "
@@ -213,12 +213,12 @@ PhantomMesh make_phantom_mesh(const PhantomGeometry& g, const PhantomMeshOptions
     // Horizontal projection onto the ellipsoid's cross-section at the node's height (keeps base
     // nodes on the base plane); only for nodes outside the brain.
     auto horizontal = [&](const Vector3d& x) -> std::optional<Vector3d> {
-      const Vector3d p = (x - brain.center).cwiseQuotient(brain.semi_axes);
+      const Vector3d p = (x - brain.centre).cwiseQuotient(brain.semi_axes);
       const double r2 = p.x() * p.x() + p.y() * p.y(), target = 1.0 - p.z() * p.z();
       if (p.squaredNorm() <= 1.0 || r2 <= 0.0 || target <= 0.0) return std::nullopt;
       const double scale = std::sqrt(target / r2);
-      return Vector3d(brain.center.x() + scale * (x.x() - brain.center.x()),
-                      brain.center.y() + scale * (x.y() - brain.center.y()), x.z());
+      return Vector3d(brain.centre.x() + scale * (x.x() - brain.centre.x()),
+                      brain.centre.y() + scale * (x.y() - brain.centre.y()), x.z());
     };
     auto snap = [&](index_t n, const Vector3d& q) {
       nodes.row(n) = q.transpose();

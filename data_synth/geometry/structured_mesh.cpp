@@ -57,7 +57,7 @@ core::TetMesh make_box_mesh(const Vector3d& size, const Eigen::Vector3i& cells,
 }
 
 core::TetMesh make_cylinder_mesh(double radius, double length, int radial_cells, int axial_cells,
-                                 const Vector3d& center) {
+                                 const Vector3d& centre) {
   BS_VERIFY(radius > 0 && length > 0, "cylinder radius and length must be positive");
   return make_mapped_grid({radial_cells, radial_cells, axial_cells},
                           [&](const Vector3d& u) -> Vector3d {
@@ -65,11 +65,11 @@ core::TetMesh make_cylinder_mesh(double radius, double length, int radial_cells,
                             // Square-to-disc map (Fong's elliptical grid mapping).
                             const double dx = x * std::sqrt(1 - y * y / 2);
                             const double dy = y * std::sqrt(1 - x * x / 2);
-                            return center + Vector3d(radius * dx, radius * dy, length * u.z());
+                            return centre + Vector3d(radius * dx, radius * dy, length * u.z());
                           });
 }
 
-core::TetMesh make_ellipsoid_mesh(const Vector3d& semi_axes, int cells, const Vector3d& center) {
+core::TetMesh make_ellipsoid_mesh(const Vector3d& semi_axes, int cells, const Vector3d& centre) {
   BS_VERIFY((semi_axes.array() > 0).all(), "ellipsoid semi-axes must be positive");
   return make_mapped_grid({cells, cells, cells}, [&](const Vector3d& u) -> Vector3d {
     const Vector3d c = 2 * u.array() - 1;
@@ -78,7 +78,7 @@ core::TetMesh make_ellipsoid_mesh(const Vector3d& semi_axes, int cells, const Ve
     const Vector3d b(c.x() * std::sqrt(1 - y2 / 2 - z2 / 2 + y2 * z2 / 3),
                      c.y() * std::sqrt(1 - z2 / 2 - x2 / 2 + z2 * x2 / 3),
                      c.z() * std::sqrt(1 - x2 / 2 - y2 / 2 + x2 * y2 / 3));
-    return center + b.cwiseProduct(semi_axes);
+    return centre + b.cwiseProduct(semi_axes);
   });
 }
 

@@ -15,15 +15,15 @@ namespace brainshift::data_synth {
 core::TetMesh make_box_mesh(const Vector3d& size, const Eigen::Vector3i& cells,
                             const Vector3d& origin = Vector3d::Zero());
 
-/// Cylinder of radius `radius` and length `length` (mm) along +z, axis through `center` of its
+/// Cylinder of radius `radius` and length `length` (mm) along +z, axis through `centre` of its
 /// base; `radial_cells` cells across the diameter, `axial_cells` along the axis. Built by mapping
 /// the square cross-section smoothly onto the disc (no degenerate axis).
 core::TetMesh make_cylinder_mesh(double radius, double length, int radial_cells, int axial_cells,
-                                 const Vector3d& center = Vector3d::Zero());
+                                 const Vector3d& centre = Vector3d::Zero());
 
-/// Ellipsoid with semi-axes `semi_axes` (mm) centred at `center`, `cells` cells across each
+/// Ellipsoid with semi-axes `semi_axes` (mm) centred at `centre`, `cells` cells across each
 /// axis, by mapping the cube smoothly onto the ball.
 core::TetMesh make_ellipsoid_mesh(const Vector3d& semi_axes, int cells,
-                                  const Vector3d& center = Vector3d::Zero());
+                                  const Vector3d& centre = Vector3d::Zero());
 
 }  // namespace brainshift::data_synth

@@ -30,7 +30,7 @@ std::string ProbeOptions::validate() const {
 }
 
 bool Probe::in_field_of_view(const Vector3d& p) const {
-  const Vector3d q = frame.transpose() * (p - face_center);
+  const Vector3d q = frame.transpose() * (p - face_centre);
   if (q.z() < 0.0 || q.z() > options.depth) return false;
   const double r = options.footprint_radius + q.z() * std::tan(radians(options.half_angle_deg));
   return q.head<2>().squaredNorm() <= r * r;
@@ -46,17 +46,17 @@ imaging::ImageGeometry Probe::grid() const {
   g.size = {nl, nl, na};
   g.spacing = Vector3d::Constant(h);
   g.direction = frame;
-  g.origin = face_center + frame * Vector3d(-0.5 * (nl - 1) * h, -0.5 * (nl - 1) * h, 0.0);
+  g.origin = face_centre + frame * Vector3d(-0.5 * (nl - 1) * h, -0.5 * (nl - 1) * h, 0.0);
   return g;
 }
 
-Probe make_probe(const Vector3d& face_center, const Vector3d& axis, const ProbeOptions& options) {
+Probe make_probe(const Vector3d& face_centre, const Vector3d& axis, const ProbeOptions& options) {
   const std::string bad = options.validate();
   BS_VERIFY(bad.empty(), "invalid probe options: " << bad);
-  BS_VERIFY(axis.norm() > 0.0 && axis.allFinite() && face_center.allFinite(),
+  BS_VERIFY(axis.norm() > 0.0 && axis.allFinite() && face_centre.allFinite(),
             "probe axis must be finite and non-zero, got (" << axis.transpose() << ")");
   Probe probe;
-  probe.face_center = face_center;
+  probe.face_centre = face_centre;
   probe.options = options;
   const Vector3d z = axis.normalized();
   // Lateral 1: world R projected off the axis (A when the axis is along R).
@@ -76,7 +76,7 @@ Vector3d TrackingError::apply(const Vector3d& p, const Vector3d& pivot) const {
 imaging::ImageGeometry with_tracking_error(const imaging::ImageGeometry& grid, const Probe& probe,
                                            const TrackingError& error) {
   imaging::ImageGeometry g = grid;
-  g.origin = error.apply(grid.origin, probe.face_center);
+  g.origin = error.apply(grid.origin, probe.face_centre);
   g.direction = rotation(error.rotation_deg) * grid.direction;
   return g;
 }

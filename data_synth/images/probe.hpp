@@ -23,13 +23,13 @@ struct ProbeOptions {
 
 /// A probe pose (world RAS mm): the centre of its face and its frame.
 struct Probe {
-  Vector3d face_center = Vector3d::Zero();
+  Vector3d face_centre = Vector3d::Zero();
   Matrix3d frame = Matrix3d::Identity();  ///< columns: lateral 1, lateral 2, axis (into tissue)
   ProbeOptions options;
 
   /// Distance below the face along the axis, mm (negative above it).
   [[nodiscard]] double depth_of(const Vector3d& p) const {
-    return (p - face_center).dot(frame.col(2));
+    return (p - face_centre).dot(frame.col(2));
   }
   /// True inside the truncated cone of the field of view.
   [[nodiscard]] bool in_field_of_view(const Vector3d& p) const;
@@ -37,9 +37,9 @@ struct Probe {
   [[nodiscard]] imaging::ImageGeometry grid() const;
 };
 
-/// The probe at `face_center` looking along `axis` (into the tissue, any length > 0).
+/// The probe at `face_centre` looking along `axis` (into the tissue, any length > 0).
 /// \throws brainshift::Error on invalid options or a zero axis.
-Probe make_probe(const Vector3d& face_center, const Vector3d& axis, const ProbeOptions& options);
+Probe make_probe(const Vector3d& face_centre, const Vector3d& axis, const ProbeOptions& options);
 
 /// Rigid error of the probe tracking: the reported pose is the true one moved by
 /// x ↦ R (x − c) + c + t, with c the probe face centre, R = Rz(γ) Ry(β) Rx(α) for

@@ -48,7 +48,7 @@ TledProblem make_sag_problem(const PhantomGeometry& geometry, const PhantomMesh&
     p.constraints.push_back({i, {true, true, true}, Vector3d::Zero()});
   SkullContact contact;
   contact.skull = geometry.skull();
-  contact.opening_center = geometry.craniotomy_center_on_skull();
+  contact.opening_centre = geometry.craniotomy_centre_on_skull();
   contact.opening_radius = geometry.craniotomy_radius;
   contact.candidate_nodes = mesh.surface_nodes;
   p.contact = contact;

@@ -68,7 +68,7 @@ index_t enforce_contact(const SkullContact& sc, const std::vector<index_t>& cand
       q = sc.skull.closest_point(x);
       n = sc.skull.normal(q);
     }
-    if (sc.opening_radius > 0.0 && (q - sc.opening_center).norm() < sc.opening_radius) continue;
+    if (sc.opening_radius > 0.0 && (q - sc.opening_centre).norm() < sc.opening_radius) continue;
     u_next.row(i) = (q - X.row(i).transpose()).transpose();
     const Vector3d d = (u_next.row(i) - u.row(i)).transpose();
     const double dn = d.dot(n);

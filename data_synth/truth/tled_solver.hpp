@@ -47,13 +47,13 @@ struct NodeConstraint {
 };
 
 /// Rigid skull with an opening (the craniotomy): nodes may not leave the ellipsoid except
-/// where the closest skull point is within opening_radius of opening_center.
+/// where the closest skull point is within opening_radius of opening_centre.
 struct SkullContact {
   Ellipsoid skull;  ///< world RAS mm (unused with a hull)
   /// The skull as the zero level of a signed distance field (mm, negative inside) instead of the
   /// ellipsoid: the brain's outer surface grown by the CSF gap (label anatomies).
   std::shared_ptr<const DistanceField> hull;
-  Vector3d opening_center = Vector3d::Zero();  ///< on the skull, mm
+  Vector3d opening_centre = Vector3d::Zero();  ///< on the skull, mm
   double opening_radius = 0.0;                 ///< mm, ≥ 0 (0: closed skull)
   std::vector<index_t> candidate_nodes;        ///< nodes that can touch the skull (empty: all)
 };

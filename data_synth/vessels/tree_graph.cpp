@@ -120,9 +120,9 @@ VesselTree place_user_tree(const VesselTree& user, const PhantomGeometry& geomet
   const double extent = (hi - lo).maxCoeff();
   const double scale = extent > 0.0 ? placement.target_extent / extent : 1.0;
   const Ellipsoid brain = geometry.brain_ellipsoid();
-  const Vector3d cc = geometry.craniotomy_center_on_brain();
+  const Vector3d cc = geometry.craniotomy_centre_on_brain();
   const Vector3d target = cc - placement.depth * brain.normal(cc);
-  const Vector3d tc = geometry.tumour_center();
+  const Vector3d tc = geometry.tumour_centre();
   for (std::size_t i = 0; i < tree.points.size(); ++i) {
     Vector3d p = target + scale * (tree.points[i] - mean);
     if (!geometry.inside_brain(p) || p.z() < geometry.base_level() + 3.0) {

@@ -107,21 +107,21 @@ class TreeGrower {
 
   [[nodiscard]] bool valid(const Vector3d& p) const {
     return m_g.label_at(p) == imaging::BRAIN &&
-           (p - m_g.tumour_center).norm() >= m_g.tumour_radius + 1.0 &&
+           (p - m_g.tumour_centre).norm() >= m_g.tumour_radius + 1.0 &&
            p.z() >= m_g.base_level + 3.0;
   }
 
   /// Unit normal of the guide surface near p (outward).
   [[nodiscard]] Vector3d guide_normal(const Vector3d& p, const Guide& guide) const {
     if (guide.cortical) return m_g.surface_normal(m_g.closest_surface_point(p));
-    return (p - m_g.tumour_center).normalized();
+    return (p - m_g.tumour_centre).normalized();
   }
   [[nodiscard]] Vector3d project(const Vector3d& q, const Guide& guide) const {
     if (guide.cortical) {
       const Vector3d c = m_g.closest_surface_point(q);
       return c - guide.offset * m_g.surface_normal(c);
     }
-    const Vector3d tc = m_g.tumour_center;
+    const Vector3d tc = m_g.tumour_centre;
     return tc + (m_g.tumour_radius + guide.offset) * (q - tc).normalized();
   }
 
@@ -140,7 +140,7 @@ class TreeGrower {
   }
 
   void grow_cortical_tree(int t) {
-    const Vector3d cc = m_g.craniotomy_center;
+    const Vector3d cc = m_g.craniotomy_centre;
     const Vector3d n = m_g.surface_normal(cc);
     const Vector3d t1 = (Vector3d::UnitX() - Vector3d::UnitX().dot(n) * n).normalized();
     const Vector3d t2 = n.cross(t1);
@@ -220,7 +220,7 @@ class TreeGrower {
 
   /// A penetrating branch from a cortical point toward the tumour, then branching on the shell.
   void grow_deep_branch(index_t cortical_points) {
-    const Vector3d tc = m_g.tumour_center;
+    const Vector3d tc = m_g.tumour_centre;
     std::vector<index_t> candidates;
     for (index_t i = 0; i < cortical_points; ++i)
       if (m_tree.generation[std::size_t(i)] <= 2 &&

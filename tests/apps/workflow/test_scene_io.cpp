@@ -128,6 +128,47 @@ TEST(SceneIo, BadScenesGiveOneLineErrorsNamingFileAndKey) {
       {"'materials.poisson_ratio'", "out of range"});
 }
 
+TEST(SceneIo, EveryOptionIsSettableFromTheSceneAndTheOldSpellingIsRejected) {
+  SceneFolder f;
+  // Options that only a recompilation could change before the tables (issue 17).
+  const Scene s = read_scene(f.scene(R"({
+    "mesh": "mesh.vtu",
+    "shift_search": {"radius_mm": 30, "stage_iterations": 12, "load_basis": false},
+    "pairing": {"refine_distance_mm": 1.5},
+    "global_start": {"max_translation_mm": 40, "bulk_response": false},
+    "noise": {"enabled": true, "criterion": "gcv"},
+    "acceptance": {"min_vessel_pairs": 7},
+    "solver": {"pgs_stall_window": 50, "compliance_strategy": "sparse_solve", "cold_retry": false},
+    "craniotomy": {"centre_mm": [1, 2, 3]}
+  })"));
+  const auto& o = s.options;
+  EXPECT_EQ(o.shift_search.radius_mm, 30.0);
+  EXPECT_EQ(o.shift_stage_iterations, 12);
+  EXPECT_FALSE(o.shift_load_basis);
+  EXPECT_EQ(o.refine_pair_distance_mm, 1.5);
+  EXPECT_EQ(o.global_start.max_translation_mm, 40.0);
+  EXPECT_FALSE(o.global_start.bulk_response);
+  EXPECT_TRUE(o.noise.enabled);
+  EXPECT_EQ(o.noise.criterion, constraints::NoiseCriterion::GCV);
+  EXPECT_EQ(o.min_vessel_pairs, 7);
+  EXPECT_EQ(o.step.pgs.stall_window, 50);
+  EXPECT_EQ(s.compliance.strategy, constraints::ComplianceStrategy::SPARSE_SOLVE);
+  EXPECT_FALSE(o.cold_retry);
+  EXPECT_EQ(o.dura.craniotomy_centre, Vector3d(1, 2, 3));
+  // The old spelling is an error with the new one, not silently ignored.
+  expect_error(
+      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"center_mm": [0, 0, 1]}})")); },
+      {"scene.json", "'craniotomy.center_mm' is spelled 'craniotomy.centre_mm'"});
+  // A value the table accepts but validate() does not (fine kernel wider than the coarse one).
+  expect_error(
+      [&] {
+        read_scene(f.scene(R"({"mesh": "mesh.vtu", "global_start": {"fine_kernel_mm": 9}})"));
+      },
+      {"scene.json", "fine_kernel_mm"});
+  EXPECT_TRUE(scene_option_keys().count("noise"));
+  EXPECT_FALSE(scene_option_keys().count("mesh"));
+}
+
 TEST(SurfaceIo, RoundTripsExactlyAndRejectsNonTriangles) {
   SceneFolder f;
   const core::SurfaceMesh s = read_surface_vtp(f.dir / "surface.vtp");

@@ -80,11 +80,11 @@ TEST(LabelCase, RefusedRequestsLeaveNothingBehind) {
   imaging::write_labels(labels, make_label_volume(PhantomGeometry{}, io));
   LabelCaseRequest r;
   r.labels = labels;
-  r.tumour_center = Vector3d(400.0, 0.0, 0.0);
+  r.tumour_centre = Vector3d(400.0, 0.0, 0.0);
   CaseOptions o;
   o.out = tmp.path / "case";
   EXPECT_THROW((void)generate_label_case(r, o), Error);
-  r.tumour_center.reset();
+  r.tumour_centre.reset();
   r.labels = tmp.path / "missing.nii.gz";
   EXPECT_THROW((void)generate_label_case(r, o), Error);
   // Only the labels file: no case folder, no temporary sibling.

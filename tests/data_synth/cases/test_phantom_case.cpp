@@ -119,7 +119,7 @@ void check_DopplerHasSignalOnlyInsideTheFieldOfView(const fs::path& dir,
   po.footprint_radius += header_slack;
   const Vector3d axis = v3(j["probe"]["axis"]);
   const Probe probe =
-      make_probe(v3(j["probe"]["face_center_mm"]) - header_slack * axis.normalized(), axis, po);
+      make_probe(v3(j["probe"]["face_centre_mm"]) - header_slack * axis.normalized(), axis, po);
   index_t inside_signal = 0, outside_signal = 0;
   const imaging::ImageGeometry& g = doppler.geometry;
   for (int k = 0; k < g.size[2]; ++k)

@@ -34,7 +34,7 @@ TEST(Ellipsoid, ClosestPointIsOnTheSurfaceAlongTheNormal) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> d(-120, 120);
   for (int trial = 0; trial < 200; ++trial) {
-    const Vector3d x = e.center + Vector3d(d(rng), d(rng), d(rng));
+    const Vector3d x = e.centre + Vector3d(d(rng), d(rng), d(rng));
     const Vector3d q = e.closest_point(x);
     SCOPED_TRACE(::testing::Message() << "x " << x.transpose() << " q " << q.transpose());
     // On the surface to rounding; x − q parallel to the normal (the optimality condition).
@@ -68,13 +68,13 @@ TEST_P(PhantomLabels, VoxelVolumesMatchTheAnalyticVolumesAndWorldPointsHitTheirL
   EXPECT_TRUE(tests::near(vox[3], a.ventricles, 0, 3e-2));
   EXPECT_TRUE(tests::near(vox[1], a.brain_total - a.tumour - a.ventricles, 0, 3e-3));
 
-  EXPECT_EQ(label_of_voxel_at(v, g.tumour_center()), imaging::TUMOUR);
-  EXPECT_EQ(label_of_voxel_at(v, g.ventricle(0).center), imaging::VENTRICLES);
-  EXPECT_EQ(label_of_voxel_at(v, g.ventricle(1).center), imaging::VENTRICLES);
-  const Vector3d up = (g.craniotomy_center_on_brain() - g.center).normalized();
-  EXPECT_EQ(label_of_voxel_at(v, g.craniotomy_center_on_brain() - 3.0 * up), imaging::BRAIN);
-  EXPECT_EQ(label_of_voxel_at(v, g.craniotomy_center_on_brain() + 2.0 * up), imaging::BACKGROUND);
-  EXPECT_EQ(label_of_voxel_at(v, Vector3d(g.center.x(), g.center.y(), g.base_level() - 2)),
+  EXPECT_EQ(label_of_voxel_at(v, g.tumour_centre()), imaging::TUMOUR);
+  EXPECT_EQ(label_of_voxel_at(v, g.ventricle(0).centre), imaging::VENTRICLES);
+  EXPECT_EQ(label_of_voxel_at(v, g.ventricle(1).centre), imaging::VENTRICLES);
+  const Vector3d up = (g.craniotomy_centre_on_brain() - g.centre).normalized();
+  EXPECT_EQ(label_of_voxel_at(v, g.craniotomy_centre_on_brain() - 3.0 * up), imaging::BRAIN);
+  EXPECT_EQ(label_of_voxel_at(v, g.craniotomy_centre_on_brain() + 2.0 * up), imaging::BACKGROUND);
+  EXPECT_EQ(label_of_voxel_at(v, Vector3d(g.centre.x(), g.centre.y(), g.base_level() - 2)),
             imaging::BACKGROUND);
   // The grid covers the skull: every corner voxel is background and lies outside the skull.
   for (int c = 0; c < 8; ++c) {
@@ -95,9 +95,9 @@ INSTANTIATE_TEST_SUITE_P(BrainPhantom, PhantomLabels, ::testing::Bool());
 TEST(BrainPhantom, CraniotomyCentresLieOnBrainAndSkull) {
   const PhantomGeometry g;
   // Ray-ellipsoid intersection is closed form: exact to rounding.
-  EXPECT_NEAR(g.brain_ellipsoid().level(g.craniotomy_center_on_brain()), 1.0, 1e-12);
-  EXPECT_NEAR(g.skull().level(g.craniotomy_center_on_skull()), 1.0, 1e-12);
-  EXPECT_GT(g.craniotomy_center_on_brain().z(), g.center.z());  // on the top surface
+  EXPECT_NEAR(g.brain_ellipsoid().level(g.craniotomy_centre_on_brain()), 1.0, 1e-12);
+  EXPECT_NEAR(g.skull().level(g.craniotomy_centre_on_skull()), 1.0, 1e-12);
+  EXPECT_GT(g.craniotomy_centre_on_brain().z(), g.centre.z());  // on the top surface
 }
 
 TEST(BrainPhantom, RejectsInvalidParameters) {

@@ -43,7 +43,7 @@ TEST(LabelAnatomy, HullLiesOnTheEllipsoidAndTheLabelsTumourIsFound) {
     for (double phi = 0.0; phi < 2.0 * std::numbers::pi; phi += 0.7) {
       const Vector3d d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
                        std::cos(theta));
-      const Vector3d x = brain.center + brain.semi_axes.cwiseProduct(d);
+      const Vector3d x = brain.centre + brain.semi_axes.cwiseProduct(d);
       EXPECT_NEAR(a.hull->value(x), 0.0, 1.5) << x.transpose();
       // The skull is the hull grown by the 2.5 mm gap: the convex brain needs no bridging, so the
       // same staircase tolerance.
@@ -51,7 +51,7 @@ TEST(LabelAnatomy, HullLiesOnTheEllipsoidAndTheLabelsTumourIsFound) {
     }
   EXPECT_EQ(a.tumour_placement, Placement::FROM_LABELS);
   // Centroid and equivalent-sphere radius of the 12 mm tumour at 2 mm voxels: within a voxel.
-  EXPECT_LT((a.tumour_center - g.tumour_center()).norm(), 1.0);
+  EXPECT_LT((a.tumour_centre - g.tumour_centre()).norm(), 1.0);
   EXPECT_NEAR(a.tumour_radius, g.tumour_radius, 1.0);
   // Brain volume (labels 1-3) against the analytic cut ellipsoid: 2 % (the staircase).
   EXPECT_NEAR(a.brain_volume_ml, analytic_volumes(g).brain_total / 1000.0,
@@ -66,31 +66,31 @@ TEST(LabelAnatomy, DefaultsPutTheCraniotomyOnTheUpperConvexityAndTheTumourBeneat
   // On the hull (Newton projection: 0.1 mm) and on the upper convexity: the normal is within 40°
   // of up (the default direction is up tilted 25° toward +R; the ellipsoid's normal there tilts
   // further, but not past 40°), on the right (+R) side.
-  EXPECT_NEAR(a.hull->value(a.craniotomy_center), 0.0, 0.1);
+  EXPECT_NEAR(a.hull->value(a.craniotomy_centre), 0.0, 0.1);
   EXPECT_GT(a.craniotomy_normal.z(), std::cos(40.0 * std::numbers::pi / 180.0))
       << a.craniotomy_normal.transpose();
-  EXPECT_GT(a.craniotomy_center.x(), g.center.x());
+  EXPECT_GT(a.craniotomy_centre.x(), g.centre.x());
   // Tumour: 30 mm beneath along the inward normal, radius 10 mm, written into the labels.
-  EXPECT_NEAR((a.tumour_center - a.craniotomy_center).norm(), 30.0, 1e-9);
+  EXPECT_NEAR((a.tumour_centre - a.craniotomy_centre).norm(), 30.0, 1e-9);
   EXPECT_DOUBLE_EQ(a.tumour_radius, 10.0);
-  EXPECT_EQ(a.voxel_label(a.tumour_center), imaging::TUMOUR);
-  EXPECT_EQ(a.voxel_label(a.tumour_center + 12.0 * Vector3d::UnitX()), imaging::BRAIN);
+  EXPECT_EQ(a.voxel_label(a.tumour_centre), imaging::TUMOUR);
+  EXPECT_EQ(a.voxel_label(a.tumour_centre + 12.0 * Vector3d::UnitX()), imaging::BRAIN);
 }
 
 TEST(LabelAnatomy, GivenPlacementsAreUsedAndProjected) {
   const PhantomGeometry g = ellipsoid_phantom(false);
   LabelAnatomyOptions o;
-  const Vector3d top = g.center + Vector3d(0.0, 0.0, g.semi_axes.z());
+  const Vector3d top = g.centre + Vector3d(0.0, 0.0, g.semi_axes.z());
   o.craniotomy = top + Vector3d(0.0, 0.0, 5.0);  // 5 mm above the surface: projected onto it
-  o.tumour_center = g.center + Vector3d(-20.0, 10.0, 20.0);
+  o.tumour_centre = g.centre + Vector3d(-20.0, 10.0, 20.0);
   o.tumour_radius = 8.0;
   const LabelAnatomy a = make_label_anatomy(labels_of(g), o, "ellipsoid labels");
   EXPECT_EQ(a.craniotomy_placement, Placement::GIVEN);
   // Within the staircase tolerance of the top point.
-  EXPECT_LT((a.craniotomy_center - top).norm(), 1.5);
+  EXPECT_LT((a.craniotomy_centre - top).norm(), 1.5);
   EXPECT_EQ(a.tumour_placement, Placement::GIVEN);
   EXPECT_DOUBLE_EQ(a.tumour_radius, 8.0);
-  EXPECT_EQ(a.voxel_label(*o.tumour_center), imaging::TUMOUR);
+  EXPECT_EQ(a.voxel_label(*o.tumour_centre), imaging::TUMOUR);
 }
 
 TEST(LabelAnatomy, TruthMeshFillsTheBrainWithAFixedBase) {
@@ -165,14 +165,14 @@ TEST(LabelAnatomy, BadInputsAreOneLineErrorsNamingTheValue) {
   EXPECT_NE(e.find("label 7"), std::string::npos) << e;
 
   LabelAnatomyOptions o;
-  o.tumour_center = Vector3d(500.0, 0.0, 0.0);
+  o.tumour_centre = Vector3d(500.0, 0.0, 0.0);
   e = error_of([&] { (void)make_label_anatomy(labels, o, "l.nii.gz"); });
   EXPECT_NE(e.find("tumour centre (500, 0, 0) mm is outside the brain of l.nii.gz"),
             std::string::npos)
       << e;
 
   o = {};
-  o.tumour_center = g.center;
+  o.tumour_centre = g.centre;
   o.tumour_radius = -2.0;
   e = error_of([&] { (void)make_label_anatomy(labels, o, "l.nii.gz"); });
   EXPECT_NE(e.find("tumour radius -2 mm"), std::string::npos) << e;

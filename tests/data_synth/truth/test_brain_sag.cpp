@@ -56,14 +56,14 @@ TEST(BrainSag, DefaultPhantomConvergesToACorticalShiftOf5To25MmInsideTheSkull) {
     const Vector3d x = run.mesh.mesh.nodes().row(i).transpose() + r.displacement.row(i).transpose();
     if (skull.level(x) <= 1.0) continue;
     const Vector3d q = skull.closest_point(x);
-    if ((q - g.craniotomy_center_on_skull()).norm() < g.craniotomy_radius) continue;
+    if ((q - g.craniotomy_centre_on_skull()).norm() < g.craniotomy_radius) continue;
     EXPECT_LT((x - q).norm(), 1e-3) << "node " << i << " is outside the skull";
   }
   // Gravity is −S: the cortex under the craniotomy sinks (moves against S).
   index_t top = run.mesh.surface_nodes.front();
   for (const index_t i : run.mesh.surface_nodes)
-    if ((run.mesh.mesh.nodes().row(i).transpose() - g.craniotomy_center_on_brain()).norm() <
-        (run.mesh.mesh.nodes().row(top).transpose() - g.craniotomy_center_on_brain()).norm())
+    if ((run.mesh.mesh.nodes().row(i).transpose() - g.craniotomy_centre_on_brain()).norm() <
+        (run.mesh.mesh.nodes().row(top).transpose() - g.craniotomy_centre_on_brain()).norm())
       top = i;
   EXPECT_LT(r.displacement(top, 2), -1.0);
   RecordProperty("cortical_shift_mm", std::to_string(run.cortical_shift));

@@ -283,7 +283,7 @@ TEST(TledCalculix, SaggingBlockOnARigidPlaneMatchesCalculixFrictionlessContact) 
   SkullContact plane;  // see the file comment: an ellipsoid flat enough to be the plane
   constexpr double kFlat = 1e6, kThick = 100.0;  // mm
   plane.skull.semi_axes = {kFlat, kFlat, kThick};
-  plane.skull.center = {0.5 * kSpan, 0.5 * kWidth, kPlaneLevel + kThick};
+  plane.skull.centre = {0.5 * kSpan, 0.5 * kWidth, kPlaneLevel + kThick};
   plane.candidate_nodes = candidates;
   b.contact = plane;
   for (const index_t i : candidates) {
@@ -333,7 +333,7 @@ TEST(TledCalculix, CoarsePhantomSagWithSkullContactMatchesCalculix) {
   for (const index_t i : skull.candidate_nodes) {
     const Vector3d x = b.mesh.nodes().row(i).transpose();
     const Vector3d q = skull.skull.closest_point(x);
-    if (skull.skull.level(x) > 1.0 || (q - skull.opening_center).norm() < skull.opening_radius)
+    if (skull.skull.level(x) > 1.0 || (q - skull.opening_centre).norm() < skull.opening_radius)
       continue;
     const Vector3d normal = skull.skull.normal(q);
     candidates.push_back(i);

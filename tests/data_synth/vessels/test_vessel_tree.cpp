@@ -83,7 +83,7 @@ TEST(VesselTree, OneSideTreesStayOnTheirSideOfTheCraniotomy) {
       ++roots;
     }
   ASSERT_GT(roots, 0);
-  EXPECT_GT(mean.x() / roots, g.craniotomy_center_on_brain().x());
+  EXPECT_GT(mean.x() / roots, g.craniotomy_centre_on_brain().x());
 }
 
 TEST(VesselTree, RoundTripsThroughAVesselGraph) {
