@@ -8,6 +8,7 @@
 #include "apps/workflow/compliance_cache.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
@@ -23,10 +24,8 @@
 namespace brainshift::apps {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 
 void mesh_box(const core::TetMesh& mesh, Vector3d& lo, Vector3d& hi) {
   lo = mesh.nodes().colwise().minCoeff().transpose();

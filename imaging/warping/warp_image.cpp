@@ -2,6 +2,7 @@
 
 #include "core/logger.hpp"
 #include "core/mesh/boundary.hpp"
+#include "core/timing.hpp"
 
 #include <algorithm>
 #include <array>
@@ -192,9 +193,7 @@ MatrixX3d map_rows(const Affine& m, const MatrixX3d& P) {
   return out;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+using core::seconds_since;
 
 void check_extension(double extension_mm) {
   BS_VERIFY(std::isfinite(extension_mm) && extension_mm >= 0.0,
