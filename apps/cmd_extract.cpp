@@ -1,6 +1,7 @@
 #include "cmd_extract.hpp"
 
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/skeleton_io.hpp"
@@ -127,10 +128,9 @@ int run_extract_vessels(const ExtractVesselsArgs& args, std::ostream& out) {
 
   imaging::VesselExtractionOptions options;
   options.prefilter_sigma_mm = args.prefilter_mm;
-  const auto t0 = std::chrono::steady_clock::now();
+  const core::Stopwatch watch;
   const imaging::VesselExtractionResult r = imaging::extract_vessels(image, options);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double seconds = watch.seconds();
   BS_VERIFY(r.non_finite_voxels < image.geometry.voxel_count(),
             file << ": every voxel is NaN or infinite");
   BS_VERIFY(r.status == imaging::VesselStatus::OK,

@@ -2,24 +2,22 @@
 
 #include "core/error.hpp"
 #include "core/solver/static_solver.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/mesh_io.hpp"
 
 #include <CLI/CLI.hpp>
 
-#include <chrono>
 #include <iostream>
 #include <set>
 
 namespace brainshift::apps {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using core::Clock;
 
-double seconds_since(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
+using core::seconds_since;
 
 /// Dirichlet nodes (sorted, unique) = fixed ∪ displaced; a node in both is an error.
 std::vector<index_t> dirichlet_nodes(const SimulateArgs& args, const std::vector<index_t>& fixed,

@@ -20,6 +20,7 @@
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/result_fields.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/nrrd_io.hpp"
@@ -33,10 +34,8 @@
 namespace brainshift::apps::slicer {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 
 std::optional<std::filesystem::path> optional_path(const Values& v, const char* name) {
   const auto it = v.find(name);

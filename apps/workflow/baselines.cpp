@@ -1,5 +1,7 @@
 #include "apps/workflow/baselines.hpp"
 
+#include "core/timing.hpp"
+
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -8,10 +10,8 @@
 namespace brainshift::apps {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 
 }  // namespace
 

@@ -6,6 +6,7 @@
 #include "constraints/registration/uncertainty.hpp"
 #include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
+#include "core/timing.hpp"
 #include "data_synth/cases/label_case.hpp"
 #include "data_synth/cases/phantom_case.hpp"
 #include "imaging/io/csv.hpp"
@@ -24,10 +25,8 @@
 namespace brainshift::apps {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 using constraints::RegistrationOptions;
 using constraints::RegistrationResult;
 

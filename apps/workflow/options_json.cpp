@@ -84,14 +84,12 @@ class Collector {
   template <class E>
   void operator()(std::string_view name, core::EnumFlag<E> flag, std::string_view doc) {
     OptionField& f = add(name, Kind::BOOLEAN, doc);
-    f.set = [m = &flag.value, on = flag.on, off = flag.off, p = f.path](const json& v,
-                                                                     const std::string& file) {
-      *m = boolean(v, file, p) ? on : off;
-    };
+    f.set = [m = &flag.value, on = flag.on, off = flag.off, p = f.path](
+                const json& v, const std::string& file) { *m = boolean(v, file, p) ? on : off; };
     f.get = [m = &flag.value, on = flag.on] { return json(*m == on); };
   }
   template <class E>
-    requires std::is_enum_v<E>
+  requires std::is_enum_v<E>
   void operator()(std::string_view name, E& m, std::string_view doc) {
     OptionField& f = add(name, Kind::ENUM, doc);
     std::string choices;
@@ -112,9 +110,9 @@ class Collector {
   void operator()(std::string_view name, Vector3d& m, std::string_view doc) {
     OptionField& f = add(name, Kind::VECTOR3, doc);
     f.set = [m = &m, p = f.path](const json& a, const std::string& file) {
-      BS_VERIFY(a.is_array() && a.size() == 3 && a[0].is_number() && a[1].is_number() &&
-                    a[2].is_number(),
-                file << ": '" << p << "' must be an array of 3 numbers" << unit_text(p));
+      BS_VERIFY(
+          a.is_array() && a.size() == 3 && a[0].is_number() && a[1].is_number() && a[2].is_number(),
+          file << ": '" << p << "' must be an array of 3 numbers" << unit_text(p));
       const Vector3d x(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
       BS_VERIFY(x.allFinite(), file << ": '" << p << "' must be finite");
       *m = x;
@@ -151,7 +149,8 @@ class Collector {
 };
 
 /// The keys directly under `prefix` (e.g. "solver.") that some field path continues with.
-std::set<std::string> keys_under(const std::vector<OptionField>& fields, const std::string& prefix) {
+std::set<std::string> keys_under(const std::vector<OptionField>& fields,
+                                 const std::string& prefix) {
   std::set<std::string> keys;
   for (const OptionField& f : fields)
     if (f.path.starts_with(prefix)) {
@@ -193,8 +192,8 @@ void read_object(const json& j, const std::string& file, const std::string& pref
       BS_VERIFY(!known.count(renamed), file << ": '" << path << "' is spelled '" << prefix
                                             << renamed << "' (one spelling: centre)");
     }
-    BS_VERIFY(false, file << ": unknown key '" << path << "' (known here: " << joined(known)
-                          << ")");
+    BS_VERIFY(false,
+              file << ": unknown key '" << path << "' (known here: " << joined(known) << ")");
   }
 }
 

@@ -4,6 +4,7 @@
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/scene_io.hpp"
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
@@ -241,7 +242,7 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   }
   const core::TetMesh& mesh = meshed.mesh;
   const double t_mesh = progress.seconds();
-  const auto t_surface_start = std::chrono::steady_clock::now();
+  const core::Stopwatch surface_watch;
   progress.stage("collision surface, fixed region and craniotomy (" +
                  std::to_string(mesh.num_nodes()) + " nodes, " + std::to_string(mesh.num_tets()) +
                  " tetrahedra)");
@@ -251,8 +252,7 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   const imaging::CollisionSurface collision =
       imaging::make_collision_surface(mesh, outer, surface_options);
   const core::SurfaceMesh& surface = collision.surface;
-  const double t_surface =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_surface_start).count();
+  const double t_surface = surface_watch.seconds();
   if (collision.wrapped)
     progress.stage(
         "the mesh boundary is non-manifold at " + std::to_string(collision.non_manifold_edges) +

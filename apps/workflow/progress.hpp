@@ -4,7 +4,8 @@
 /// longer than a second shows it is alive; results go to stdout. A sink can take the stages
 /// instead (the Slicer modules report them in Slicer's `<filter-progress>` format).
 
-#include <chrono>
+#include "core/timing.hpp"
+
 #include <functional>
 #include <iostream>
 #include <string>
@@ -17,7 +18,7 @@ class Progress {
   /// Receives each stage (what starts now, seconds since construction) instead of stderr.
   using Sink = std::function<void(const std::string& what, double seconds)>;
   explicit Progress(std::string command, Sink sink = {})
-      : m_command(std::move(command)), m_sink(std::move(sink)), m_start(Clock::now()) {}
+      : m_command(std::move(command)), m_sink(std::move(sink)) {}
   /// One line on stderr (or a call of the sink) naming the stage that starts now.
   void stage(const std::string& what) const {
     if (m_sink) {
@@ -27,12 +28,9 @@ class Progress {
     std::cerr << "brainshift " << m_command << ": [" << format(seconds()) << " s] " << what << "\n";
   }
   /// Seconds since construction.
-  [[nodiscard]] double seconds() const {
-    return std::chrono::duration<double>(Clock::now() - m_start).count();
-  }
+  [[nodiscard]] double seconds() const { return m_watch.seconds(); }
 
  private:
-  using Clock = std::chrono::steady_clock;
   static std::string format(double s) {
     char b[32];
     std::snprintf(b, sizeof b, "%.1f", s);
@@ -40,7 +38,7 @@ class Progress {
   }
   std::string m_command;
   Sink m_sink;
-  Clock::time_point m_start;
+  core::Stopwatch m_watch;
 };
 
 }  // namespace brainshift::apps

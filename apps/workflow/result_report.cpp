@@ -4,6 +4,7 @@
 #include "apps/workflow/result_fields.hpp"
 #include "apps/workflow/result_overlay.hpp"
 #include "core/logger.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 
@@ -13,10 +14,8 @@
 namespace brainshift::apps {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 
 nlohmann::json matrix_json(const Eigen::Matrix4d& m) {
   nlohmann::json j = nlohmann::json::array();

@@ -1,6 +1,7 @@
 #include "apps/workflow/result_uncertainty.hpp"
 
 #include "core/error.hpp"
+#include "core/timing.hpp"
 #include "imaging/evaluation/metrics.hpp"
 #include "imaging/warping/warp_image.hpp"
 
@@ -49,7 +50,7 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
   ResultUncertainty u;
   u.computed = true;
   u.nodal = constraints::predict_uncertainty(*s.model, r, s.loaded.scene.options);
-  const auto t0 = std::chrono::steady_clock::now();
+  const core::Stopwatch watch;
   // Rasterise [tr Σ, 1, 0] as a "displacement" with no rigid part: component 0 interpolates the
   // variance inside the mesh, component 1 is 1 inside and 0 outside.
   MatrixX3d nodal(mesh.num_nodes(), 3);
@@ -69,7 +70,7 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
     u.median_mm = imaging::percentile(inside, 50.0);
     u.p95_mm = imaging::percentile(inside, 95.0);
   }
-  u.seconds_map = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  u.seconds_map = watch.seconds();
   return u;
 }
 

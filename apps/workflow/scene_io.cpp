@@ -1,7 +1,6 @@
 #include "apps/workflow/scene_io.hpp"
 
 #include "apps/workflow/options_json.hpp"
-
 #include "core/error.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/mesh_io.hpp"
@@ -90,7 +89,7 @@ class Reader {
 constexpr double kBig = 1e6;
 
 /// The scene's own keys (its files and their settings); every other key is an option.
-const std::set<std::string> kSceneFileKeys = {"version",  "mesh",  "materials",        "fixed",
+const std::set<std::string> kSceneFileKeys = {"version",           "mesh",   "materials", "fixed",
                                               "collision_surface", "vessels"};
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "apps/workflow/intraop_footprint.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "core/timing.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
 
@@ -12,10 +13,8 @@
 namespace brainshift::apps {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 
 void mesh_box(const core::TetMesh& mesh, Vector3d& lo, Vector3d& hi) {
   lo = mesh.nodes().colwise().minCoeff().transpose();

@@ -4,13 +4,13 @@
 #include "core/logger.hpp"
 #include "core/mapping/closest_point.hpp"
 #include "core/mesh/tet_mesh.hpp"
+#include "core/timing.hpp"
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -48,10 +48,8 @@ std::string GlobalStartOptions::validate() const {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+using core::Clock;
+constexpr auto since = &core::seconds_since;  // core/timing.hpp
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kMaxVoxels = 4.0e6;
 

@@ -6,19 +6,17 @@
 #include "constraints/registration/vessel_blocks.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "core/timing.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 
 namespace brainshift::constraints {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+using core::Clock;
+using core::seconds_since;
 
 MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p) {
   MatrixX3d out(p.rows(), 3);

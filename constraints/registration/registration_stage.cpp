@@ -3,19 +3,17 @@
 #include "constraints/registration/pairing.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "core/timing.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 
 namespace brainshift::constraints {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+using core::Clock;
+using core::seconds_since;
 
 using PairKey = std::array<std::int64_t, 3>;  // (set, point, feature)
 

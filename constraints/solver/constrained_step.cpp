@@ -4,16 +4,14 @@
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/solver/nodal_rotations.hpp"
+#include "core/timing.hpp"
 
 #include <algorithm>
-#include <chrono>
 
 namespace brainshift::constraints {
 namespace {
-using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+using core::Clock;
+using core::seconds_since;
 
 /// Wᵢᵢ += compliance_ratio[set of row i] · median(diag W).
 /// Returns median(diag W), the unit of the ratios.

@@ -1,10 +1,11 @@
 #pragma once
 /// @file
 /// @brief Point location in a tetrahedral mesh: which tetrahedron contains a point, or which is
-/// nearest when the point lies just outside. A uniform grid over the tetrahedra's bounding boxes
-/// (cell size ≈ mean edge length) gives O(1) candidates per query.
+/// nearest when the point lies just outside. The project's grid index over the tetrahedra's
+/// bounding boxes (core/spatial/grid_index.hpp) gives O(1) candidates per query.
 
 #include "core/config.hpp"
+#include "core/spatial/grid_index.hpp"
 
 #include <optional>
 #include <vector>
@@ -31,11 +32,7 @@ class TetLocator {
  private:
   MatrixX3d m_nodes;
   MatrixX4i m_tets;
-  Vector3d m_origin;
-  double m_cell = 1.0;
-  Eigen::Vector3i m_dims;
-  std::vector<index_t> m_cell_start;  // CSR over grid cells
-  std::vector<index_t> m_cell_tets;
+  GridIndex m_grid;  // over the tetrahedra's bounding boxes
 };
 
 /// Barycentric coordinates of p w.r.t. the tetrahedron with rows X (may be negative outside).

@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "core/timing.hpp"
 #include "data_synth/cases/case_anatomy.hpp"
 #include "data_synth/cases/case_outputs.hpp"
 #include "data_synth/truth/truth_field.hpp"
@@ -11,7 +12,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include <chrono>
 #include <fstream>
 #include <iomanip>
 #include <memory>
@@ -22,12 +22,10 @@ namespace brainshift::data_synth {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
+using core::Clock;
 using nlohmann::json;
 
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
+using core::seconds_since;
 
 json to_json(const Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
 

@@ -1,6 +1,8 @@
 #include "data_synth/images/tube_raster.hpp"
 
 #include "core/error.hpp"
+#include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/separable.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -56,43 +58,15 @@ void draw_tubes(imaging::VolumeF& volume, const std::vector<TubeSegment>& segmen
   }
 }
 
-namespace {
-
-void blur_axis(imaging::VolumeF& v, int axis, const std::vector<double>& kernel) {
-  const Eigen::Vector3i n = v.geometry.size;
-  const int half = int(kernel.size() / 2);
-  std::vector<double> line(static_cast<std::size_t>(n[axis]));
-  Eigen::Vector3i idx;
-  const int u = (axis + 1) % 3, w = (axis + 2) % 3;
-  for (idx[w] = 0; idx[w] < n[w]; ++idx[w])
-    for (idx[u] = 0; idx[u] < n[u]; ++idx[u]) {
-      for (idx[axis] = 0; idx[axis] < n[axis]; ++idx[axis])
-        line[std::size_t(idx[axis])] = v.at(idx[0], idx[1], idx[2]);
-      for (idx[axis] = 0; idx[axis] < n[axis]; ++idx[axis]) {
-        double sum = 0.0;
-        for (int o = -half; o <= half; ++o) {
-          const int m = std::clamp(idx[axis] + o, 0, n[axis] - 1);
-          sum += kernel[std::size_t(o + half)] * line[std::size_t(m)];
-        }
-        v.at(idx[0], idx[1], idx[2]) = float(sum);
-      }
-    }
-}
-
-}  // namespace
-
 void gaussian_blur(imaging::VolumeF& volume, double sigma_mm) {
   BS_VERIFY(volume.components == 1, "gaussian_blur needs a one-component volume");
   if (!(sigma_mm > 0.0)) return;
   for (int axis = 0; axis < 3; ++axis) {
-    const double s = sigma_mm / volume.geometry.spacing[axis];
-    const int half = std::max(1, int(std::ceil(3.0 * s)));
-    std::vector<double> kernel(std::size_t(2 * half + 1));
-    double total = 0.0;
-    for (int o = -half; o <= half; ++o)
-      total += kernel[std::size_t(o + half)] = std::exp(-0.5 * o * o / (s * s));
-    for (double& k : kernel) k /= total;
-    blur_axis(volume, axis, kernel);
+    const std::vector<double> kernel =
+        imaging::filters::gaussian_kernel(sigma_mm / volume.geometry.spacing[axis], 0);
+    if (kernel.empty()) continue;  // below 1/20 voxel: the identity
+    imaging::filters::filter_axis(volume.data, volume.geometry.size, axis, kernel,
+                                  imaging::filters::MissingData::CLAMP);
   }
 }
 

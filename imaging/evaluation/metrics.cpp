@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "core/mapping/closest_point.hpp"
+#include "core/spatial/grid_index.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -36,55 +37,28 @@ void verify_surface(const SurfaceMesh& s, const char* name) {
                            << ", expected 0.." << nv - 1);
 }
 
-/// Uniform grid over the triangles' bounding boxes; a triangle is listed in every cell its box
-/// overlaps (CSR storage).
+/// The triangles of a surface in the project's grid index (core/spatial/grid_index.hpp).
 class TriangleGrid {
  public:
   explicit TriangleGrid(const SurfaceMesh& s) : m_surface(s) {
-    const auto& V = s.vertices;
     const auto nf = index_t(s.triangles.rows());
-    m_lo = V.colwise().minCoeff().transpose();
-    const Vector3d hi = V.colwise().maxCoeff().transpose();
-    double edge_sum = 0.0;
-    for (index_t f = 0; f < nf; ++f)
-      edge_sum += (V.row(s.triangles(f, 0)) - V.row(s.triangles(f, 1))).norm();
-    const double diag = std::max((hi - m_lo).norm(), 1e-9);
-    // Cells of about two edge lengths hold a handful of triangles each; never more than ~2M cells.
-    m_h = std::max(2.0 * edge_sum / std::max(nf, 1), diag / 200.0);
-    constexpr double max_cells = 2e6;
-    for (;;) {
-      for (int a = 0; a < 3; ++a) m_n[a] = std::max(1, int(std::ceil((hi[a] - m_lo[a]) / m_h)) + 1);
-      if (double(m_n[0]) * m_n[1] * m_n[2] <= max_cells) break;
-      m_h *= 1.5;
+    MatrixX3d lo(nf, 3);
+    MatrixX3d hi(nf, 3);
+    for (index_t f = 0; f < nf; ++f) {
+      lo.row(f) = hi.row(f) = s.vertices.row(s.triangles(f, 0));
+      for (int v = 1; v < 3; ++v) {
+        lo.row(f) = lo.row(f).cwiseMin(s.vertices.row(s.triangles(f, v)));
+        hi.row(f) = hi.row(f).cwiseMax(s.vertices.row(s.triangles(f, v)));
+      }
     }
-    build(nf);
+    m_grid = core::GridIndex(lo, hi);
   }
 
-  /// Distance from p to the nearest triangle; `stamp` is per-query scratch (size #F, caller's).
-  double distance(const Vector3d& p, std::vector<std::uint32_t>& stamp, std::uint32_t query) const {
-    Eigen::Vector3i c;
-    for (int a = 0; a < 3; ++a)
-      c[a] = std::clamp(int(std::floor((p[a] - m_lo[a]) / m_h)), 0, m_n[a] - 1);
-    double best = std::numeric_limits<double>::infinity();
-    const int r_max = std::max({m_n[0], m_n[1], m_n[2]});
-    for (int r = 0; r <= r_max; ++r) {
-      visit_shell(c, r, [&](index_t f) {
-        if (stamp[std::size_t(f)] == query) return;
-        stamp[std::size_t(f)] = query;
-        best = std::min(best, triangle_distance(p, f));
-      });
-      // Everything unsearched lies outside the box of cells [c − r, c + r].
-      double bound = std::numeric_limits<double>::infinity();
-      bool covers_grid = true;
-      for (int a = 0; a < 3; ++a) {
-        covers_grid = covers_grid && c[a] - r <= 0 && c[a] + r >= m_n[a] - 1;
-        const double box_lo = m_lo[a] + (c[a] - r) * m_h;
-        const double box_hi = m_lo[a] + (c[a] + r + 1) * m_h;
-        bound = std::min(bound, std::max(0.0, std::min(p[a] - box_lo, box_hi - p[a])));
-      }
-      if (covers_grid || best <= bound) break;
-    }
-    return best;
+  /// Distance from p to the nearest triangle (mm).
+  [[nodiscard]] double distance(const Vector3d& p) const {
+    const auto hit = m_grid.nearest(p, std::numeric_limits<double>::infinity(),
+                                    [&](index_t f) { return triangle_distance(p, f); });
+    return hit ? hit->distance : std::numeric_limits<double>::infinity();
   }
 
  private:
@@ -103,71 +77,8 @@ class TriangleGrid {
     return std::min({edge(a, b), edge(b, c), edge(c, a)});
   }
 
-  [[nodiscard]] std::int64_t cell_index(int i, int j, int k) const {
-    return (std::int64_t(k) * m_n[1] + j) * m_n[0] + i;
-  }
-
-  void cell_range(index_t f, Eigen::Vector3i& lo, Eigen::Vector3i& hi) const {
-    Vector3d bmin = Vector3d::Constant(std::numeric_limits<double>::infinity());
-    Vector3d bmax = -bmin;
-    for (int v = 0; v < 3; ++v) {
-      const Vector3d x = m_surface.vertices.row(m_surface.triangles(f, v)).transpose();
-      bmin = bmin.cwiseMin(x);
-      bmax = bmax.cwiseMax(x);
-    }
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::clamp(int(std::floor((bmin[a] - m_lo[a]) / m_h)), 0, m_n[a] - 1);
-      hi[a] = std::clamp(int(std::floor((bmax[a] - m_lo[a]) / m_h)), 0, m_n[a] - 1);
-    }
-  }
-
-  void build(index_t nf) {
-    const std::int64_t cells = std::int64_t(m_n[0]) * m_n[1] * m_n[2];
-    m_offsets.assign(std::size_t(cells + 1), 0);
-    for (int pass = 0; pass < 2; ++pass) {
-      std::vector<std::int64_t> fill;
-      if (pass == 1) {
-        std::partial_sum(m_offsets.begin(), m_offsets.end(), m_offsets.begin());
-        m_items.resize(std::size_t(m_offsets.back()));
-        fill.assign(m_offsets.begin(), m_offsets.end() - 1);
-      }
-      for (index_t f = 0; f < nf; ++f) {
-        Eigen::Vector3i lo;
-        Eigen::Vector3i hi;
-        cell_range(f, lo, hi);
-        for (int k = lo[2]; k <= hi[2]; ++k)
-          for (int j = lo[1]; j <= hi[1]; ++j)
-            for (int i = lo[0]; i <= hi[0]; ++i) {
-              const auto cell = std::size_t(cell_index(i, j, k));
-              if (pass == 0)
-                ++m_offsets[cell + 1];
-              else
-                m_items[std::size_t(fill[cell]++)] = f;
-            }
-      }
-    }
-  }
-
-  /// Calls visit(f) for each triangle listed in the cells at Chebyshev distance exactly r from c.
-  template <typename Visit>
-  void visit_shell(const Eigen::Vector3i& c, int r, Visit&& visit) const {
-    for (int k = std::max(0, c[2] - r); k <= std::min(m_n[2] - 1, c[2] + r); ++k)
-      for (int j = std::max(0, c[1] - r); j <= std::min(m_n[1] - 1, c[1] + r); ++j)
-        for (int i = std::max(0, c[0] - r); i <= std::min(m_n[0] - 1, c[0] + r); ++i) {
-          const int d = std::max({std::abs(i - c[0]), std::abs(j - c[1]), std::abs(k - c[2])});
-          if (d != r) continue;
-          const auto cell = std::size_t(cell_index(i, j, k));
-          for (auto t = m_offsets[cell]; t < m_offsets[cell + 1]; ++t)
-            visit(m_items[std::size_t(t)]);
-        }
-  }
-
   const SurfaceMesh& m_surface;  // not owned; outlives the grid (a local of surface_distances)
-  Vector3d m_lo;
-  double m_h = 1.0;
-  int m_n[3] = {1, 1, 1};
-  std::vector<std::int64_t> m_offsets;
-  std::vector<index_t> m_items;
+  core::GridIndex m_grid;
 };
 
 }  // namespace
@@ -261,11 +172,9 @@ std::vector<double> surface_distances(const SurfaceMesh& from, const SurfaceMesh
   verify_surface(from, "'from'");
   verify_surface(to, "'to'");
   const TriangleGrid grid(to);
-  std::vector<std::uint32_t> stamp(std::size_t(to.triangles.rows()), 0);
   std::vector<double> d(std::size_t(from.vertices.rows()));
   for (Eigen::Index v = 0; v < from.vertices.rows(); ++v)
-    d[std::size_t(v)] =
-        grid.distance(from.vertices.row(v).transpose(), stamp, std::uint32_t(v + 1));
+    d[std::size_t(v)] = grid.distance(from.vertices.row(v).transpose());
   return d;
 }
 

@@ -1,55 +1,12 @@
 #include "imaging/filters/gaussian.hpp"
 
-#include "imaging/filters/parallel.hpp"
+#include "imaging/filters/separable.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 
 namespace brainshift::imaging::filters {
-namespace {
-
-/// One pass of `kernel` along `axis` of `data` (grid `n`, in place). Order 0 renormalises the
-/// weights at the faces; other orders repeat the face voxel.
-void filter_axis(std::vector<float>& data, const Eigen::Vector3i& n, int axis,
-                 const std::vector<double>& kernel, bool renormalise) {
-  const int r = int(kernel.size() / 2);
-  const int len = n[axis];
-  const std::int64_t stride[3] = {1, n[0], std::int64_t(n[0]) * n[1]};
-  const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
-  // Lines in parallel, chunked by the slowest-varying other axis.
-  parallel_for(n[a2], [&](int q0, int q1) {
-    std::vector<double> line(std::size_t(len + 2 * r));
-    std::vector<float> out(static_cast<std::size_t>(len));
-    for (int q = q0; q < q1; ++q)
-      for (int p = 0; p < n[a1]; ++p) {
-        const std::int64_t start = std::int64_t(p) * stride[a1] + std::int64_t(q) * stride[a2];
-        const std::int64_t step = stride[axis];
-        // Padded copy: face voxels repeated (used by the derivative passes).
-        for (int t = -r; t < len + r; ++t)
-          line[std::size_t(t + r)] = data[std::size_t(start + std::clamp(t, 0, len - 1) * step)];
-        for (int t = 0; t < len; ++t) {
-          double sum = 0.0;
-          if (renormalise && (t < r || t >= len - r)) {
-            double weight = 0.0;
-            for (int d = std::max(-r, -t); d <= std::min(r, len - 1 - t); ++d) {
-              sum += kernel[std::size_t(d + r)] * line[std::size_t(t + d + r)];
-              weight += kernel[std::size_t(d + r)];
-            }
-            sum /= weight;
-          } else {
-            const double* x = &line[std::size_t(t)];
-            for (int d = 0; d <= 2 * r; ++d) sum += kernel[std::size_t(d)] * x[d];
-          }
-          out[std::size_t(t)] = float(sum);
-        }
-        for (int t = 0; t < len; ++t) data[std::size_t(start + t * step)] = out[std::size_t(t)];
-      }
-  });
-}
-
-}  // namespace
-
 std::vector<double> gaussian_kernel(double s, int order) {
   BS_VERIFY(order >= 0 && order <= 2, "Gaussian kernel order must be 0, 1 or 2, got " << order);
   if (!(s >= 0.05)) return {};
@@ -117,7 +74,9 @@ VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<
       w /= (order[std::size_t(axis)] == 0
                 ? 1.0
                 : std::pow(image.geometry.spacing[axis], order[std::size_t(axis)]));
-    filter_axis(out.data, n, axis, kernel, order[std::size_t(axis)] == 0);
+    // Smoothing renormalises at the faces; derivatives repeat the face voxel (Neumann).
+    filter_axis(out.data, n, axis, kernel,
+                order[std::size_t(axis)] == 0 ? MissingData::RENORMALISE : MissingData::CLAMP);
   }
   if (any_non_finite)
     for (std::size_t v = 0; v < out.data.size(); ++v)

@@ -2,6 +2,9 @@
 
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/separable.hpp"
+#include "imaging/filters/trilinear.hpp"
 
 #include <Eigen/QR>
 
@@ -75,75 +78,20 @@ struct RayGrid {
 /// Trilinear interpolation at world point p; missing (NaN) outside the grid (beyond half a voxel
 /// from the outer centres) or when less than half the interpolation weight is on finite voxels.
 float sample(const VolumeF& image, const Vector3d& p) {
-  const auto& g = image.geometry;
-  const Vector3d c = g.world_to_index(p);
-  std::array<int, 3> base{};
-  std::array<double, 3> frac{};
-  for (int a = 0; a < 3; ++a) {
-    if (!(c[a] >= -0.5 && c[a] <= g.size[a] - 0.5)) return kMissing;
-    const double ca = std::clamp(c[a], 0.0, double(g.size[a] - 1));
-    base[std::size_t(a)] = std::min(int(std::floor(ca)), std::max(g.size[a] - 2, 0));
-    frac[std::size_t(a)] = g.size[a] > 1 ? ca - base[std::size_t(a)] : 0.0;
-  }
-  double sum = 0.0;
-  double weight = 0.0;
-  for (int corner = 0; corner < 8; ++corner) {
-    std::array<int, 3> idx{};
-    double wgt = 1.0;
-    for (int a = 0; a < 3; ++a) {
-      const int bit = (corner >> a) & 1;
-      const auto au = std::size_t(a);
-      idx[au] = std::min(base[au] + bit, g.size[a] - 1);
-      wgt *= bit ? frac[au] : 1.0 - frac[au];
-    }
-    if (wgt <= 0.0) continue;
-    const float value = image.at(idx[0], idx[1], idx[2]);
-    if (!std::isfinite(value)) continue;
-    sum += wgt * value;
-    weight += wgt;
-  }
-  return weight >= 0.5 ? float(sum / weight) : kMissing;
+  return filters::sample_trilinear(image, image.geometry.world_to_index(p),
+                                   filters::MissingData::RENORMALISE);
 }
 
 /// One separable Gaussian pass along `axis` (0: i, 1: j, 2: k) with missing-data normalisation:
 /// the kernel is truncated at the grid's ends and renormalised over finite samples; a result
 /// with less than half the (truncated) kernel weight on finite samples is missing.
 void gaussian_pass(std::vector<float>& data, const RayGrid& grid, int axis, double sigma) {
-  if (sigma <= 0.0) return;
-  const int radius = int(std::ceil(3.0 * sigma));
-  std::vector<double> kernel(std::size_t(2 * radius + 1));
-  for (int t = -radius; t <= radius; ++t)
-    kernel[std::size_t(t + radius)] = std::exp(-0.5 * t * t / (sigma * sigma));
-  const std::array<int, 3> n{grid.nu, grid.nv, grid.nd};
-  const int len = n[std::size_t(axis)];
-  std::vector<float> line(static_cast<std::size_t>(len));
-  const int a1 = (axis + 1) % 3;
-  const int a2 = (axis + 2) % 3;
-  for (int p = 0; p < n[std::size_t(a1)]; ++p)
-    for (int q = 0; q < n[std::size_t(a2)]; ++q) {
-      const auto at = [&](int s) {
-        std::array<int, 3> ijk{};
-        ijk[std::size_t(axis)] = s;
-        ijk[std::size_t(a1)] = p;
-        ijk[std::size_t(a2)] = q;
-        return grid.index(ijk[0], ijk[1], ijk[2]);
-      };
-      for (int s = 0; s < len; ++s) line[std::size_t(s)] = data[at(s)];
-      for (int s = 0; s < len; ++s) {
-        double sum = 0.0;
-        double valid = 0.0;
-        double total = 0.0;
-        for (int t = std::max(-radius, -s); t <= std::min(radius, len - 1 - s); ++t) {
-          const double k = kernel[std::size_t(t + radius)];
-          total += k;
-          const float value = line[std::size_t(s + t)];
-          if (!std::isfinite(value)) continue;
-          sum += k * value;
-          valid += k;
-        }
-        data[at(s)] = valid >= 0.5 * total ? float(sum / valid) : kMissing;
-      }
-    }
+  const std::vector<double> kernel = filters::gaussian_kernel(sigma, 0);
+  if (kernel.empty()) return;
+  // Memory order of the ray grid: k (depth) fastest, then i, then j.
+  constexpr int memory_axis[3] = {1, 2, 0};
+  filters::filter_axis(data, Eigen::Vector3i(grid.nd, grid.nu, grid.nv), memory_axis[axis], kernel,
+                       filters::MissingData::RENORMALISE);
 }
 
 /// The volume resampled on the rays of `grid` and low-pass filtered there. The filter runs on a

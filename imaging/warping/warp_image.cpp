@@ -2,6 +2,8 @@
 
 #include "core/logger.hpp"
 #include "core/mesh/boundary.hpp"
+#include "core/timing.hpp"
+#include "imaging/filters/trilinear.hpp"
 
 #include <algorithm>
 #include <array>
@@ -192,9 +194,7 @@ MatrixX3d map_rows(const Affine& m, const MatrixX3d& P) {
   return out;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
+using core::seconds_since;
 
 void check_extension(double extension_mm) {
   BS_VERIFY(std::isfinite(extension_mm) && extension_mm >= 0.0,
@@ -283,30 +283,8 @@ VolumeF rasterised_field(const core::TetMesh& mesh, const MatrixX3d& nodes_world
 
 float sample_trilinear(const VolumeF& image, const Vector3d& ijk, float outside_value,
                        int component) {
-  const auto& n = image.geometry.size;
-  std::array<int, 3> i0{};
-  std::array<double, 3> f{};
-  for (int d = 0; d < 3; ++d) {
-    const double x = ijk[d];
-    if (!(x >= -0.5 && x <= n[d] - 0.5)) return outside_value;  // also rejects NaN
-    const double c = std::clamp(x, 0.0, double(n[d] - 1));
-    const int lo = std::min(int(c), std::max(n[d] - 2, 0));
-    i0[std::size_t(d)] = lo;
-    f[std::size_t(d)] = c - lo;
-  }
-  const std::int64_t sx = 1, sy = n[0], sz = std::int64_t(n[0]) * n[1];
-  const std::int64_t dx = n[0] > 1 ? sx : 0, dy = n[1] > 1 ? sy : 0, dz = n[2] > 1 ? sz : 0;
-  const float* p =
-      image.data.data() + (i0[2] * sz + i0[1] * sy + i0[0]) * image.components + component;
-  const auto at = [&](std::int64_t off) { return double(p[off * image.components]); };
-  const double wx = f[0], wy = f[1], wz = f[2];
-  const double c00 = (1 - wx) * at(0) + wx * at(dx);
-  const double c10 = (1 - wx) * at(dy) + wx * at(dy + dx);
-  const double c01 = (1 - wx) * at(dz) + wx * at(dz + dx);
-  const double c11 = (1 - wx) * at(dz + dy) + wx * at(dz + dy + dx);
-  const double c0 = (1 - wy) * c00 + wy * c10;
-  const double c1 = (1 - wy) * c01 + wy * c11;
-  return float((1 - wz) * c0 + wz * c1);
+  if (!filters::on_sampling_grid(image.geometry, ijk)) return outside_value;
+  return filters::sample_trilinear(image, ijk, filters::MissingData::NAN_RESULT, component);
 }
 
 VolumeF warp_image(const VolumeF& image, const core::TetMesh& mesh,

@@ -6,9 +6,8 @@
 
 #include "imaging/io/image_io.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -81,8 +80,9 @@ TEST(PrepareSceneOptions, AnUnknownKeyOrTheOldSpellingIsAOneLineErrorAndNothingI
   }
   {
     const CliRun r = in.prepare(R"({"craniotomy": {"center_mm": [0, 0, 20]}})", out);
-    expect_one_line_error(r, "options.json: 'craniotomy.center_mm' is spelled "
-                             "'craniotomy.centre_mm'");
+    expect_one_line_error(r,
+                          "options.json: 'craniotomy.center_mm' is spelled "
+                          "'craniotomy.centre_mm'");
     EXPECT_FALSE(std::filesystem::exists(out));
   }
   {

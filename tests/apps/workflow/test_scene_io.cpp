@@ -157,7 +157,9 @@ TEST(SceneIo, EveryOptionIsSettableFromTheSceneAndTheOldSpellingIsRejected) {
   EXPECT_EQ(o.dura.craniotomy_centre, Vector3d(1, 2, 3));
   // The old spelling is an error with the new one, not silently ignored.
   expect_error(
-      [&] { read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"center_mm": [0, 0, 1]}})")); },
+      [&] {
+        read_scene(f.scene(R"({"mesh": "mesh.vtu", "craniotomy": {"center_mm": [0, 0, 1]}})"));
+      },
       {"scene.json", "'craniotomy.center_mm' is spelled 'craniotomy.centre_mm'"});
   // A value the table accepts but validate() does not (fine kernel wider than the coarse one).
   expect_error(
