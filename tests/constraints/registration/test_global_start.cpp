@@ -291,7 +291,6 @@ TEST(GlobalStart, OptionsValidateAndNonFiniteInputsThrow) {
   EXPECT_THROW((void)global_start(cortical_tree(1), pts, {}, GlobalStartOptions{}), Error);
 }
 
-
 TEST(LoadBasis, TheGridSearchPicksTheNodeALinearScanPicks) {
   // load_basis finds each point's nearest rest node through a grid (speed at 20k nodes); the
   // answer must be the linear scan's, ties to the lowest index, for points inside, on nodes

@@ -57,9 +57,7 @@ TEST(ComplianceOperator, SeveralColumnsAtOnceAndTheBlockCorrectionMatchApply) {
   for (Eigen::Index i = 0; i < V.size(); ++i) V.data()[i] = g(rng);
   const Eigen::MatrixXd U = C.apply_columns(V, R);
   for (Eigen::Index j = 0; j < 2; ++j)  // the same solve, one column or two: rounding only
-    EXPECT_LT(tests::relative_difference(U.col(j),
-                                         C.apply(Eigen::VectorXd(V.col(j)), R)),
-              1e-12)
+    EXPECT_LT(tests::relative_difference(U.col(j), C.apply(Eigen::VectorXd(V.col(j)), R)), 1e-12)
         << "column " << j;
   // A force on block nodes only: the block gives R K0⁻¹ Rᵀ v on the block nodes, zero elsewhere.
   Eigen::VectorXd v = Eigen::VectorXd::Zero(n3);
@@ -84,8 +82,7 @@ TEST(ComplianceOperator, SeveralColumnsAtOnceAndTheBlockCorrectionMatchApply) {
   index_t below = 0;  // a free node under the block
   while (!(mesh.nodes()(below, 2) > 1 && mesh.nodes()(below, 2) < 19)) ++below;
   ConstraintRows low;
-  low.add_bilateral_point(tests::node_stencil(below), x, Vector3d::Zero(),
-                          ConstraintSet::LANDMARK);
+  low.add_bilateral_point(tests::node_stencil(below), x, Vector3d::Zero(), ConstraintSet::LANDMARK);
   EXPECT_FALSE(C.covers(low.jacobian(mesh.num_nodes())));
 }
 
