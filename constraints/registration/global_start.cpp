@@ -1,5 +1,6 @@
 #include "constraints/registration/global_start.hpp"
 
+#include "constraints/registration/nearest_node.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/mapping/closest_point.hpp"
@@ -13,6 +14,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <numbers>
 #include <sstream>
 #include <vector>
@@ -544,9 +546,9 @@ std::vector<Matrix3d> load_basis(const core::TetMesh& mesh,
   if (points.rows() == 0) return {};
   std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
   Matrix3d mean = Matrix3d::Zero();
+  const NearestNode nearest(mesh.nodes());
   for (Eigen::Index i = 0; i < points.rows(); ++i) {
-    Eigen::Index node = 0;
-    (mesh.nodes().rowwise() - points.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    const Eigen::Index node = nearest.nearest(points.row(i).transpose());
     for (Eigen::Index k = 0; k < 3; ++k)
       basis[static_cast<std::size_t>(i)].col(k) =
           response[static_cast<std::size_t>(k)].row(node).transpose();

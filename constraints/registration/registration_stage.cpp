@@ -238,7 +238,10 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     pair_sets.push_back(std::move(keys));
 
     // 5. Stop test: settled, or trust region update and collapse.
-    const bool small = !step.limited && rec.max_increment_mm < options.increment_tolerance_mm;
+    // A folded step (one solve) applies the previous λ: it is small only when the correction
+    // it leaves to the next step is small too.
+    const bool small = !step.limited && rec.max_increment_mm < options.increment_tolerance_mm &&
+                       step.pending_increment < options.increment_tolerance_mm;
     const bool settled =
         small && (stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen);
     std::optional<double> cosine;

@@ -247,6 +247,74 @@ Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v,
   return out;
 }
 
+Eigen::MatrixXd ComplianceOperator::apply_columns(ConstRef<Eigen::MatrixXd> V,
+                                                  const std::vector<Matrix3d>& R) const {
+  BS_VERIFY(V.rows() == m_dofs->num_full(),
+            "vectors have size " << V.rows() << ", expected " << m_dofs->num_full());
+  BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
+            "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(V.rows(), V.cols());
+  if (m_dofs->num_free() == 0 || V.cols() == 0) return out;
+  Eigen::MatrixXd rhs(m_dofs->num_free(), V.cols());
+  for (Eigen::Index j = 0; j < V.cols(); ++j) {
+    Eigen::VectorXd w = V.col(j);
+    if (!R.empty())
+      for (std::size_t n = 0; n < R.size(); ++n)
+        w.segment<3>(3 * static_cast<Eigen::Index>(n)) =
+            R[n].transpose() * V.col(j).segment<3>(3 * static_cast<Eigen::Index>(n));
+    rhs.col(j) = m_dofs->restrict(w);
+  }
+  const Eigen::MatrixXd sol = m_factor->solve(rhs);
+  for (Eigen::Index j = 0; j < V.cols(); ++j) {
+    out.col(j) = m_dofs->expand(Eigen::VectorXd(sol.col(j)));
+    if (!R.empty())
+      for (std::size_t n = 0; n < R.size(); ++n) {
+        const Vector3d a = out.col(j).segment<3>(3 * static_cast<Eigen::Index>(n));
+        out.col(j).segment<3>(3 * static_cast<Eigen::Index>(n)) = R[n] * a;
+      }
+  }
+  return out;
+}
+
+Eigen::VectorXd ComplianceOperator::apply_block(ConstRef<Eigen::VectorXd> v,
+                                                const std::vector<Matrix3d>& R) const {
+  BS_VERIFY(m_strategy == ComplianceStrategy::DENSE_BLOCK,
+            "no dense compliance block was precomputed");
+  BS_VERIFY(v.size() == m_dofs->num_full(),
+            "vector has size " << v.size() << ", expected " << m_dofs->num_full());
+  BS_VERIFY(R.empty() || static_cast<index_t>(R.size()) == m_dofs->num_nodes(),
+            "got " << R.size() << " nodal rotations, expected 0 or " << m_dofs->num_nodes());
+  // w = Rᵀ v on the block DOFs; out_b = C w over the columns where w ≠ 0 (the rows' nodes only).
+  const auto nb = static_cast<Eigen::Index>(3 * m_block_nodes.size());
+  Eigen::VectorXd out_b = Eigen::VectorXd::Zero(nb);
+  for (std::size_t b = 0; b < m_block_nodes.size(); ++b) {
+    const Eigen::Index n = m_block_nodes[b];
+    const Vector3d f = v.segment<3>(3 * n);
+    if (f.isZero()) continue;
+    const Vector3d w = R.empty() ? f : Vector3d(R[static_cast<std::size_t>(n)].transpose() * f);
+    for (int c = 0; c < 3; ++c)
+      if (w[c] != 0.0) out_b += w[c] * m_block.col(3 * static_cast<Eigen::Index>(b) + c);
+  }
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(v.size());
+  for (std::size_t b = 0; b < m_block_nodes.size(); ++b) {
+    const Eigen::Index n = m_block_nodes[b];
+    const Vector3d a = out_b.segment<3>(3 * static_cast<Eigen::Index>(b));
+    out.segment<3>(3 * n) = R.empty() ? a : Vector3d(R[static_cast<std::size_t>(n)] * a);
+  }
+  return out;
+}
+
+bool ComplianceOperator::covers(const SparseMatrix& H) const {
+  if (m_strategy != ComplianceStrategy::DENSE_BLOCK) return false;
+  for (int k = 0; k < H.outerSize(); ++k)
+    for (SparseMatrix::InnerIterator it(H, k); it; ++it) {
+      const auto node = static_cast<index_t>(it.col() / 3);
+      if (m_block_pos[static_cast<std::size_t>(node)] < 0 && !m_dofs->is_fixed_node(node))
+        return false;
+    }
+  return true;
+}
+
 Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H) const {
   return delassus(H, m_warp.rotations());
 }
@@ -255,16 +323,7 @@ Eigen::MatrixXd ComplianceOperator::delassus(const SparseMatrix& H, const std::v
                                              bool* used_fallback) const {
   if (used_fallback) *used_fallback = false;
   if (m_strategy == ComplianceStrategy::DENSE_BLOCK) {
-    bool inside = true;
-    for (int k = 0; k < H.outerSize() && inside; ++k)
-      for (SparseMatrix::InnerIterator it(H, k); it; ++it) {
-        const index_t node = static_cast<index_t>(it.col() / 3);
-        if (m_block_pos[node] < 0 && !m_dofs->is_fixed_node(node)) {
-          inside = false;
-          break;
-        }
-      }
-    if (inside) return delassus_dense_block(H, R);
+    if (covers(H)) return delassus_dense_block(H, R);
     ++m_fallbacks;
     if (used_fallback) *used_fallback = true;
     logger().debug("constraint rows touch nodes outside the compliance block; sparse fallback");

@@ -122,6 +122,21 @@ class ComplianceOperator {
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v,
                                       const std::vector<Matrix3d>& R) const;
 
+  /// R K0⁻¹ Rᵀ V for the columns of V (3N × k; mN → mm) with one multi-right-hand-side solve:
+  /// the factor is read once for all columns, so k = 2 costs little more than one apply().
+  /// `R` as in apply(). Column j equals apply(V.col(j), R) to rounding.
+  [[nodiscard]] Eigen::MatrixXd apply_columns(ConstRef<Eigen::MatrixXd> V,
+                                              const std::vector<Matrix3d>& R) const;
+  /// R K0⁻¹ Rᵀ v on the block nodes only, read from the dense block (no solve): a full 3N
+  /// vector (mm), zero outside the block nodes. \pre DENSE_BLOCK, and v (mN) vanishes outside
+  /// the block nodes (a force Hᵀλ of rows covers() accepts; forces on fixed nodes are ignored).
+  /// There it equals apply(v, R) to rounding.
+  [[nodiscard]] Eigen::VectorXd apply_block(ConstRef<Eigen::VectorXd> v,
+                                            const std::vector<Matrix3d>& R) const;
+  /// True when the dense block covers the rows of H: DENSE_BLOCK, and every node H touches is a
+  /// block node or fixed (then delassus() and apply_block() need no solve).
+  [[nodiscard]] bool covers(const SparseMatrix& H) const;
+
   /// W = H R K0⁻¹ Rᵀ Hᵀ (#rows², mm/mN) by the chosen strategy, with the stored rotations.
   /// H is #rows × 3N.
   [[nodiscard]] Eigen::MatrixXd delassus(const SparseMatrix& H) const;

@@ -68,6 +68,17 @@ struct StepOptions {
   /// Keep the Delassus operator (without the row compliance) and δ_free in the result, for the
   /// registration's noise model (noise_model.hpp).
   bool keep_system = false;
+  /// One solve per step instead of two (for iterations; off for a single exact step): the
+  /// correction is folded into the next step. With the warm start λ⁰ (the previous step's λ,
+  /// by row) the step solves [Rᵀf, RᵀHᵀλ⁰] as one two-column right-hand side and moves by
+  /// dx = C (f + Hᵀλ⁰); the λ it solves for is applied by the next step. Every node moves with
+  /// the same λ⁰, so the configuration stays smooth (applying the new λ on the constrained
+  /// nodes alone distorts the elements around them and the corotational iteration oscillates).
+  /// The fixed point — equilibrium with λ = λ⁰ — is the one of the two-solve step;
+  /// StepResult::pending_increment says how far the next step would still move the constrained
+  /// nodes for λ − λ⁰. Used only when the dense block covers the rows and the mechanics is not
+  /// EXACT; otherwise the step makes its two solves.
+  bool fold_correction = false;
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
@@ -107,6 +118,10 @@ struct StepResult {
   /// x is the input positions unchanged and the caller must stop (never count it as converged).
   bool finite = true;
   bool delassus_fallback = false;  ///< W needed sparse solves (rows outside the compliance block)
+  bool folded = false;  ///< the step made one solve (StepOptions::fold_correction applied)
+  /// Folded steps: max nodal |C Hᵀ(λ − λ⁰)| over the block nodes (mm), the part of the
+  /// correction left to the next step; 0 otherwise.
+  double pending_increment = 0.0;
   Eigen::MatrixXd delassus;    ///< W = H C Hᵀ without row compliance (StepOptions::keep_system)
   Eigen::VectorXd delta_free;  ///< δ + H dx_free (StepOptions::keep_system)
   double compliance_scale = 0.0;  ///< median diag W: the unit of StepOptions::compliance_ratio

@@ -8,9 +8,11 @@
 #include "constraints/registration/global_start.hpp"
 #include "constraints/registration/rigid_init.hpp"
 #include "core/error.hpp"
+#include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -287,6 +289,42 @@ TEST(GlobalStart, OptionsValidateAndNonFiniteInputsThrow) {
   EXPECT_THROW((void)global_start(cortical_tree(1), pts, {}, o), Error);
   pts(3, 1) = std::nan("");
   EXPECT_THROW((void)global_start(cortical_tree(1), pts, {}, GlobalStartOptions{}), Error);
+}
+
+TEST(LoadBasis, TheGridSearchPicksTheNodeALinearScanPicks) {
+  // load_basis finds each point's nearest rest node through a grid (speed at 20k nodes); the
+  // answer must be the linear scan's, ties to the lowest index, for points inside, on nodes
+  // (distance 0) and far outside the mesh.
+  const core::TetMesh mesh = data_synth::make_ellipsoid_mesh({40, 35, 30}, 6);
+  std::array<MatrixX3d, 3> response;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (auto& r : response) {
+    r.resize(mesh.num_nodes(), 3);
+    for (Eigen::Index i = 0; i < r.size(); ++i) r.data()[i] = 1.0 + 0.5 * u(rng);
+  }
+  MatrixX3d pts(300, 3);
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+    const double reach = i < 100 ? 40.0 : (i < 200 ? 120.0 : 0.0);  // inside, outside, on nodes
+    pts.row(i) = reach > 0 ? Vector3d(reach * u(rng), reach * u(rng), reach * u(rng)).transpose()
+                           : mesh.nodes().row((i * 37) % mesh.num_nodes()).eval();
+  }
+  const std::vector<Matrix3d> got = load_basis(mesh, response, pts);
+  ASSERT_EQ(got.size(), static_cast<std::size_t>(pts.rows()));
+  // Reference: the linear scan, then the same normalisation by the mean.
+  std::vector<Matrix3d> ref(got.size());
+  Matrix3d mean = Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < pts.rows(); ++i) {
+    Eigen::Index node = 0;
+    (mesh.nodes().rowwise() - pts.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    for (int k = 0; k < 3; ++k)
+      ref[static_cast<std::size_t>(i)].col(k) =
+          response[static_cast<std::size_t>(k)].row(node).transpose();
+    mean += ref[static_cast<std::size_t>(i)] / static_cast<double>(pts.rows());
+  }
+  for (std::size_t i = 0; i < ref.size(); ++i)
+    EXPECT_TRUE((got[i].array() == (ref[i] * mean.inverse()).array()).all())
+        << "point " << i;  // the same node gives the same matrix, bit for bit
 }
 
 }  // namespace
