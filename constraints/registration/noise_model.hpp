@@ -113,6 +113,13 @@ void visit_fields(NoiseOptions& o, V&& v) {
   v("consider_start", o.consider_start, "no deformation beyond the start is a candidate");
   v("one_standard_error", o.one_standard_error,
     "the smoothest candidate within one standard error of the minimum");
+  v("paired_test", o.paired_test,
+    "deform only if the best ratio beats no deformation on held-out blocks by paired_test_z "
+    "standard errors");
+  v("paired_test_z", o.paired_test_z, core::Range{0, 100},
+    "standard errors the held-out gain must exceed (paired_test)");
+  v("smooth_neighbours", o.smooth_neighbours, core::Range{0, 1000},
+    "average the CV curve over this many neighbouring ratios on each side before choosing");
   v("min_ratio", o.min_ratio, core::Range{1e-12, 1e9}, "smallest compliance ratio searched");
   v("max_ratio", o.max_ratio, core::Range{1e-12, 1e9}, "largest compliance ratio searched");
   v("grid", o.grid, core::Range{2, 10000}, "log-spaced candidates between the two");

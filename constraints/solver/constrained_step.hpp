@@ -104,6 +104,8 @@ void visit_fields(StepOptions& o, V&& v) {
   v("density_kg_mm3", o.density, core::Range{0, 1}, "tissue density (kg/mm^3)");
   v("plausible_violation_mm", o.plausible_violation, core::Range{1e-6, 1e6},
     "violations beyond this are flagged in the step's diagnosis (mm)");
+  v("fold_correction", o.fold_correction,
+    "one solve per step: the previous forces' correction folded into the free motion");
   v.nest("pgs_", o.pgs);
 }
 
