@@ -3,7 +3,8 @@
 # Usage:
 #   scripts/lint.sh                 check that no C++ file is over 600 lines (STYLE.md), then every
 #                                   C++ file against .clang-format (fails on the first unformatted
-#                                   file, naming it); a few seconds, run by scripts/test.sh
+#                                   file, naming it), and that every mutant of tests/mutants.txt
+#                                   still applies; a few seconds, run by scripts/test.sh
 #   scripts/lint.sh --fix           apply .clang-format to every C++ file in place
 #   scripts/lint.sh --tidy [FILES]  clang-tidy (.clang-tidy: the naming rules) on FILES, default all
 #                                   .cpp files; needs build/compile_commands.json; ~10 s per file
@@ -44,6 +45,8 @@ case "${1:-}" in
       exit 1
     fi
     echo "lint: ${#files[@]} C++ files formatted per .clang-format"
+    # The mutation check's mutants must still apply after a reformat or an edit (issue 19).
+    python3 scripts/mutate.py --check
     ;;
   *)
     echo "lint: unknown argument '$1' (use --fix or --tidy [FILES])" >&2

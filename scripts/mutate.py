@@ -128,7 +128,10 @@ def exact_regexes(names, chunk=20):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("build_dir", type=Path, help="an existing, configured build folder (e.g. build)")
+    ap.add_argument("build_dir", type=Path, nargs="?",
+                    help="an existing, configured build folder (e.g. build); not needed with --check")
+    ap.add_argument("--check", action="store_true",
+                    help="only check that every mutant applies (its text exactly once); no build (lint.sh runs it)")
     ap.add_argument("--list", type=Path, default=ROOT / "tests" / "mutants.txt")
     ap.add_argument("--only", default="", help="comma-separated mutant names")
     ap.add_argument("--timeout", type=int, default=120, help="ctest --timeout: seconds for a test without its own TIMEOUT (ours all have one, "
@@ -136,6 +139,18 @@ def main():
     ap.add_argument("--no-baseline", action="store_true", help="skip the unmutated run of the named tests")
     ap.add_argument("--jobs", type=int, default=1)
     a = ap.parse_args()
+    if a.check:
+        for m in parse_list(a.list):
+            path = ROOT / m["file"]
+            if not path.exists():
+                sys.exit(f"mutate.py: mutant {m['name']}: no file {m['file']}")
+            count = path.read_text().count(m["from"])
+            if count != 1:
+                sys.exit(f"mutate.py: mutant {m['name']}: '{m['from']}' occurs {count} times in {m['file']} (need 1)")
+        print(f"mutate.py: all mutants of {a.list.name} apply")
+        return
+    if a.build_dir is None:
+        ap.error("build_dir is required (except with --check)")
     build_dir = a.build_dir if a.build_dir.is_absolute() else (Path.cwd() / a.build_dir)
     if not (build_dir / "CMakeCache.txt").exists():
         sys.exit(f"mutate.py: {build_dir} is not a configured build folder (no CMakeCache.txt)")
