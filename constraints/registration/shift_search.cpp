@@ -1,5 +1,6 @@
 #include "constraints/registration/shift_search.hpp"
 
+#include "constraints/registration/distance_grid.hpp"
 #include "core/error.hpp"
 #include "core/mapping/closest_point.hpp"
 
@@ -24,84 +25,6 @@ std::string ShiftSearchOptions::validate() const {
   return {};
 }
 
-namespace {
-
-/// Squared distance to the nearest segment, truncated at τ², tabulated on a voxel grid.
-class DistanceTable {
- public:
-  DistanceTable(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h,
-                double tau)
-      : m_lo(lo), m_h(h), m_tau2(static_cast<float>(tau * tau)) {
-    m_dims = (((hi - lo) / h).array().ceil().cast<int>() + 1).matrix();
-    m_d2.assign(static_cast<std::size_t>(m_dims.prod()), m_tau2);
-    m_seg.assign(m_d2.size(), -1);
-    for (std::size_t si = 0; si < s.segments.size(); ++si) {
-      const auto& seg = s.segments[si];
-      const Vector3d a = s.points.row(seg[0]).transpose(), b = s.points.row(seg[1]).transpose();
-      const Eigen::Vector3i c0 = cell(a.cwiseMin(b).array() - tau),
-                            c1 = cell(a.cwiseMax(b).array() + tau);
-      if ((c1.array() < 0).any() || (c0.array() >= m_dims.array()).any()) continue;
-      const Eigen::Vector3i l = c0.cwiseMax(0), u = c1.cwiseMin(m_dims - Eigen::Vector3i::Ones());
-      for (int z = l.z(); z <= u.z(); ++z)
-        for (int y = l.y(); y <= u.y(); ++y)
-          for (int x = l.x(); x <= u.x(); ++x) {
-            const Vector3d q = m_lo + h * Vector3d(x, y, z);
-            const double t = core::closest_point_on_segment(q, a, b);
-            float& d = m_d2[index(x, y, z)];
-            const auto e = static_cast<float>((q - (a + t * (b - a))).squaredNorm());
-            if (e < d) {
-              d = e;
-              m_seg[index(x, y, z)] = static_cast<std::int32_t>(si);
-            }
-          }
-    }
-  }
-  /// Nearest-voxel lookup (coarse search).
-  [[nodiscard]] float nearest(const Vector3d& q) const {
-    const Eigen::Vector3i c = ((q - m_lo) / m_h).array().round().cast<int>();
-    if ((c.array() < 0).any() || (c.array() >= m_dims.array()).any()) return m_tau2;
-    return m_d2[index(c.x(), c.y(), c.z())];
-  }
-  /// Segment nearest to the voxel nearest q, −1 beyond τ.
-  [[nodiscard]] std::int32_t segment(const Vector3d& q) const {
-    const Eigen::Vector3i c = ((q - m_lo) / m_h).array().round().cast<int>();
-    if ((c.array() < 0).any() || (c.array() >= m_dims.array()).any()) return -1;
-    return m_seg[index(c.x(), c.y(), c.z())];
-  }
-  /// Trilinear lookup (refinement).
-  [[nodiscard]] double trilinear(const Vector3d& q) const {
-    const Vector3d g = (q - m_lo) / m_h;
-    const Eigen::Vector3i c = g.array().floor().cast<int>();
-    if ((c.array() < 0).any() || (c.array() + 1 >= m_dims.array()).any()) return m_tau2;
-    const Vector3d f = g - c.cast<double>();
-    double v = 0;
-    for (int k = 0; k < 8; ++k) {
-      const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
-      const double w =
-          (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
-      v += w * m_d2[index(c.x() + dx, c.y() + dy, c.z() + dz)];
-    }
-    return v;
-  }
-
- private:
-  [[nodiscard]] Eigen::Vector3i cell(const Vector3d& p) const {
-    return ((p - m_lo) / m_h).array().floor().cast<int>();
-  }
-  [[nodiscard]] std::size_t index(int x, int y, int z) const {
-    return x +
-           static_cast<std::size_t>(m_dims.x()) * (y + static_cast<std::size_t>(m_dims.y()) * z);
-  }
-  Vector3d m_lo;
-  double m_h;
-  float m_tau2;
-  Eigen::Vector3i m_dims;
-  std::vector<float> m_d2;
-  std::vector<std::int32_t> m_seg;
-};
-
-}  // namespace
-
 ShiftSearchResult search_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
                                const std::vector<Matrix3d>& basis,
                                const ShiftSearchOptions& options) {
@@ -123,7 +46,7 @@ ShiftSearchResult search_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3
   const double margin = reach * R * std::sqrt(3.0) + tc + options.voxel_mm;
   const Vector3d lo = points.colwise().minCoeff().transpose().array() - margin;
   const Vector3d hi = points.colwise().maxCoeff().transpose().array() + margin;
-  const DistanceTable table(skeleton, lo, hi, options.voxel_mm, tc);
+  const detail::DistanceGrid table(skeleton, lo, hi, options.voxel_mm, tc);
   const Eigen::Index stride = (points.rows() + options.max_points - 1) / options.max_points;
   const Eigen::Index n = (points.rows() + stride - 1) / stride;
 
