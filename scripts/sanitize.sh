@@ -35,6 +35,10 @@ command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 # checkout are rewritten relative (the default when CCACHE_BASEDIR is unset).
 common="$(git rev-parse --path-format=absolute --git-common-dir 2> /dev/null || echo "$PWD/.git")"
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$(dirname "$(dirname "$common")")}"
+# With -g, ccache hashes the working directory too (hash_dir), so without this every worktree
+# missed the others' objects. The price: a cached object's debug info names the build folder that
+# compiled it first (reports still give the right source file and line).
+export CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS="$flags" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
