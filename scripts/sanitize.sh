@@ -2,14 +2,15 @@
 # AddressSanitizer + UndefinedBehaviorSanitizer run of the unit tests (CTest label `unit`), on
 # demand (not a CI step: it is a separate, slower build). Configures build-asan/ (RelWithDebInfo
 # at -O1, with assertions: Eigen's index checks are on), builds only the executables that carry
-# the label, and runs `ctest -L <label>` there. Any sanitizer report fails the test that made it
-# (halt_on_error / -fno-sanitize-recover).
+# the label, and runs `ctest -L <label>` there, one test folder (module) at a time. Any sanitizer
+# report fails the test that made it (halt_on_error / -fno-sanitize-recover).
 #
 # Usage: scripts/sanitize.sh [ctest label regex, default "unit"] [executable ...]
 #   scripts/sanitize.sh                              # every unit executable
 #   scripts/sanitize.sh unit test_core test_data_synth   # a subset of the executables
 # Environment: BS_ASAN_DIR (build folder, default build-asan), BS_JOBS (default 1) and BS_NICE
-# (default 10): the build and the tests are niced and serial so that they can run on a shared machine.
+# (default 10): the build and the tests are niced and serial so that they can run on a shared machine
+# (on a loaded one nice 10 starves them: BS_NICE=0 there, still -j1).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 label="${1:-unit}"
@@ -35,6 +36,10 @@ command -v ccache > /dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 # checkout are rewritten relative (the default when CCACHE_BASEDIR is unset).
 common="$(git rev-parse --path-format=absolute --git-common-dir 2> /dev/null || echo "$PWD/.git")"
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$(dirname "$(dirname "$common")")}"
+# With -g, ccache hashes the working directory too (hash_dir), so without this every worktree
+# missed the others' objects. The price: a cached object's debug info names the build folder that
+# compiled it first (reports still give the right source file and line).
+export CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-1}"
 cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_CXX_FLAGS="$flags" \
   -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=address,undefined" \
@@ -46,9 +51,19 @@ cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=0:halt_on_error=1:strict_string_checks=1:detect_stack_use_after_return=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/tests/sanitize/lsan.supp:print_suppressions=0"
-echo "sanitize.sh: building ${targets[*]}"
-nice -n "$niceness" cmake --build "$build" -j "$jobs" --target "${targets[@]}"
-
-# Executables of the label that were not built (a subset was asked for) register a
-# <name>_NOT_BUILT placeholder test: leave those out.
-nice -n "$niceness" ctest --test-dir "$build" -L "$label" -E '_NOT_BUILT' -j "$jobs" --output-on-failure
+# One test folder (module) at a time: build its executables, then run their tests, so that a
+# finding shows up as soon as its module is built and an interrupted run has still tested the
+# modules before it (the four libraries come first, with the first module). Executables of the
+# label that were not built register a <name>_NOT_BUILT placeholder test: leave those out.
+module_of() { basename "$(dirname "$(grep -l "bs_add_test($1 " tests/*/CMakeLists.txt | head -n 1)")"; }
+mapfile -t modules < <(for t in "${targets[@]}"; do module_of "$t"; done | awk '!seen[$0]++')
+status=0
+for module in "${modules[@]}"; do
+  module_targets=()
+  for t in "${targets[@]}"; do [ "$(module_of "$t")" = "$module" ] && module_targets+=("$t"); done
+  echo "sanitize.sh: building ${module_targets[*]}"
+  nice -n "$niceness" cmake --build "$build" -j "$jobs" --target "${module_targets[@]}"
+  nice -n "$niceness" ctest --test-dir "$build/tests/$module" -L "$label" -E '_NOT_BUILT' \
+    -j "$jobs" --output-on-failure || status=1
+done
+exit "$status"
