@@ -20,15 +20,7 @@ std::string DuraOptions::validate() const {
 }
 
 std::string to_string(DuraOptions::Mode mode) {
-  switch (mode) {
-    case DuraOptions::Mode::NONE:
-      return "none";
-    case DuraOptions::Mode::SLIDING:
-      return "sliding";
-    case DuraOptions::Mode::UNILATERAL:
-      return "unilateral";
-  }
-  BS_UNREACHABLE();
+  return core::enum_to_string(mode);  // the option table's names (visit_fields)
 }
 
 void add_vessel_rows(ConstraintRows& rows, const std::vector<Pair>& pairs,

@@ -15,13 +15,7 @@
 namespace brainshift::constraints {
 
 std::string to_string(NoiseCriterion c) {
-  switch (c) {
-    case NoiseCriterion::BLOCK_CV:
-      return "block_cv";
-    case NoiseCriterion::GCV:
-      return "gcv";
-  }
-  BS_UNREACHABLE();
+  return core::enum_to_string(c);  // the option table's names (visit_fields)
 }
 
 Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::MatrixXd& Q,

@@ -99,15 +99,7 @@ std::string to_string(ActiveSetOutcome o) {
 }
 
 std::string to_string(ConstraintSolver s) {
-  switch (s) {
-    case ConstraintSolver::AUTO:
-      return "auto";
-    case ConstraintSolver::ACTIVE_SET:
-      return "active_set";
-    case ConstraintSolver::GAUSS_SEIDEL:
-      return "gauss_seidel";
-  }
-  BS_UNREACHABLE();
+  return core::enum_to_string(s);  // the option table's names (visit_fields)
 }
 
 PgsResult solve_constraints(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta_free,

@@ -55,15 +55,7 @@ std::uint64_t stiffness_fingerprint(const core::TetMesh& mesh, std::vector<index
 }
 
 std::string to_string(ComplianceStrategy s) {
-  switch (s) {
-    case ComplianceStrategy::AUTO:
-      return "auto";
-    case ComplianceStrategy::DENSE_BLOCK:
-      return "dense_block";
-    case ComplianceStrategy::SPARSE_SOLVE:
-      return "sparse_solve";
-  }
-  BS_UNREACHABLE();
+  return core::enum_to_string(s);  // the option table's names (visit_fields)
 }
 
 ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,

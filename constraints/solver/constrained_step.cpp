@@ -29,17 +29,7 @@ double add_row_compliance(Eigen::MatrixXd& W, const ConstraintRows& rows,
 }  // namespace
 
 std::string to_string(Mechanics m) {
-  switch (m) {
-    case Mechanics::WARPED:
-      return "warped";
-    case Mechanics::UNWARPED:
-      return "unwarped";
-    case Mechanics::LINEAR:
-      return "linear";
-    case Mechanics::EXACT:
-      return "exact";
-  }
-  BS_UNREACHABLE();
+  return core::enum_to_string(m);  // the option table's names (visit_fields)
 }
 
 ConstrainedModel::ConstrainedModel(const core::TetMesh& mesh,
