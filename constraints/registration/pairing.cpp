@@ -29,22 +29,52 @@ FeatureIndex::FeatureIndex(ConstRef<MatrixX3d> vertices,
     : m_vertices(vertices), m_features(std::move(features)), m_arity(arity) {
   BS_VERIFY(m_vertices.allFinite(), "feature vertices contain NaN or infinity");
   const auto nv = static_cast<index_t>(m_vertices.rows());
+  double total = 0;
   for (const auto& f : m_features)
     for (int k = 0; k < m_arity; ++k) {
       BS_VERIFY(f[k] >= 0 && f[k] < nv,
                 "feature refers to vertex " << f[k] << ", outside [0, " << nv << ")");
+      total += (m_vertices.row(f[(k + 1) % m_arity]) - m_vertices.row(f[k])).norm();
     }
-  MatrixX3d lo(static_cast<Eigen::Index>(m_features.size()), 3);
-  MatrixX3d hi(lo.rows(), 3);
+  if (m_features.empty()) return;
+  const Vector3d lo = m_vertices.colwise().minCoeff().transpose();
+  const Vector3d hi = m_vertices.colwise().maxCoeff().transpose();
+  const double mean_edge = total / (m_arity * static_cast<double>(m_features.size()));
+  // Cell ≈ mean edge, but no more than ~2M cells.
+  m_cell = std::max({mean_edge, 1e-6, (hi - lo).maxCoeff() / 128.0});
+  m_origin = lo;
+  m_dims = (((hi - lo) / m_cell).array().floor().cast<int>() + 1).matrix();
+  const auto cell_of = [&](const Vector3d& p) {
+    return ((p - m_origin) / m_cell)
+        .array()
+        .floor()
+        .cast<int>()
+        .max(0)
+        .min(m_dims.array() - 1)
+        .matrix()
+        .eval();
+  };
+  const std::size_t ncell = static_cast<std::size_t>(m_dims.x()) * m_dims.y() * m_dims.z();
+  std::vector<std::vector<index_t>> buckets(ncell);
   for (std::size_t f = 0; f < m_features.size(); ++f) {
-    const auto r = static_cast<Eigen::Index>(f);
-    lo.row(r) = hi.row(r) = m_vertices.row(m_features[f][0]);
+    Vector3d a = m_vertices.row(m_features[f][0]).transpose(), b = a;
     for (int k = 1; k < m_arity; ++k) {
-      lo.row(r) = lo.row(r).cwiseMin(m_vertices.row(m_features[f][k]));
-      hi.row(r) = hi.row(r).cwiseMax(m_vertices.row(m_features[f][k]));
+      a = a.cwiseMin(m_vertices.row(m_features[f][k]).transpose());
+      b = b.cwiseMax(m_vertices.row(m_features[f][k]).transpose());
     }
+    const Eigen::Vector3i c0 = cell_of(a), c1 = cell_of(b);
+    for (int z = c0.z(); z <= c1.z(); ++z)
+      for (int y = c0.y(); y <= c1.y(); ++y)
+        for (int x = c0.x(); x <= c1.x(); ++x)
+          buckets[x + static_cast<std::size_t>(m_dims.x()) *
+                          (y + static_cast<std::size_t>(m_dims.y()) * z)]
+              .push_back(static_cast<index_t>(f));
   }
-  m_grid = core::GridIndex(lo, hi);
+  m_cell_start.assign(ncell + 1, 0);
+  for (std::size_t c = 0; c < ncell; ++c)
+    m_cell_start[c + 1] = m_cell_start[c] + static_cast<index_t>(buckets[c].size());
+  m_cell_features.reserve(static_cast<std::size_t>(m_cell_start.back()));
+  for (const auto& b : buckets) m_cell_features.insert(m_cell_features.end(), b.begin(), b.end());
 }
 
 Pair FeatureIndex::closest_on(index_t f, const Vector3d& q) const {
@@ -70,11 +100,36 @@ Pair FeatureIndex::closest_on(index_t f, const Vector3d& q) const {
 }
 
 std::optional<Pair> FeatureIndex::nearest(const Vector3d& q, double max_distance) const {
-  // Ties go to the lowest feature index (core::GridIndex::nearest).
-  const auto hit =
-      m_grid.nearest(q, max_distance, [&](index_t f) { return closest_on(f, q).distance; });
-  if (!hit) return std::nullopt;
-  return closest_on(hit->item, q);
+  if (m_features.empty() || !q.allFinite()) return std::nullopt;
+  const Eigen::Vector3i c = ((q - m_origin) / m_cell).array().floor().cast<int>();
+  std::optional<Pair> best;
+  double best_d = max_distance;
+  const int max_ring = static_cast<int>(std::ceil(max_distance / m_cell)) + 1;
+  for (int r = 0; r <= max_ring; ++r) {
+    // Features in rings ≥ r are at least (r − 1)·cell away from q.
+    if (best && (r - 1) * m_cell > best_d) break;
+    for (int z = c.z() - r; z <= c.z() + r; ++z) {
+      if (z < 0 || z >= m_dims.z()) continue;
+      for (int y = c.y() - r; y <= c.y() + r; ++y) {
+        if (y < 0 || y >= m_dims.y()) continue;
+        for (int x = c.x() - r; x <= c.x() + r; ++x) {
+          if (x < 0 || x >= m_dims.x()) continue;
+          if (std::max({std::abs(x - c.x()), std::abs(y - c.y()), std::abs(z - c.z())}) != r)
+            continue;
+          const std::size_t cell = x + static_cast<std::size_t>(m_dims.x()) *
+                                           (y + static_cast<std::size_t>(m_dims.y()) * z);
+          for (index_t k = m_cell_start[cell]; k < m_cell_start[cell + 1]; ++k) {
+            const Pair p = closest_on(m_cell_features[k], q);
+            if (p.distance <= best_d && (!best || p.distance < best->distance)) {
+              best = p;
+              best_d = p.distance;
+            }
+          }
+        }
+      }
+    }
+  }
+  return best;
 }
 
 std::vector<Pair> FeatureIndex::pair(ConstRef<MatrixX3d> queries, double max_distance) const {

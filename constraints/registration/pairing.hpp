@@ -2,13 +2,11 @@
 /// @file
 /// @brief Pairing (seed 002 §3.4.1): each intra-operative point is paired with its closest
 /// feature on the current model — a skeleton segment (point-to-line) or a surface triangle
-/// (point-to-plane). The project's grid index over the features' bounding boxes
-/// (core/spatial/grid_index.hpp) answers nearest-feature queries by expanding shells of cells;
-/// of equally near features the lowest index wins. Positions in mm, world frame.
+/// (point-to-plane). A uniform grid over the features' bounding boxes answers nearest-feature
+/// queries by expanding rings of cells. Positions in mm, world frame.
 
 #include "core/config.hpp"
 #include "core/geometry/skeleton.hpp"
-#include "core/spatial/grid_index.hpp"
 
 #include <optional>
 #include <vector>
@@ -52,7 +50,11 @@ class FeatureIndex {
   MatrixX3d m_vertices;
   std::vector<std::array<index_t, 3>> m_features;
   int m_arity = 2;
-  core::GridIndex m_grid;  // over the features' bounding boxes
+  Vector3d m_origin = Vector3d::Zero();
+  double m_cell = 1.0;
+  Eigen::Vector3i m_dims = Eigen::Vector3i::Ones();
+  std::vector<index_t> m_cell_start;
+  std::vector<index_t> m_cell_features;
 };
 
 }  // namespace brainshift::constraints
