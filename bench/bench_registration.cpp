@@ -26,6 +26,8 @@ namespace brainshift::bench {
 namespace {
 
 using namespace brainshift::constraints;
+using brainshift::core::Skeleton;
+using brainshift::core::SurfaceMesh;
 
 /// Truth: a sag growing towards the top (12 mm at z = 50) with a sideways drift.
 Vector3d truth(const Vector3d& X) {
