@@ -304,8 +304,11 @@ MeshingResult mesh_labels(const LabelVolume& labels, const MeshingOptions& optio
   add_default_initial_points(c3t3, domain);
   const CgalWarningsToLogger warnings_to_logger;
   if (options.exude) {
-    CGAL::refine_mesh_3(c3t3, domain, criteria, params::no_perturb(), params::exude(),
-                        params::no_lloyd(), params::no_odt());
+    // time_limit = 0: exude until done. CGAL's default limit is the refinement's own wall time,
+    // which made the mesh depend on the machine's load (the tet count varied run to run).
+    CGAL::refine_mesh_3(c3t3, domain, criteria, params::no_perturb(),
+                        params::exude(params::time_limit = 0), params::no_lloyd(),
+                        params::no_odt());
   } else {
     CGAL::refine_mesh_3(c3t3, domain, criteria, params::no_perturb(), params::no_exude(),
                         params::no_lloyd(), params::no_odt());
