@@ -126,6 +126,17 @@ def exact_regexes(names, chunk=20):
     return ["|".join(f"^{n}$" for n in esc[i:i + chunk]) for i in range(0, len(esc), chunk)]
 
 
+def check_applies(mutants):
+    """Exits naming the first mutant whose file is missing or whose text is not there exactly once."""
+    for m in mutants:
+        path = ROOT / m["file"]
+        if not path.exists():
+            sys.exit(f"mutate.py: mutant {m['name']}: no file {m['file']}")
+        count = path.read_text().count(m["from"])
+        if count != 1:
+            sys.exit(f"mutate.py: mutant {m['name']}: '{m['from']}' occurs {count} times in {m['file']} (need 1)")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("build_dir", type=Path, nargs="?",
@@ -140,13 +151,7 @@ def main():
     ap.add_argument("--jobs", type=int, default=1)
     a = ap.parse_args()
     if a.check:
-        for m in parse_list(a.list):
-            path = ROOT / m["file"]
-            if not path.exists():
-                sys.exit(f"mutate.py: mutant {m['name']}: no file {m['file']}")
-            count = path.read_text().count(m["from"])
-            if count != 1:
-                sys.exit(f"mutate.py: mutant {m['name']}: '{m['from']}' occurs {count} times in {m['file']} (need 1)")
+        check_applies(parse_list(a.list))
         print(f"mutate.py: all mutants of {a.list.name} apply")
         return
     if a.build_dir is None:
@@ -169,13 +174,7 @@ def main():
     signal.signal(signal.SIGTERM, on_signal)
 
     # Every mutant must apply (its text exactly once) before anything is run.
-    for m in mutants:
-        path = ROOT / m["file"]
-        if not path.exists():
-            sys.exit(f"mutate.py: mutant {m['name']}: no file {m['file']}")
-        count = path.read_text().count(m["from"])
-        if count != 1:
-            sys.exit(f"mutate.py: mutant {m['name']}: '{m['from']}' occurs {count} times in {m['file']} (need 1)")
+    check_applies(mutants)
 
     t0 = time.time()
     if not a.no_baseline:
