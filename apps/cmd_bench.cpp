@@ -39,14 +39,14 @@ CLI::App* add_bench_command(CLI::App& app, BenchArgs& args) {
 }
 
 int run_bench(const BenchArgs& args, std::ostream& out) {
-  const Progress progress("bench");
-  const BenchResult result = run_benchmark(args, progress);
-  const std::vector<BenchRow>& rows = result.rows;
+  const workflow::Progress progress("bench");
+  const workflow::BenchResult result = workflow::run_benchmark(args, progress);
+  const std::vector<workflow::BenchRow>& rows = result.rows;
   const nlohmann::json& meta = result.meta;
   int failed = 0;
   out << std::fixed << std::setprecision(2);
   out << "brainshift bench: " << rows.size() << " runs in " << progress.seconds() << " s\n";
-  for (const BenchRow& r : rows) {
+  for (const workflow::BenchRow& r : rows) {
     if (!r.ok) ++failed;
     if (r.suite != "cases") continue;
     out << "  " << std::left << std::setw(30) << r.case_name << std::setw(24) << r.method

@@ -14,7 +14,7 @@ class App;
 namespace brainshift::apps {
 
 /// The flags of `brainshift bench` (workflow/bench.hpp).
-using BenchArgs = BenchOptions;
+using BenchArgs = workflow::BenchOptions;
 CLI::App* add_bench_command(CLI::App& app, BenchArgs& args);
 
 /// Runs the benchmark. @return 0 when every run gave a finite answer, 2 when some run failed or

@@ -27,7 +27,7 @@ CLI::App* add_demo_command(CLI::App& app, DemoArgs& args) {
 }
 
 int run_demo(const DemoArgs& args, std::ostream& out) {
-  const Progress progress("demo");
+  const workflow::Progress progress("demo");
   std::error_code ec;
   std::filesystem::create_directories(args.out, ec);
   BS_VERIFY(!ec, args.out.string() << ": cannot create the output folder: " << ec.message());

@@ -59,13 +59,13 @@ CLI::App* add_extract_footprint_command(CLI::App& extract, ExtractFootprintArgs&
 }
 
 int run_extract_footprint(const ExtractFootprintArgs& args, std::ostream& out) {
-  const Progress progress("extract footprint");
+  const workflow::Progress progress("extract footprint");
   std::optional<Vector3d> direction;
   if (args.probe_direction) direction = parse_direction(*args.probe_direction);
   imaging::verify_writable(args.out);
   if (args.report) imaging::verify_writable(*args.report);
   progress.stage("reading " + args.bmode.string() + " and finding the contact band");
-  const IntraopFootprint f = footprint_from_bmode(args.bmode, direction);
+  const workflow::IntraopFootprint f = workflow::footprint_from_bmode(args.bmode, direction);
   BS_VERIFY(f.found, args.bmode.string()
                          << ": "
                          << f.report.value("message", std::string("no contact band found")));

@@ -26,9 +26,10 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args) {
   return c;
 }
 
-int run_prepare(const PrepareArgs& args, std::ostream& out, const Progress::Sink& progress_sink) {
-  const Progress progress("prepare", progress_sink);
-  const PrepareResult r = prepare_model(args, progress);
+int run_prepare(const PrepareArgs& args, std::ostream& out,
+                const workflow::Progress::Sink& progress_sink) {
+  const workflow::Progress progress("prepare", progress_sink);
+  const workflow::PrepareResult r = workflow::prepare_model(args, progress);
   out << "prepared " << args.out.string() << ": " << r.nodes << " nodes, " << r.tets
       << " tetrahedra, " << r.surface_vertices << " surface vertices, " << r.fixed_nodes
       << " fixed nodes, " << r.vessel_branches << " vessel branches ("

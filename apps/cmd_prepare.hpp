@@ -18,7 +18,7 @@ class App;
 namespace brainshift::apps {
 
 /// The flags of `brainshift prepare` (workflow/prepare.hpp).
-using PrepareArgs = PrepareOptions;
+using PrepareArgs = workflow::PrepareOptions;
 
 CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args);
 
@@ -26,6 +26,6 @@ CLI::App* add_prepare_command(CLI::App& app, PrepareArgs& args);
 /// `progress_sink` when given).
 /// \throws brainshift::Error, one line, for any bad input (nothing is written then).
 int run_prepare(const PrepareArgs& args, std::ostream& out,
-                const Progress::Sink& progress_sink = {});
+                const workflow::Progress::Sink& progress_sink = {});
 
 }  // namespace brainshift::apps

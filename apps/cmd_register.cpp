@@ -24,8 +24,8 @@ CLI::App* add_register_command(CLI::App& app, RegisterArgs& args) {
 }
 
 int run_register(const RegisterArgs& args, std::ostream& out) {
-  const Progress progress("register");
-  const RegisterOutcome o = register_and_write(args, progress);
+  const workflow::Progress progress("register");
+  const workflow::RegisterOutcome o = workflow::register_and_write(args, progress);
   const constraints::RegistrationResult& r = o.result;
   out << "registered in " << r.iterations << " iterations (" << r.stop_reason << "); registration "
       << r.seconds.total << " s, total " << progress.seconds() << " s; max displacement "

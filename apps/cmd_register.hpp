@@ -20,7 +20,7 @@ class App;
 namespace brainshift::apps {
 
 /// The flags of `brainshift register` (workflow/register.hpp).
-using RegisterArgs = RegisterOptions;
+using RegisterArgs = workflow::RegisterOptions;
 
 CLI::App* add_register_command(CLI::App& app, RegisterArgs& args);
 /// Runs register_and_write() and prints its one-line summary. @return 0 converged, 2 not.

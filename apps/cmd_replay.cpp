@@ -24,8 +24,8 @@ CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args) {
 }
 
 int run_replay(const ReplayArgs& args, std::ostream& out) {
-  const Progress progress("replay");
-  const ReplayResult r = replay_sequence(args, progress);
+  const workflow::Progress progress("replay");
+  const workflow::ReplayResult r = workflow::replay_sequence(args, progress);
   out << std::fixed << std::setprecision(3) << r.frames << " frames: " << r.frames - r.failed
       << " registered (" << r.unconverged << " not converged), " << r.failed
       << " failed; latency median " << r.summary["latency_s"]["median"].get<double>() << " s, p95 "

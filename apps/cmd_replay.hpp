@@ -19,7 +19,7 @@ class App;
 namespace brainshift::apps {
 
 /// The flags of `brainshift replay` (workflow/replay.hpp).
-using ReplayArgs = ReplayOptions;
+using ReplayArgs = workflow::ReplayOptions;
 
 CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args);
 int run_replay(const ReplayArgs& args, std::ostream& out);

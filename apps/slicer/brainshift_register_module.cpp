@@ -84,16 +84,16 @@ void check_outputs(const RegisterPaths& p) {
   for (const auto& f : {p.warped, p.to_intra, p.to_pre, p.report})
     if (f) imaging::verify_writable(*f);
   if (p.result_dir) {
-    verify_output_folder(*p.result_dir);
+    workflow::verify_output_folder(*p.result_dir);
     verify_replaceable_folder(*p.result_dir, "report.json");
   }
 }
 
 /// Writes the requested outputs, all or none.
-void write_outputs(const RegisterPaths& p, const Session& s,
-                   const constraints::RegistrationResult& r, const IntraopInputs& in,
-                   const imaging::VolumeF* mri, const ResultFields& f, Clock::time_point t_out,
-                   double seconds_fields) {
+void write_outputs(const RegisterPaths& p, const workflow::Session& s,
+                   const constraints::RegistrationResult& r, const workflow::IntraopInputs& in,
+                   const imaging::VolumeF* mri, const workflow::ResultFields& f,
+                   Clock::time_point t_out, double seconds_fields) {
   StagedOutputs outputs;
   if (p.warped) {
     outputs.add(*p.warped, [&](const std::filesystem::path& tmp) {
@@ -114,7 +114,7 @@ void write_outputs(const RegisterPaths& p, const Session& s,
     });
   const nlohmann::json extra = {{"slicer_module", "BrainshiftRegister"}};
   if (p.report) {
-    nlohmann::json report = result_report(s, r, in, extra);
+    nlohmann::json report = workflow::result_report(s, r, in, extra);
     report["timing"]["outputs"] = since(t_out);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"})
@@ -127,7 +127,7 @@ void write_outputs(const RegisterPaths& p, const Session& s,
       BS_VERIFY(o.good(), p.report->string() << ": cannot write the report");
     });
   }
-  if (p.result_dir) write_result(*p.result_dir, s, r, in, mri, f, extra, seconds_fields);
+  if (p.result_dir) workflow::write_result(*p.result_dir, s, r, in, mri, f, extra, seconds_fields);
   outputs.commit();
 }
 
@@ -136,11 +136,11 @@ int register_body(const Values& v, const ProgressReport& progress) {
   const RegisterPaths p = paths_of(v);
   check_outputs(p);
   progress("loading the model " + p.model.string(), 0.05);
-  Session s = open_session(p.model);
+  workflow::Session s = workflow::open_session(p.model);
   progress("extracting vessels" + std::string(p.bmode ? " and the probe footprint" : ""), 0.25);
-  const IntraopInputs in = read_intraop(s, p.doppler, p.bmode);
+  const workflow::IntraopInputs in = workflow::read_intraop(s, p.doppler, p.bmode);
   const std::optional<imaging::VolumeF> mri =
-      p.mri ? std::optional<imaging::VolumeF>(read_preop_mri(s, *p.mri)) : std::nullopt;
+      p.mri ? std::optional<imaging::VolumeF>(workflow::read_preop_mri(s, *p.mri)) : std::nullopt;
   constraints::RegistrationOptions options = s.loaded.scene.options;
   const std::string init = v.count("init") ? v.at("init") : "scene";
   if (init == "rigid") options.start = constraints::RigidStart::RIGID;
@@ -152,7 +152,7 @@ int register_body(const Values& v, const ProgressReport& progress) {
 
   progress("computing the transforms" + std::string(mri ? " and the warped MRI" : ""), 0.7);
   const auto t_out = Clock::now();
-  const ResultFields f = compute_result_fields(s, r, mri ? &*mri : nullptr);
+  const workflow::ResultFields f = workflow::compute_result_fields(s, r, mri ? &*mri : nullptr);
   progress("writing the outputs", 0.85);
   write_outputs(p, s, r, in, mri ? &*mri : nullptr, f, t_out, since(t_out));
 

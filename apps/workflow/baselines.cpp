@@ -7,7 +7,7 @@
 #include <map>
 #include <utility>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
@@ -83,4 +83,4 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
   return r;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -7,7 +7,7 @@
 
 #include "constraints/registration/registration.hpp"
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// The rigid start alone: no deformation.
 constraints::RegistrationResult rigid_only(constraints::RegistrationModel& model,
@@ -23,4 +23,4 @@ constraints::RegistrationResult prescribed_displacement(
     constraints::RegistrationModel& model, const constraints::IntraopData& data,
     const constraints::RegistrationOptions& options);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -15,7 +15,7 @@
 #include <optional>
 #include <sstream>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 using constraints::RegistrationOptions;
 using constraints::RegistrationResult;
@@ -321,4 +321,4 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
   return result;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

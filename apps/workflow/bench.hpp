@@ -29,7 +29,7 @@
 #include <string>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// What to run (the flags of `brainshift bench`).
 struct BenchOptions {
@@ -60,4 +60,4 @@ struct BenchResult {
 /// \throws brainshift::Error for bad options (an unknown case) or an unwritable DIR.
 BenchResult run_benchmark(const BenchOptions& args, const Progress& progress);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

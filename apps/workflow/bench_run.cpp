@@ -22,7 +22,7 @@
 #define BRAINSHIFT_BUILD_TYPE "unknown"
 #endif
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
@@ -202,4 +202,4 @@ RegistrationOptions product_options(const Session& s) {
   return o;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// Mesh refinements whose node counts are ≈ 1k, 2k, 5k, 10k, 20k, 50k on the phantom (measured:
 /// nodes ≈ 1,600 r^2.7, not r³, as the boundary and the tumour keep their own sizing).
@@ -147,4 +147,4 @@ void describe(BenchRow& row, const Session& s, const constraints::IntraopData& d
 /// the footprint rows currently cost accuracy on the phantoms; the constraint-set sweep shows it).
 constraints::RegistrationOptions product_options(const Session& s);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

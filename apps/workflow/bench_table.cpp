@@ -11,7 +11,7 @@
 #include <limits>
 #include <sstream>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 std::string csv_field(const nlohmann::json& v) {
@@ -252,4 +252,4 @@ std::string write_pareto(const std::filesystem::path& dir, const std::vector<Ben
   return "";
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// Least-squares slope of log y against log x over the positive pairs; nullopt with < 2 (or a
 /// degenerate x range).
@@ -41,4 +41,4 @@ void write_markdown(const std::filesystem::path& path, const std::vector<BenchRo
 /// plot.
 std::string write_pareto(const std::filesystem::path& dir, const std::vector<BenchRow>& rows);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 nlohmann::json vector_json(const Vector3d& v) {
@@ -58,4 +58,4 @@ IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
   return f;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 struct IntraopFootprint {
   MatrixX3d points;    ///< #P×3 world RAS mm
@@ -34,4 +34,4 @@ struct IntraopFootprint {
 IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
                                       const std::optional<Vector3d>& direction = {});
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

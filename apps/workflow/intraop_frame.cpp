@@ -1,6 +1,6 @@
 #include "apps/workflow/intraop_frame.hpp"
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 Eigen::Isometry3d intraop_from_model(const constraints::RegistrationResult& r) {
   return r.rigid.transform.inverse();
@@ -14,4 +14,4 @@ MatrixX3d to_intraop_frame(const constraints::RegistrationResult& r, ConstRef<Ma
   return out;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -9,7 +9,7 @@
 #include "constraints/registration/registration.hpp"
 #include "core/config.hpp"
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// T⁻¹: model (pre-operative) frame → intra-operative frame.
 Eigen::Isometry3d intraop_from_model(const constraints::RegistrationResult& r);
@@ -18,4 +18,4 @@ Eigen::Isometry3d intraop_from_model(const constraints::RegistrationResult& r);
 /// intra-operative frame: each row mapped by intraop_from_model(r).
 MatrixX3d to_intraop_frame(const constraints::RegistrationResult& r, ConstRef<MatrixX3d> points);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

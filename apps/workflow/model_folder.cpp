@@ -8,7 +8,7 @@
 #include <random>
 #include <system_error>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 std::uint64_t file_hash(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -152,4 +152,4 @@ void write_folder_atomically(const std::filesystem::path& dir,
   if (existed) std::filesystem::remove_all(old, ec);
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

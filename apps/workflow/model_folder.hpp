@@ -28,7 +28,7 @@
 #include <functional>
 #include <string>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 inline constexpr const char* model_format = "brainshift-model";
 inline constexpr int model_version = 1;
@@ -76,4 +76,4 @@ void verify_output_folder(const std::filesystem::path& dir);
 void write_folder_atomically(const std::filesystem::path& dir,
                              const std::function<void(const std::filesystem::path&)>& fill);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

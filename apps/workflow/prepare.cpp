@@ -24,7 +24,7 @@
 #include <functional>
 #include <sstream>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 /// Vessel points outside the mesh within this distance are moved onto it; farther ones are dropped
@@ -376,4 +376,4 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   return result;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// The inputs and settings of prepare (the flags of `brainshift prepare`).
 struct PrepareOptions {
@@ -46,4 +46,4 @@ struct PrepareResult {
 /// then).
 PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -11,7 +11,7 @@
 #include <string>
 #include <utility>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 class Progress {
  public:
@@ -41,4 +41,4 @@ class Progress {
   core::Stopwatch m_watch;
 };
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

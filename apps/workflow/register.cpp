@@ -6,7 +6,7 @@
 
 #include <string>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& progress) {
   verify_output_folder(args.out);
@@ -31,4 +31,4 @@ RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& 
   return o;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -13,7 +13,7 @@
 #include <optional>
 #include <string>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// What to register and where to write it (the flags of `brainshift register`).
 struct RegisterOptions {
@@ -37,4 +37,4 @@ struct RegisterOutcome {
 /// \throws brainshift::Error, one line naming the file, for bad inputs (nothing written then).
 RegisterOutcome register_and_write(const RegisterOptions& options, const Progress& progress);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -12,7 +12,7 @@
 #include <optional>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 /// p-th percentile of the latencies (0 when there are none: every frame failed).
@@ -94,4 +94,4 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
   return result;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

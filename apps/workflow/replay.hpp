@@ -13,7 +13,7 @@
 #include <filesystem>
 #include <string>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// The inputs of replay (the flags of `brainshift replay`).
 struct ReplayOptions {
@@ -39,4 +39,4 @@ struct ReplayResult {
 /// written (a frame's own failure is recorded in the summary instead).
 ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -6,7 +6,7 @@
 
 #include <utility>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
                                    const imaging::VolumeF* mri, bool with_uncertainty) {
@@ -53,4 +53,4 @@ ResultFields compute_result_fields(const Session& s, const constraints::Registra
   return f;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

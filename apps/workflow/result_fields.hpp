@@ -29,7 +29,7 @@
 
 #include <optional>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// Everything register writes apart from the report, overlay and mesh file.
 struct ResultFields {
@@ -48,4 +48,4 @@ struct ResultFields {
 ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
                                    const imaging::VolumeF* mri, bool with_uncertainty = true);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 void write_result_overlay(const std::filesystem::path& path, const imaging::VolumeF* mri,
                           const imaging::VolumeF* warped, const imaging::VolumeF& displacement,
@@ -51,4 +51,4 @@ void write_result_overlay(const std::filesystem::path& path, const imaging::Volu
   imaging::write_overlay_png(path, in, o);
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

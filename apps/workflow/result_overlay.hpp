@@ -12,7 +12,7 @@
 
 #include <filesystem>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// @param[in] uncertainty the predicted-error map (mm, one component) or null (no panel).
 void write_result_overlay(const std::filesystem::path& path, const imaging::VolumeF* mri,
@@ -20,4 +20,4 @@ void write_result_overlay(const std::filesystem::path& path, const imaging::Volu
                           const constraints::IntraopData& data,
                           const imaging::VolumeF* uncertainty = nullptr);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

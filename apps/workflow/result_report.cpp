@@ -11,7 +11,7 @@
 #include <chrono>
 #include <fstream>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
@@ -151,4 +151,4 @@ void write_result(const std::filesystem::path& res, const Session& s,
   });
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -14,7 +14,7 @@
 
 #include <filesystem>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// Writes RES (report.json, deformed.vtu, displacement.nii.gz, preop_to_intraop.nrrd,
 /// intraop_to_preop.nrrd, overlay.png, warped_mri.nii.gz with an MRI from read_preop_mri())
@@ -41,4 +41,4 @@ nlohmann::json result_report(const Session& s, const constraints::RegistrationRe
 /// Everything in report.json about the registration itself.
 nlohmann::json registration_report(const constraints::RegistrationResult& r);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

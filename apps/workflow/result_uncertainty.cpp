@@ -8,7 +8,7 @@
 #include <chrono>
 #include <cmath>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 /// Centroid (mm, model frame) of the tetrahedra whose Young's modulus is the manifest's tumour
@@ -111,4 +111,4 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
   return j;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -15,7 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 struct ResultUncertainty {
   bool computed = false;  ///< false: skipped (replay --uncertainty); nothing below is set
@@ -38,4 +38,4 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
 nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                                   const constraints::IntraopData& data);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

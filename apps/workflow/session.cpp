@@ -10,7 +10,7 @@
 
 #include <chrono>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
@@ -103,4 +103,4 @@ imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& m
   return image;
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -15,7 +15,7 @@
 #include <memory>
 #include <optional>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// A prepared model ready for intra-operative work (loaded once, reused by replay).
 struct Session {
@@ -45,4 +45,4 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
 /// scan). \throws brainshift::Error naming the file otherwise.
 imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

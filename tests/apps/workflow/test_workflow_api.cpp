@@ -30,11 +30,12 @@ TEST(WorkflowApi, PrepareAndRegisterMatchTheCommandLine) {
   (void)data_synth::generate_case("standard", 1, co);
 
   // prepare: library and command line on the same inputs.
-  apps::PrepareOptions po;
+  workflow::PrepareOptions po;
   po.labels = ph / "preop/labels.nii.gz";
   po.mra = ph / "preop/mra.nii.gz";
   po.out = dir / "model_api";
-  const apps::PrepareResult prepared = apps::prepare_model(po, apps::Progress("prepare"));
+  const workflow::PrepareResult prepared =
+      workflow::prepare_model(po, workflow::Progress("prepare"));
   for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "fixed.csv"})
     EXPECT_TRUE(std::filesystem::exists(po.out / f)) << f;
   CliRun r = run_brainshift(dir, "prepare --labels " + q(po.labels) + " --mra " + q(po.mra) +
@@ -49,11 +50,12 @@ TEST(WorkflowApi, PrepareAndRegisterMatchTheCommandLine) {
   EXPECT_EQ(prepared.vessel_points_dropped, manifest["vessels"]["dropped"].get<index_t>());
 
   // register: library and command line on the library's model.
-  apps::RegisterOptions ro;
+  workflow::RegisterOptions ro;
   ro.model = po.out;
   ro.doppler = ph / "intraop/doppler.nii.gz";
   ro.out = dir / "res_api";
-  const apps::RegisterOutcome outcome = apps::register_and_write(ro, apps::Progress("register"));
+  const workflow::RegisterOutcome outcome =
+      workflow::register_and_write(ro, workflow::Progress("register"));
   EXPECT_TRUE(outcome.result.positions.allFinite());
   r = run_brainshift(dir, "register --model " + q(ro.model) + " --doppler " + q(ro.doppler) +
                               " --out " + q(dir / "res_cli"));
