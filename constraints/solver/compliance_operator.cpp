@@ -4,11 +4,11 @@
 #include "core/error.hpp"
 #include "core/hash.hpp"
 #include "core/logger.hpp"
+#include "core/parallel.hpp"
+#include "core/solver/inverse_block.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <exception>
-#include <thread>
 #include <vector>
 
 namespace brainshift::constraints {
@@ -58,9 +58,14 @@ std::string to_string(ComplianceStrategy s) {
   return core::enum_to_string(s);  // the option table's names (visit_fields)
 }
 
+std::string to_string(BlockPrecompute m) {
+  return core::enum_to_string(m);  // the option table's names (visit_fields)
+}
+
 ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,
                                        std::vector<index_t> block_nodes,
-                                       const ComplianceOptions& options, std::uint64_t fingerprint)
+                                       const ComplianceOptions& options, std::uint64_t fingerprint,
+                                       const SparseMatrix* factorised)
     : m_factor(&factor),
       m_dofs(&dofs),
       m_warp(factor, dofs),
@@ -115,14 +120,38 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
     logger().warn("precomputed compliance block not used: {}; computing it", why);
   }
 
-  // Precompute C = K0_ff⁻¹ on the block DOFs, in chunks of unit right-hand sides.
+  // Precompute C = K0_ff⁻¹ on the block DOFs.
   m_block = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(nb), static_cast<Eigen::Index>(nb));
   std::vector<index_t> cols;  // block DOFs that are free
   for (std::size_t a = 0; a < nb; ++a)
     if (free_of_block[a] >= 0) cols.push_back(static_cast<index_t>(a));
-  // Chunks are independent (each writes its own columns): `threads` workers take chunks in turn,
-  // each with its own CHOLMOD workspace (solve_concurrent); every chunk is the same solve as with
-  // one thread.
+  // By one factorisation with the block DOFs ordered last (core/solver/inverse_block.hpp): the
+  // trailing factor's inverse. Falls back to unit solves if that factorisation fails.
+  if (options.precompute == BlockPrecompute::PARTIAL_FACTORISATION && factorised != nullptr) {
+    BS_VERIFY(factorised->rows() == dofs.num_free() && factorised->cols() == dofs.num_free(),
+              "factorised matrix is " << factorised->rows() << "×" << factorised->cols() << " for "
+                                      << dofs.num_free() << " free DOFs");
+    std::vector<index_t> free_dofs;
+    free_dofs.reserve(cols.size());
+    for (index_t a : cols) free_dofs.push_back(free_of_block[static_cast<std::size_t>(a)]);
+    core::InverseBlockResult inv =
+        core::inverse_block(*factorised, free_dofs, std::max(1, options.precompute_threads));
+    if (inv.ok) {
+      for (std::size_t j = 0; j < cols.size(); ++j)
+        for (std::size_t i = 0; i < cols.size(); ++i)
+          m_block(cols[i], cols[j]) =
+              inv.block(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+      logger().info(
+          "compliance block: {} nodes, {} MiB (partial factorisation {:.2f} s, inverse {:.2f} s)",
+          m_block_nodes.size(), bytes >> 20, inv.factor_seconds, inv.inverse_seconds);
+      return;
+    }
+    logger().warn("compliance block: the partial factorisation failed ({}); unit solves instead",
+                  inv.message);
+  }
+  // By unit right-hand sides, in chunks.
+  // Chunks are independent (each writes its own columns), each solved with its own CHOLMOD
+  // workspace (solve_concurrent); every chunk is the same solve as with one thread.
   const auto chunk = static_cast<std::size_t>(std::max(1, options.precompute_chunk));
   const std::size_t chunks = (cols.size() + chunk - 1) / chunk;
   const auto solve_chunk = [&](std::size_t c) {
@@ -136,25 +165,7 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
         if (free_of_block[a] >= 0)
           m_block(static_cast<Eigen::Index>(a), cols[c0 + j]) = sol(free_of_block[a], j);
   };
-  const std::size_t threads =
-      std::min<std::size_t>(static_cast<std::size_t>(std::max(1, options.precompute_threads)),
-                            std::max<std::size_t>(chunks, 1));
-  std::atomic<std::size_t> next{0};
-  std::vector<std::exception_ptr> failure(threads);
-  const auto worker = [&](std::size_t w) {
-    try {
-      for (std::size_t c = next++; c < chunks; c = next++) solve_chunk(c);
-    } catch (...) {
-      failure[w] = std::current_exception();
-      next = chunks;  // the others stop at their next chunk
-    }
-  };
-  std::vector<std::thread> pool;
-  for (std::size_t w = 1; w < threads; ++w) pool.emplace_back(worker, w);
-  worker(0);
-  for (auto& t : pool) t.join();
-  for (const auto& f : failure)
-    if (f) std::rethrow_exception(f);
+  core::parallel_chunks(chunks, options.precompute_threads, solve_chunk);
   // K0⁻¹ is symmetric; the solves are to ≈1e-16 relative. Make the block exactly symmetric so a
   // cache that stores one triangle gives back the very same matrix (the loop's answer may depend
   // on the last bit of W).

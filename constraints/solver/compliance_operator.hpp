@@ -41,6 +41,18 @@ constexpr std::array<core::EnumName<ComplianceStrategy>, 3> enum_names(Complianc
            {ComplianceStrategy::SPARSE_SOLVE, "sparse_solve"}}};
 }
 
+/// How the dense block C = K0_ff⁻¹ (block DOFs) is computed when it is not adopted from a cache.
+enum class BlockPrecompute {
+  PARTIAL_FACTORISATION,  ///< one factorisation with the block DOFs last
+                          ///< (core/solver/inverse_block)
+  UNIT_SOLVES,            ///< one solve per block DOF with the factor (the reference; slow)
+};
+std::string to_string(BlockPrecompute m);
+constexpr std::array<core::EnumName<BlockPrecompute>, 2> enum_names(BlockPrecompute /*tag*/) {
+  return {{{BlockPrecompute::PARTIAL_FACTORISATION, "partial_factorisation"},
+           {BlockPrecompute::UNIT_SOLVES, "unit_solves"}}};
+}
+
 /// A precomputed dense compliance block C = K0_ff⁻¹ on the DOFs of `nodes` (mm/mN).
 struct ComplianceBlock {
   std::uint64_t fingerprint = 0;  ///< stiffness_fingerprint() of the model it was computed for
@@ -57,6 +69,9 @@ struct ComplianceOptions {
   ComplianceStrategy strategy = ComplianceStrategy::AUTO;
   std::size_t memory_budget_bytes = std::size_t{512}
                                     << 20;  ///< for the dense block (default 512 MiB)
+  /// How the block is computed: by the partial factorisation when the operator is given the
+  /// factorised matrix (ComplianceOperator's `factorised`), else by unit solves.
+  BlockPrecompute precompute = BlockPrecompute::PARTIAL_FACTORISATION;
   int precompute_chunk = 64;  ///< right-hand sides per CHOLMOD solve when precomputing the block
   /// Threads solving chunks at once when precomputing the block (≥ 1; each chunk is solved as
   /// with one thread, so the block is the same bit for bit).
@@ -72,6 +87,8 @@ void visit_fields(ComplianceOptions& o, V&& v) {
   v("strategy", o.strategy, "dense compliance block, sparse solves, or auto (by the budget)");
   v("budget_mib", core::MebiBytes{o.memory_budget_bytes}, core::Range{0, 1 << 20},
     "memory for the dense compliance block (MiB)");
+  v("precompute", o.precompute,
+    "how the block is computed: partial_factorisation (block DOFs ordered last) or unit_solves");
   v("precompute_chunk", o.precompute_chunk, core::Range{1, 100000},
     "right-hand sides per CHOLMOD solve when precomputing the block");
   v("precompute_threads", o.precompute_threads, core::Range{1, 256},
@@ -87,9 +104,12 @@ class ComplianceOperator {
   /// the factor is not usable.
   /// @param[in] fingerprint stiffness_fingerprint() of the model `factor` factorises; a
   /// precomputed block is adopted only when it carries the same one (0: never adopted).
+  /// @param[in] factorised the free-DOF matrix K0_ff that `factor` factorises (read during
+  /// construction only; may be null): with it the block is computed by the partial factorisation
+  /// (options.precompute), without it by unit solves.
   ComplianceOperator(const core::CholmodFactor& factor, const core::DofMap& dofs,
                      std::vector<index_t> block_nodes, const ComplianceOptions& options = {},
-                     std::uint64_t fingerprint = 0);
+                     std::uint64_t fingerprint = 0, const SparseMatrix* factorised = nullptr);
 
   /// The strategy in use (never AUTO).
   [[nodiscard]] ComplianceStrategy strategy() const { return m_strategy; }

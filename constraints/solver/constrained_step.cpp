@@ -40,14 +40,15 @@ ConstrainedModel::ConstrainedModel(const core::TetMesh& mesh,
       m_dofs(mesh.num_nodes(), fixed_nodes),
       m_factor(std::make_unique<core::CholmodFactor>()) {
   m_K0 = core::assemble_rest_stiffness(m_model);
-  const auto status = m_factor->compute(m_dofs.restrict(m_K0));
+  const SparseMatrix K_ff = m_dofs.restrict(m_K0);
+  const auto status = m_factor->compute(K_ff);
   BS_VERIFY(status == core::FactorStatus::OK,
             "rest stiffness cannot be factorised ("
                 << m_factor->message()
                 << "): fix at least 3 non-collinear nodes so the model cannot move rigidly");
   m_compliance =
       std::make_unique<ComplianceOperator>(*m_factor, m_dofs, std::move(block_nodes), compliance,
-                                           stiffness_fingerprint(mesh, fixed_nodes));
+                                           stiffness_fingerprint(mesh, fixed_nodes), &K_ff);
 }
 
 StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& rows,

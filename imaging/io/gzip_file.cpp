@@ -1,12 +1,12 @@
 #include "imaging/io/gzip_file.hpp"
 
 #include "core/error.hpp"
+#include "core/parallel.hpp"
 
 #include <algorithm>
 #include <cstdint>
 #include <fstream>
 #include <limits>
-#include <thread>
 #include <vector>
 #include <zlib.h>
 
@@ -67,10 +67,7 @@ void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path
     const std::size_t b = size * c / chunks, e = size * (c + 1) / chunks;
     deflate_chunk(in + b, e - b, c + 1 == chunks, options, out[c]);
   };
-  std::vector<std::thread> pool;
-  for (std::size_t c = 1; c < chunks; ++c) pool.emplace_back(run, c);
-  run(0);
-  for (auto& t : pool) t.join();
+  core::parallel_chunks(chunks, static_cast<int>(chunks), run);
   uLong crc = out[0].crc;
   for (std::size_t c = 0; c < chunks; ++c) {
     BS_VERIFY(out[c].error.empty(), target.string() << ": cannot compress: " << out[c].error);

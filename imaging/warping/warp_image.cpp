@@ -2,6 +2,7 @@
 
 #include "core/logger.hpp"
 #include "core/mesh/boundary.hpp"
+#include "core/parallel.hpp"
 #include "core/timing.hpp"
 #include "imaging/filters/trilinear.hpp"
 
@@ -10,7 +11,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <thread>
 #include <vector>
 
 namespace brainshift::imaging {
@@ -125,13 +125,11 @@ void for_slabs(int nk, int threads, F&& body) {
     body(0, nk);
     return;
   }
-  std::vector<std::thread> pool;
-  for (int w = 0; w < threads; ++w) {
-    const int k0 = int(std::int64_t(nk) * w / threads);
-    const int k1 = int(std::int64_t(nk) * (w + 1) / threads);
-    pool.emplace_back([&body, k0, k1] { body(k0, k1); });
-  }
-  for (auto& th : pool) th.join();
+  core::parallel_chunks(static_cast<std::size_t>(threads), threads, [&](std::size_t w) {
+    const auto t = static_cast<std::int64_t>(threads);
+    body(int(nk * static_cast<std::int64_t>(w) / t),
+         int(nk * static_cast<std::int64_t>(w + 1) / t));
+  });
 }
 
 void check_mesh_input(const core::TetMesh& mesh, ConstRef<MatrixX3d> displacement,
