@@ -99,7 +99,24 @@ std::string UncertaintyOptions::validate() const {
   if (!(no_data_median_mm > 0)) return "uncertainty: no_data_median_mm must be > 0";
   if (!(calibration > 0)) return "uncertainty: calibration must be > 0";
   if (solve_block < 1) return "uncertainty: solve_block must be ≥ 1";
+  if (!(tracking_translation_mm >= 0) || !std::isfinite(tracking_translation_mm))
+    return "uncertainty: tracking_translation_mm must be ≥ 0";
+  if (!(tracking_rotation_deg >= 0) || !std::isfinite(tracking_rotation_deg))
+    return "uncertainty: tracking_rotation_deg must be ≥ 0";
   return {};
+}
+
+Eigen::VectorXd tracking_variance(ConstRef<MatrixX3d> points, const Vector3d& centre,
+                                  const UncertaintyOptions& uo) {
+  // tr(h Σθ hᵀ), h = [I, −[x − c]×], Σθ = diag(σ_t²/3 I, σ_r²/3 I): σ_t² + σ_r²/3 · tr([d]×[d]×ᵀ),
+  // tr([d]×[d]×ᵀ) = 2|d|².
+  const double st2 = uo.tracking_translation_mm * uo.tracking_translation_mm;
+  const double sr = uo.tracking_rotation_deg * M_PI / 180.0;
+  const double k = 2.0 / 3.0 * sr * sr;
+  Eigen::VectorXd v(points.rows());
+  for (Eigen::Index i = 0; i < points.rows(); ++i)
+    v[i] = st2 + k * (points.row(i).transpose() - centre).squaredNorm();
+  return v;
 }
 
 NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
@@ -312,8 +329,15 @@ ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {
 }
 
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
+                                      const RegistrationOptions& options) {
+  return predict_uncertainty(model, r, options, options.uncertainty);
+}
+
+UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
                                       const RegistrationOptions& options,
                                       const UncertaintyOptions& uo) {
+  const std::string invalid = uo.validate();
+  BS_VERIFY(invalid.empty(), invalid);
   const auto t0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();
   const ConstrainedModel& mech = model.mechanics();
@@ -484,6 +508,27 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.node_rigid = nv.rigid;
   out.node_variance =
       out.s2 * (out.estimated ? Eigen::VectorXd(nv.posterior + nv.rigid) : nv.prior);
+  // The stated tracking accuracy: a rigid error of the data's frame about the rows' centroid
+  // (without rows: the free nodes' centroid), which no row can show; not scaled by s².
+  if (m > 0) {
+    out.tracking_centre = centre;
+  } else {
+    index_t k = 0;
+    for (index_t i = 0; i < n; ++i)
+      if (!dofs.is_fixed_node(i)) out.tracking_centre += r.positions.row(i).transpose(), ++k;
+    if (k > 0) out.tracking_centre /= static_cast<double>(k);
+  }
+  out.node_tracking = tracking_variance(r.positions, out.tracking_centre, uo);
+  out.node_variance += out.node_tracking;
+  if (uo.tracking_translation_mm > 0 || uo.tracking_rotation_deg > 0) {
+    std::snprintf(buf, sizeof buf,
+                  "; stated tracking accuracy %.3g mm / %.3g deg RMS (a rigid error of the data's "
+                  "frame about the rows' centroid, added)",
+                  uo.tracking_translation_mm, uo.tracking_rotation_deg);
+    out.estimation += buf;
+  } else {
+    out.estimation += "; tracking accuracy not included (uncertainty.tracking_*: 0)";
+  }
   out.node_sigma_mm = out.node_variance.cwiseSqrt();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   out.cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
