@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <string>
@@ -105,6 +106,18 @@ TEST(Bench, PredictedErrorIsCalibratedOnAPhantomCase) {
             u["uncertainty_near_mean_mm"].get<double>());
   EXPECT_GT(u["uncertainty_rms_ratio"].get<double>(), 0.5);
   EXPECT_LT(u["uncertainty_rms_ratio"].get<double>(), 2.0);
+  // Dense calibration (500 points inside the brain against the phantom's truth field): there,
+  // measured (seed 1, 2026-12-02) Spearman 0.81 and far 3.64 > near 1.32 mm. Asked: all 500
+  // points scored, the rank correlation clearly positive (≥ 0.3; its standard error on 500
+  // points is ≈ 0.04), larger far from the vessels than near. Not asked: within 2 sigma (21 %
+  // measured: far from the data the map under-predicts ≈ 3.7×; docs/BENCHMARKS.md).
+  ASSERT_TRUE(u["uncertainty_dense_points"].is_number()) << "no dense calibration";
+  EXPECT_EQ(u["uncertainty_dense_points"].get<int>(), 500);
+  EXPECT_GE(u["uncertainty_dense_spearman"].get<double>(), 0.3);
+  EXPECT_GT(u["uncertainty_dense_far_mean_mm"].get<double>(),
+            u["uncertainty_dense_near_mean_mm"].get<double>());
+  EXPECT_EQ(u["uncertainty_tracking_mm"].get<double>(), 0.0);  // large_shift declares none
+  EXPECT_TRUE(std::filesystem::exists(out / "dense/large_shift.csv"));
 }
 
 TEST(Bench, BadArgumentsAreOneLineErrors) {
