@@ -99,6 +99,8 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                               {"held_out_blocks", u.nodal.s2_heldout},
                               {"discrepancy", u.nodal.s2_discrepancy}};
   j["held_out_blocks"] = u.nodal.heldout_blocks;
+  j["s2_effective_rows"] = u.nodal.scale_rows;
+  j["s2_upper_bound_factor"] = u.nodal.scale_factor;
   j["rigid_rank"] = u.nodal.rigid_rank;
   const constraints::UncertaintyOptions& uo = s.loaded.scene.options.uncertainty;
   const Vector3d& c = u.nodal.tracking_centre;

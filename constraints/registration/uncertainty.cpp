@@ -84,6 +84,32 @@ Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& a, index_t& rank) {
   return es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
 }
 
+/// Regularised lower incomplete gamma P(a, x) (series below a + 1, continued fraction above).
+double gamma_p(double a, double x) {
+  if (!(x > 0)) return 0.0;
+  const double lg = std::lgamma(a);
+  if (x < a + 1.0) {
+    double sum = 1.0 / a, term = sum;
+    for (int n = 1; n < 1000 && std::abs(term) > 1e-15 * std::abs(sum); ++n)
+      term *= x / (a + n), sum += term;
+    return sum * std::exp(-x + a * std::log(x) - lg);
+  }
+  double b = x + 1.0 - a, c = 1e300, d = 1.0 / b, h = d;  // modified Lentz
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = b + an / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return 1.0 - std::exp(-x + a * std::log(x) - lg) * h;
+}
+
 Matrix3d cross_matrix(const Vector3d& v) {
   Matrix3d m;
   m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
@@ -92,12 +118,25 @@ Matrix3d cross_matrix(const Vector3d& v) {
 
 }  // namespace
 
+double chi2_quantile(double k, double p) {
+  BS_VERIFY(k > 0 && p > 0 && p < 1, "uncertainty: chi-square quantile of " << p << " with " << k
+                                                                            << " degrees of freedom");
+  double lo = 0.0, hi = k + 10.0 * std::sqrt(2.0 * k) + 10.0;
+  for (int i = 0; i < 200; ++i) {  // bisection on P(k/2, x/2) = p
+    const double mid = 0.5 * (lo + hi);
+    (gamma_p(0.5 * k, 0.5 * mid) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 std::string UncertaintyOptions::validate() const {
   if (!(coarse_spacing_mm >= 0)) return "uncertainty: coarse_spacing_mm must be ≥ 0";
   if (!(hard_row_ratio > 0)) return "uncertainty: hard_row_ratio must be > 0";
   if (!(separated_mm >= 0)) return "uncertainty: separated_mm must be ≥ 0";
   if (!(no_data_median_mm > 0)) return "uncertainty: no_data_median_mm must be > 0";
   if (!(calibration > 0)) return "uncertainty: calibration must be > 0";
+  if (!(scale_confidence >= 0 && scale_confidence < 1))
+    return "uncertainty: scale_confidence must be in [0, 1)";
   if (solve_block < 1) return "uncertainty: solve_block must be ≥ 1";
   if (!(tracking_translation_mm >= 0) || !std::isfinite(tracking_translation_mm))
     return "uncertainty: tracking_translation_mm must be ≥ 0";
@@ -444,7 +483,7 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio
                                                               : options.noise.max_ratio;
   out.vessel_alpha = out.vessel_ratio * scale;
-  char buf[700];
+  char buf[1000];
   if (usable) {
     const double md = static_cast<double>(m);
     out.s2_ml = nv.quadratic / md;
@@ -474,17 +513,24 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                   : "by restricted maximum likelihood (no vessel blocks to hold out)";
         break;
     }
-    if (s2 > 0 && std::isfinite(s2) && scale > 0) {
-      out.s2 = uo.calibration * s2;
+    // The sampling uncertainty of s² with few effectively independent rows: an upper bound.
+    out.scale_rows = nv.heldout_blocks > 0 ? static_cast<double>(nv.heldout_blocks) : md;
+    out.scale_factor = uo.scale_confidence > 0
+                           ? out.scale_rows / chi2_quantile(out.scale_rows, 1.0 - uo.scale_confidence)
+                           : 1.0;
+    if (s2 > 0 && std::isfinite(s2) && scale > 0 && std::isfinite(out.scale_factor)) {
+      out.s2 = uo.calibration * s2 * out.scale_factor;
       out.estimated = true;
       out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
       std::snprintf(
           buf, sizeof buf,
-          "s² %s of the %lld data rows = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
+          "s² %s of the %lld data rows, at its %.3g upper confidence bound (χ² with %.0f "
+          "effective rows: × %.3g) = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
           "held out); α = the registration's vessel compliance (ratio %.3g × median diag W "
           "%.4g mm/mN), hard rows %.3g × it; implied vessel-row scatter %.3g mm; %s; dura rows "
           "not used",
-          how, static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
+          how, static_cast<long long>(m), uo.scale_confidence, out.scale_rows, out.scale_factor,
+          out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
           out.s2_ml, static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale,
           uo.hard_row_ratio, out.noise_sigma_mm,
           uo.rigid_term ? "the pose of the rigid start is an unknown of the model (rigid term)"

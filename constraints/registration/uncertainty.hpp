@@ -53,7 +53,9 @@
 /// Gaussian fit: w = P δ, Σ_b w_bᵀ (P_bb)⁺ w_b / Σ_b rank P_bb). On the phantoms ML with the
 /// rigid term measured best (docs/BENCHMARKS.md, "Predicted error"): the held-out scale matches
 /// ML where the model fits and is lower on deep_tumour_one_side_vessels, where it under-predicts.
-/// `calibration` (dimensionless, default 1) multiplies s².
+/// `calibration` (dimensionless, default 1) multiplies s². The chosen estimate is then raised to
+/// its one-sided upper confidence bound (`scale_confidence`, default 0.95): k ŝ² / χ²_{1−c}(k),
+/// k the held-out vessel blocks (else the rows): few vessels, a wider map.
 /// The stated tracking accuracy (uncertainty_options.hpp; default 0) adds a rigid-pose
 /// covariance about the rows' centroid that no row can show: tracking_variance(), not scaled.
 /// Positions in mm, model (pre-operative, world RAS) frame.
@@ -127,6 +129,11 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
                              const Eigen::VectorXd& noise, const UncertaintyOptions& options,
                              const NodalVarianceExtras& extras = {});
 
+/// The p-quantile of the χ² distribution with k (> 0, not necessarily integer) degrees of
+/// freedom, by bisection on the regularised incomplete gamma function (relative error < 1e-12).
+/// \throws brainshift::Error unless k > 0 and 0 < p < 1.
+double chi2_quantile(double k, double p);
+
 /// The predicted error of a registration.
 struct UncertaintyResult {
   bool estimated = false;         ///< s² came from the data (false: no data rows; see estimation)
@@ -146,6 +153,10 @@ struct UncertaintyResult {
   double s2_restricted = 0.0;
   double s2_heldout = 0.0;
   index_t heldout_blocks = 0;  ///< vessel blocks behind s2_heldout
+  /// The effective number of rows of s² (the held-out vessel blocks, else the rows) and the
+  /// factor its upper confidence bound (UncertaintyOptions::scale_confidence) applied.
+  double scale_rows = 0.0;
+  double scale_factor = 1.0;
   index_t rigid_rank = 0;      ///< pose directions the rows determine (6 = all)
   /// #N: what the stated tracking accuracy adds to tr Σ_n (mm², not scaled by s²; included in
   /// node_variance), and the centre of its rotation (the rows' centroid, mm, model frame).

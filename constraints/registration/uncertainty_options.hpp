@@ -41,6 +41,12 @@ struct UncertaintyOptions {
   /// The pose of the rigid start is an unknown with a flat prior (adds the rigid term).
   bool rigid_term = true;
   int solve_block = 192;  ///< right-hand sides per solve when computing the prior term
+  /// s² is raised to this one-sided upper confidence bound of its sampling distribution: with k
+  /// effectively independent rows, k ŝ²/s² ~ χ²(k), so s² ≤ k ŝ² / χ²_{1−c}(k) with confidence c;
+  /// k = the vessel blocks held out (rows along one block are one piece of evidence of the scale),
+  /// else the rows. 0: the point estimate ŝ². Few vessels (sparse_vessels: 6 blocks) widen the
+  /// map more than many (standard: 21); docs/BENCHMARKS.md "Predicted error".
+  double scale_confidence = 0.95;
   /// The tracker's stated accuracy (see the file comment): RMS length of the translation error of
   /// the data's frame, mm (0: not included).
   double tracking_translation_mm = 0.0;
@@ -56,6 +62,9 @@ void visit_fields(UncertaintyOptions& o, V&& v) {
     "cell size of the grid of nodes whose prior variance is solved exactly (mm; 0: every node)");
   v("calibration", o.calibration, core::Range{1e-6, 1e6},
     "multiplies the estimated prior scale s² (dimensionless)");
+  v("scale_confidence", o.scale_confidence, core::Range{0, 0.999},
+    "s² at this one-sided upper confidence bound from χ² with the vessel blocks as the rows (0: "
+    "the point estimate)");
   v("rigid_term", o.rigid_term,
     "the pose of the rigid start is an unknown of the model (adds the rigid term)");
   v("tracking_translation_mm", o.tracking_translation_mm, core::Range{0, 100},

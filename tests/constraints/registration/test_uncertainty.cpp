@@ -6,6 +6,7 @@
 
 #include "constraints/registration/registration_model.hpp"
 #include "constraints/registration/uncertainty.hpp"
+#include "core/error.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
@@ -408,8 +409,45 @@ TEST(Uncertainty, AStatedTrackingAccuracyAddsItsClosedForm) {
   EXPECT_NE(rot.estimation.find("stated tracking accuracy"), std::string::npos) << rot.estimation;
 }
 
+// The χ² quantiles behind the upper confidence bound of s², against tabulated values (4
+// significant digits in the tables: 1e-3 relative).
+TEST(Uncertainty, ChiSquareQuantilesMatchTheTables) {
+  EXPECT_NEAR(chi2_quantile(1, 0.05), 0.003932, 1e-3 * 0.003932);
+  EXPECT_NEAR(chi2_quantile(6, 0.05), 1.635, 1e-3 * 1.635);
+  EXPECT_NEAR(chi2_quantile(21, 0.05), 11.59, 1e-3 * 11.59);
+  EXPECT_NEAR(chi2_quantile(10, 0.95), 18.31, 1e-3 * 18.31);
+  EXPECT_NEAR(chi2_quantile(100, 0.5), 99.33, 1e-3 * 99.33);
+  EXPECT_THROW((void)chi2_quantile(0, 0.5), brainshift::Error);
+  EXPECT_THROW((void)chi2_quantile(5, 1.0), brainshift::Error);
+}
+
+// The upper confidence bound multiplies the point estimate by k / χ²_{1−c}(k), k the held-out
+// vessel blocks; 0 gives the point estimate (1e-12 relative: the same numbers).
+TEST(Uncertainty, TheScaleBoundIsThePointEstimateTimesItsChiSquareFactor) {
+  const Scene scene;
+  RegistrationOptions o;
+  IntraopData data;
+  data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
+  const RegistrationResult r = register_model(*scene.model, data, o);
+  RegistrationOptions point = o;
+  point.uncertainty.scale_confidence = 0.0;
+  const UncertaintyResult u = predict_uncertainty(*scene.model, r, o);
+  const UncertaintyResult p = predict_uncertainty(*scene.model, r, point);
+  ASSERT_TRUE(u.estimated && p.estimated) << u.estimation;
+  ASSERT_GT(u.heldout_blocks, 0);
+  EXPECT_EQ(u.scale_rows, static_cast<double>(u.heldout_blocks));
+  const double factor = u.scale_rows / chi2_quantile(u.scale_rows, 0.05);
+  EXPECT_NEAR(u.scale_factor, factor, 1e-12 * factor);
+  EXPECT_EQ(p.scale_factor, 1.0);
+  EXPECT_NEAR(u.s2, p.s2 * factor, 1e-12 * u.s2);
+  EXPECT_NEAR(p.s2, p.s2_ml, 1e-12 * p.s2);  // the default estimator, unraised
+}
+
 TEST(Uncertainty, BadOptionsAreRefused) {
   UncertaintyOptions o;
+  o.scale_confidence = 1.0;
+  EXPECT_FALSE(o.validate().empty());
+  o = {};
   o.tracking_translation_mm = -1;
   EXPECT_FALSE(o.validate().empty());
   o = {};
