@@ -3,11 +3,10 @@
 #include "apps/workflow/intraop_frame.hpp"
 #include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
+#include "data_synth/images/probe.hpp"
 #include "imaging/filters/trilinear.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"
-
-#include "data_synth/images/probe.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -80,7 +79,8 @@ DenseTruth dense_truth(const std::filesystem::path& phantom, const imaging::Land
     const Eigen::Vector3i& n = labels.geometry.size;
     for (int p = 0; p < count; ++p) {
       const std::int64_t v = brain[pick(rng)];
-      const int i = int(v % n[0]), j = int((v / n[0]) % n[1]), k = int(v / (std::int64_t(n[0]) * n[1]));
+      const int i = int(v % n[0]), j = int((v / n[0]) % n[1]),
+                k = int(v / (std::int64_t(n[0]) * n[1]));
       const Vector3d x = labels.geometry.index_to_world(Vector3d(i, j, k));
       const Vector3d d(u.at(i, j, k, 0), u.at(i, j, k, 1), u.at(i, j, k, 2));
       out.pre.row(p) = x.transpose();
@@ -96,8 +96,8 @@ DenseTruth dense_truth(const std::filesystem::path& phantom, const imaging::Land
 DenseScore dense_score(const core::TetMesh& mesh, const constraints::UncertaintyResult& u,
                        const constraints::RegistrationResult& r, ConstRef<MatrixX3d> pre,
                        ConstRef<MatrixX3d> intra, ConstRef<MatrixX3d> vessel_points) {
-  BS_VERIFY(pre.rows() == intra.rows(), "dense calibration: " << pre.rows() << " points and "
-                                                              << intra.rows() << " truths");
+  BS_VERIFY(pre.rows() == intra.rows(),
+            "dense calibration: " << pre.rows() << " points and " << intra.rows() << " truths");
   DenseScore s;
   s.s2 = u.s2;
   core::MappingOptions mo;
@@ -114,10 +114,9 @@ DenseScore dense_score(const core::TetMesh& mesh, const constraints::Uncertainty
     s.sigma.push_back(std::sqrt(var[i]));
     s.tracking.push_back(track[i]);
     s.unscaled.push_back(u.s2 > 0 ? std::max(0.0, var[i] - track[i]) / u.s2 : 0.0);
-    const double d =
-        vessel_points.rows() > 0
-            ? (vessel_points.rowwise() - intra.row(i)).rowwise().norm().minCoeff()
-            : std::numeric_limits<double>::infinity();
+    const double d = vessel_points.rows() > 0
+                         ? (vessel_points.rowwise() - intra.row(i)).rowwise().norm().minCoeff()
+                         : std::numeric_limits<double>::infinity();
     s.distance.push_back(d);
     if (d <= 5.0) sn += s.sigma.back(), an += s.actual[std::size_t(i)], ++s.near;
     if (d > 10.0) sf += s.sigma.back(), af += s.actual[std::size_t(i)], ++s.far;
@@ -136,7 +135,8 @@ void write_dense_csv(const std::filesystem::path& path, const DenseScore* landma
                      ConstRef<MatrixX3d> dense_truth) {
   imaging::write_atomically(path, [&](const std::filesystem::path& tmp) {
     std::ofstream f(tmp);
-    f << "kind,x,y,z,sigma_mm,unscaled_var,tracking_var_mm2,actual_mm,distance_mm,s2,truth_shift_mm\n"
+    f << "kind,x,y,z,sigma_mm,unscaled_var,tracking_var_mm2,actual_mm,distance_mm,s2,truth_shift_"
+         "mm\n"
       << std::setprecision(7);
     auto rows = [&](const char* kind, const DenseScore* s, ConstRef<MatrixX3d> p,
                     ConstRef<MatrixX3d> t) {
@@ -144,8 +144,8 @@ void write_dense_csv(const std::filesystem::path& path, const DenseScore* landma
       for (std::size_t i = 0; i < s->sigma.size(); ++i)
         f << kind << ',' << p(Eigen::Index(i), 0) << ',' << p(Eigen::Index(i), 1) << ','
           << p(Eigen::Index(i), 2) << ',' << s->sigma[i] << ',' << s->unscaled[i] << ','
-          << s->tracking[i] << ',' << s->actual[i] << ',' << s->distance[i] << ',' << s->s2
-          << ',' << (t.row(Eigen::Index(i)) - p.row(Eigen::Index(i))).norm() << '\n';
+          << s->tracking[i] << ',' << s->actual[i] << ',' << s->distance[i] << ',' << s->s2 << ','
+          << (t.row(Eigen::Index(i)) - p.row(Eigen::Index(i))).norm() << '\n';
     };
     rows("landmark", landmarks, landmark_points, landmark_truth);
     rows("dense", dense, dense_points, dense_truth);

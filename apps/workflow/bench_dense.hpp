@@ -28,8 +28,8 @@ namespace brainshift::apps {
 
 /// Points with known truth: where they were (pre-operative) and where they are (truth frame).
 struct DenseTruth {
-  MatrixX3d pre;    ///< #P×3, mm, world RAS, pre-operative
-  MatrixX3d intra;  ///< #P×3, mm, the frame of truth/landmarks_intraop.csv
+  MatrixX3d pre;                  ///< #P×3, mm, world RAS, pre-operative
+  MatrixX3d intra;                ///< #P×3, mm, the frame of truth/landmarks_intraop.csv
   double frame_fit_rms_mm = 0.0;  ///< the check at the landmarks: RMS of truth − written, mm
   std::string note;               ///< why `pre` is empty, when it is
 };

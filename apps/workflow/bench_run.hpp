@@ -83,7 +83,7 @@ struct CaseData {
   std::string name;
   std::filesystem::path phantom;
   imaging::LandmarkPairs truth;  ///< a: pre-operative, b: intra-operative landmarks
-  DenseTruth dense;  ///< points with known truth inside the brain (dense calibration)
+  DenseTruth dense;              ///< points with known truth inside the brain (dense calibration)
   /// The tracking accuracy the case declares (data_synth CaseParameters::tracking_spec_*: RMS
   /// mm, deg): passed to the predicted error's tracking prior.
   double tracking_spec_mm = 0.0, tracking_spec_deg = 0.0;

@@ -122,7 +122,9 @@ nlohmann::json row_json(const BenchRow& r) {
   j["uncertainty_tracking_deg"] = r.unc_tracking_deg;
   // Dense calibration (bench_dense.hpp): the same figures at points inside the brain.
   const auto& d = r.unc_dense;
-  auto num = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); };
+  auto num = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
   j["uncertainty_dense_points"] = d ? nlohmann::json(d->cal.count) : nlohmann::json(nullptr);
   j["uncertainty_dense_spearman"] = d ? num(d->cal.spearman) : nlohmann::json(nullptr);
   j["uncertainty_dense_within_1_sigma_pct"] =
@@ -134,8 +136,7 @@ nlohmann::json row_json(const BenchRow& r) {
   j["uncertainty_dense_actual_mean_mm"] = d ? num(d->cal.mean_actual_mm) : nlohmann::json(nullptr);
   j["uncertainty_dense_near_mean_mm"] = d ? num(d->near_predicted_mm) : nlohmann::json(nullptr);
   j["uncertainty_dense_far_mean_mm"] = d ? num(d->far_predicted_mm) : nlohmann::json(nullptr);
-  j["uncertainty_dense_actual_near_mean_mm"] =
-      d ? num(d->near_actual_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_actual_near_mean_mm"] = d ? num(d->near_actual_mm) : nlohmann::json(nullptr);
   j["uncertainty_dense_actual_far_mean_mm"] = d ? num(d->far_actual_mm) : nlohmann::json(nullptr);
   j["uncertainty_dense_near_points"] = d ? nlohmann::json(d->near) : nlohmann::json(nullptr);
   j["uncertainty_dense_far_points"] = d ? nlohmann::json(d->far) : nlohmann::json(nullptr);

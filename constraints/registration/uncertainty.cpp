@@ -119,8 +119,8 @@ Matrix3d cross_matrix(const Vector3d& v) {
 }  // namespace
 
 double chi2_quantile(double k, double p) {
-  BS_VERIFY(k > 0 && p > 0 && p < 1, "uncertainty: chi-square quantile of " << p << " with " << k
-                                                                            << " degrees of freedom");
+  BS_VERIFY(k > 0 && p > 0 && p < 1,
+            "uncertainty: chi-square quantile of " << p << " with " << k << " degrees of freedom");
   double lo = 0.0, hi = k + 10.0 * std::sqrt(2.0 * k) + 10.0;
   for (int i = 0; i < 200; ++i) {  // bisection on P(k/2, x/2) = p
     const double mid = 0.5 * (lo + hi);
@@ -515,9 +515,10 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
     }
     // The sampling uncertainty of s² with few effectively independent rows: an upper bound.
     out.scale_rows = nv.heldout_blocks > 0 ? static_cast<double>(nv.heldout_blocks) : md;
-    out.scale_factor = uo.scale_confidence > 0
-                           ? out.scale_rows / chi2_quantile(out.scale_rows, 1.0 - uo.scale_confidence)
-                           : 1.0;
+    out.scale_factor =
+        uo.scale_confidence > 0
+            ? out.scale_rows / chi2_quantile(out.scale_rows, 1.0 - uo.scale_confidence)
+            : 1.0;
     if (s2 > 0 && std::isfinite(s2) && scale > 0 && std::isfinite(out.scale_factor)) {
       out.s2 = uo.calibration * s2 * out.scale_factor;
       out.estimated = true;
@@ -530,9 +531,9 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
           "%.4g mm/mN), hard rows %.3g × it; implied vessel-row scatter %.3g mm; %s; dura rows "
           "not used",
           how, static_cast<long long>(m), uo.scale_confidence, out.scale_rows, out.scale_factor,
-          out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
-          out.s2_ml, static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale,
-          uo.hard_row_ratio, out.noise_sigma_mm,
+          out.s2, uo.calibration != 1.0 ? " (× calibration)" : "", out.s2_ml,
+          static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale, uo.hard_row_ratio,
+          out.noise_sigma_mm,
           uo.rigid_term ? "the pose of the rigid start is an unknown of the model (rigid term)"
                         : "pose taken as known");
     }

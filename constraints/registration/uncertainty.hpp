@@ -73,7 +73,6 @@ namespace brainshift::constraints {
 struct LoopInputs;
 struct LoopState;
 
-
 /// Traces of the nodal covariance blocks, without the scale s² (mm/mN).
 struct NodalVariance {
   Eigen::VectorXd prior;  ///< #N: tr (K0⁻¹)_nn (interpolated off the coarse set); 0 on fixed nodes
@@ -157,14 +156,14 @@ struct UncertaintyResult {
   /// factor its upper confidence bound (UncertaintyOptions::scale_confidence) applied.
   double scale_rows = 0.0;
   double scale_factor = 1.0;
-  index_t rigid_rank = 0;      ///< pose directions the rows determine (6 = all)
+  index_t rigid_rank = 0;  ///< pose directions the rows determine (6 = all)
   /// #N: what the stated tracking accuracy adds to tr Σ_n (mm², not scaled by s²; included in
   /// node_variance), and the centre of its rotation (the rows' centroid, mm, model frame).
   Eigen::VectorXd node_tracking;
   Vector3d tracking_centre = Vector3d::Zero();
-  std::string estimation;      ///< one line: how s² and α were estimated
-  double seconds = 0.0;        ///< wall time
-  double cpu_seconds = 0.0;    ///< process CPU time over the same span (all threads)
+  std::string estimation;    ///< one line: how s² and α were estimated
+  double seconds = 0.0;      ///< wall time
+  double cpu_seconds = 0.0;  ///< process CPU time over the same span (all threads)
 };
 
 /// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final

@@ -95,9 +95,9 @@ TEST(Bench, PredictedErrorIsCalibratedOnAPhantomCase) {
   const auto& u = *ours;
   SCOPED_TRACE(u.dump());
   // The issue's bars, on 14 landmarks. Measured (seed 1, 2026-12-02, s² at its 95 % upper
-  // bound): Spearman 0.66, 100 % within 2 sigma, far 2.42 > near 1.50 mm, RMS ratio 0.67. Asked: Spearman ≥ 0.3
-  // (clearly positive; one landmark swapped moves it by ≈ 0.05); within 2 sigma (the 3-D
-  // convention: a calibrated Gaussian gives 99.3 %) between 70 and 100 %; larger far (> 10 mm)
+  // bound): Spearman 0.66, 100 % within 2 sigma, far 2.42 > near 1.50 mm, RMS ratio 0.67. Asked:
+  // Spearman ≥ 0.3 (clearly positive; one landmark swapped moves it by ≈ 0.05); within 2 sigma (the
+  // 3-D convention: a calibrated Gaussian gives 99.3 %) between 70 and 100 %; larger far (> 10 mm)
   // from the vessels than near (≤ 5 mm); RMS of actual / predicted within [0.5, 2] (1 =
   // calibrated; a factor 2 either way is what the issue calls uncalibrated).
   EXPECT_GE(u["uncertainty_spearman"].get<double>(), 0.3);
