@@ -151,6 +151,19 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
                              ? "vessel compliance: " + res.noise.message
                              : "vessel compliance fixed; " + res.noise.message;
             }));
+            // The per-point predicted and actual errors of our default loop (dense calibration).
+            if (method == "constraint_icp" && rows.back().unc_landmark_points) {
+              const BenchRow& b = rows.back();
+              std::filesystem::create_directories(dir / "dense");
+              write_dense_csv(dir / "dense" / (name + ".csv"), &*b.unc_landmark_points, c.truth.a,
+                              c.truth.b, b.unc_dense ? &*b.unc_dense : nullptr, c.dense.pre,
+                              c.dense.intra);
+            }
+            if (method == "constraint_icp")
+              progress.stage(name + (c.dense.note.empty()
+                                         ? ": dense truth reproduces the landmarks to " +
+                                               std::to_string(c.dense.frame_fit_rms_mm) + " mm RMS"
+                                         : ": no dense calibration: " + c.dense.note));
           }
         } catch (const std::exception& e) {  // the case itself could not be built
           failed.error = e.what();

@@ -7,6 +7,7 @@
 #include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/timing.hpp"
+#include "data_synth/cases/case_catalog.hpp"
 #include "data_synth/cases/label_case.hpp"
 #include "data_synth/cases/phantom_case.hpp"
 #include "imaging/io/csv.hpp"
@@ -29,13 +30,30 @@ using core::Clock;
 constexpr auto since = &core::seconds_since;  // core/timing.hpp
 using constraints::RegistrationOptions;
 using constraints::RegistrationResult;
+/// Dense calibration: points drawn uniformly among the brain voxels, fixed seed.
+constexpr int kDensePoints = 500;
+constexpr std::uint32_t kDenseSeed = 16;
 
 /// The predicted error of one of our registrations at the case's landmarks (row.unc_*).
 void score_uncertainty(BenchRow& row, const constraints::RegistrationModel& model,
                        const RegistrationResult& r, const CaseData& c,
                        const constraints::IntraopData& data, ConstRef<MatrixX3d> predicted) {
-  const constraints::UncertaintyResult u =
-      constraints::predict_uncertainty(model, r, RegistrationOptions{});
+  RegistrationOptions o;
+  o.uncertainty.tracking_translation_mm = c.tracking_spec_mm;
+  o.uncertainty.tracking_rotation_deg = c.tracking_spec_deg;
+  row.unc_tracking_mm = c.tracking_spec_mm;
+  row.unc_tracking_deg = c.tracking_spec_deg;
+  const constraints::UncertaintyResult u = constraints::predict_uncertainty(model, r, o);
+  row.unc_s2 = u.s2;
+  row.unc_s2_ml = u.s2_ml;
+  row.unc_s2_restricted = u.s2_restricted;
+  row.unc_s2_heldout = u.s2_heldout;
+  row.unc_rows = static_cast<double>(u.rows);
+  row.unc_heldout_blocks = static_cast<double>(u.heldout_blocks);
+  row.unc_landmark_points =
+      dense_score(model.mesh(), u, r, c.truth.a, c.truth.b, data.vessel_points);
+  if (c.dense.pre.rows() > 0)
+    row.unc_dense = dense_score(model.mesh(), u, r, c.dense.pre, c.dense.intra, data.vessel_points);
   row.unc_s = u.seconds;
   row.unc_cpu_s = u.cpu_seconds;
   std::vector<double> free;
@@ -119,11 +137,19 @@ CaseData make_case(const std::string& name, std::uint32_t seed, const std::files
   } else {
     (void)data_synth::generate_case(name, seed, co);
   }
-  CaseData c{name, dir, {}};
+  CaseData c;
+  c.name = name;
+  c.phantom = dir;
   const imaging::Landmarks pre = imaging::read_landmarks(dir / "truth/landmarks_preop.csv");
   const imaging::Landmarks intra = imaging::read_landmarks(dir / "truth/landmarks_intraop.csv");
   c.truth = imaging::match_landmarks_by_id(pre.ids, pre.points, intra.ids, intra.points);
   BS_VERIFY(!c.truth.ids.empty(), dir.string() << ": the phantom has no landmarks in common");
+  // The declared tracking spec: the recipe's (the ICBM152 cases take the named case's).
+  const data_synth::CaseParameters p =
+      data_synth::named_case(is_real_anatomy_case(name) ? name.substr(5) : name, seed);
+  c.tracking_spec_mm = p.tracking_spec_translation_mm;
+  c.tracking_spec_deg = p.tracking_spec_rotation_deg;
+  c.dense = dense_truth(dir, c.truth, kDensePoints, kDenseSeed);
   return c;
 }
 

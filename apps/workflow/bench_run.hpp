@@ -4,6 +4,7 @@
 /// on, the memory and machine it records, and how a result is scored against the case's
 /// landmarks (TRE in mm, intra-operative frame, world RAS).
 
+#include "apps/workflow/bench_dense.hpp"
 #include "apps/workflow/progress.hpp"
 #include "apps/workflow/session.hpp"
 #include "constraints/registration/registration.hpp"
@@ -67,6 +68,14 @@ struct BenchRow {
   /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
   std::optional<double> unc_s, unc_cpu_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
   std::optional<imaging::UncertaintyCalibration> unc_calibration;
+  /// The map's prior scale and its candidates (mN·mm), and the data rows it used.
+  std::optional<double> unc_s2, unc_s2_ml, unc_s2_restricted, unc_s2_heldout, unc_rows,
+      unc_heldout_blocks;
+  /// The tracking prior the run used (the case's declared spec; uncertainty.tracking_*).
+  double unc_tracking_mm = 0.0, unc_tracking_deg = 0.0;
+  /// Dense calibration (bench_dense.hpp) at the case's dense points, and the same per-point
+  /// values at its landmarks (for the dump).
+  std::optional<DenseScore> unc_dense, unc_landmark_points;
 };
 
 /// The data of one case: a phantom folder and its landmarks.
@@ -74,6 +83,10 @@ struct CaseData {
   std::string name;
   std::filesystem::path phantom;
   imaging::LandmarkPairs truth;  ///< a: pre-operative, b: intra-operative landmarks
+  DenseTruth dense;              ///< points with known truth inside the brain (dense calibration)
+  /// The tracking accuracy the case declares (data_synth CaseParameters::tracking_spec_*: RMS
+  /// mm, deg): passed to the predicted error's tracking prior.
+  double tracking_spec_mm = 0.0, tracking_spec_deg = 0.0;
 };
 
 /// The cases on real anatomy (ICBM152, issue 18): the named recipe after the prefix on the brain

@@ -112,6 +112,34 @@ nlohmann::json row_json(const BenchRow& r) {
   j["uncertainty_within_2_sigma_pct"] =
       cal ? nlohmann::json(cal->within_2_sigma_pct) : nlohmann::json(nullptr);
   j["uncertainty_rms_ratio"] = cal ? nlohmann::json(cal->rms_ratio) : nlohmann::json(nullptr);
+  j["uncertainty_s2_mn_mm"] = opt(r.unc_s2);
+  j["uncertainty_s2_ml_mn_mm"] = opt(r.unc_s2_ml);
+  j["uncertainty_s2_restricted_mn_mm"] = opt(r.unc_s2_restricted);
+  j["uncertainty_s2_heldout_mn_mm"] = opt(r.unc_s2_heldout);
+  j["uncertainty_rows"] = opt(r.unc_rows);
+  j["uncertainty_heldout_blocks"] = opt(r.unc_heldout_blocks);
+  j["uncertainty_tracking_mm"] = r.unc_tracking_mm;
+  j["uncertainty_tracking_deg"] = r.unc_tracking_deg;
+  // Dense calibration (bench_dense.hpp): the same figures at points inside the brain.
+  const auto& d = r.unc_dense;
+  auto num = [](double v) {
+    return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr);
+  };
+  j["uncertainty_dense_points"] = d ? nlohmann::json(d->cal.count) : nlohmann::json(nullptr);
+  j["uncertainty_dense_spearman"] = d ? num(d->cal.spearman) : nlohmann::json(nullptr);
+  j["uncertainty_dense_within_1_sigma_pct"] =
+      d ? num(d->cal.within_1_sigma_pct) : nlohmann::json(nullptr);
+  j["uncertainty_dense_within_2_sigma_pct"] =
+      d ? num(d->cal.within_2_sigma_pct) : nlohmann::json(nullptr);
+  j["uncertainty_dense_rms_ratio"] = d ? num(d->cal.rms_ratio) : nlohmann::json(nullptr);
+  j["uncertainty_dense_mean_mm"] = d ? num(d->cal.mean_predicted_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_actual_mean_mm"] = d ? num(d->cal.mean_actual_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_near_mean_mm"] = d ? num(d->near_predicted_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_far_mean_mm"] = d ? num(d->far_predicted_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_actual_near_mean_mm"] = d ? num(d->near_actual_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_actual_far_mean_mm"] = d ? num(d->far_actual_mm) : nlohmann::json(nullptr);
+  j["uncertainty_dense_near_points"] = d ? nlohmann::json(d->near) : nlohmann::json(nullptr);
+  j["uncertainty_dense_far_points"] = d ? nlohmann::json(d->far) : nlohmann::json(nullptr);
   return j;
 }
 

@@ -99,7 +99,14 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                               {"held_out_blocks", u.nodal.s2_heldout},
                               {"discrepancy", u.nodal.s2_discrepancy}};
   j["held_out_blocks"] = u.nodal.heldout_blocks;
+  j["s2_effective_rows"] = u.nodal.scale_rows;
+  j["s2_upper_bound_factor"] = u.nodal.scale_factor;
   j["rigid_rank"] = u.nodal.rigid_rank;
+  const constraints::UncertaintyOptions& uo = s.loaded.scene.options.uncertainty;
+  const Vector3d& c = u.nodal.tracking_centre;
+  j["tracking_prior"] = {{"translation_mm", uo.tracking_translation_mm},
+                         {"rotation_deg", uo.tracking_rotation_deg},
+                         {"centre_mm", {c.x(), c.y(), c.z()}}};
   j["vessel_alpha_mm_per_mn"] = u.nodal.vessel_alpha;
   j["vessel_noise_sigma_mm"] = u.nodal.noise_sigma_mm;
   j["rows"] = u.nodal.rows;

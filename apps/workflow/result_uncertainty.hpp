@@ -34,7 +34,8 @@ ResultUncertainty compute_result_uncertainty(const Session& s,
 /// report.json → `uncertainty`: at_tumour_mm (at the centroid of the tumour's tetrahedra, null
 /// without a tumour material), at_landmarks (when `data` has landmarks: model points' predicted
 /// error, mm), median_mm, p95_mm, estimation, seconds and the estimated parameters (s² and its
-/// candidate estimates, the held-out blocks, the rigid term's rank).
+/// candidate estimates, the held-out blocks, the rigid term's rank) and `tracking_prior` (the
+/// scene's stated tracking accuracy: translation_mm, rotation_deg, centre_mm of the rotation).
 nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                                   const constraints::IntraopData& data);
 

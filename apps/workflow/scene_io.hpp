@@ -11,7 +11,8 @@
 /// options_json.hpp. The groups: constraints, craniotomy (DuraOptions), rigid (RigidInitOptions
 /// and `enabled`), global_start, shift_search, pairing, filter.vessels / filter.footprint
 /// (FilterOptions), solver (StepOptions, PgsOptions as pgs_*, ComplianceOptions as compliance_*,
-/// the iteration caps), noise (NoiseOptions), acceptance. `options_to_json()` lists them all.
+/// the iteration caps), noise (NoiseOptions), acceptance, uncertainty (UncertaintyOptions: the
+/// predicted error's, e.g. the stated tracking accuracy). `options_to_json()` lists them all.
 ///
 /// ```json
 /// {
@@ -39,7 +40,8 @@
 ///              "compliance": {"vessels": 0.2, "footprint": 0.0, "dura": 0.2, "landmarks": 0.0},
 ///              "compliance_budget_mib": 512},
 ///   "noise": {"enabled": false, "criterion": "block_cv|gcv"},
-///   "acceptance": {"min_vessel_pairs": 20, "max_scatter_mm": 3.0}
+///   "acceptance": {"min_vessel_pairs": 20, "max_scatter_mm": 3.0},
+///   "uncertainty": {"tracking_translation_mm": 0, "tracking_rotation_deg": 0}
 /// }
 /// ```
 

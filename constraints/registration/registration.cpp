@@ -94,6 +94,7 @@ std::string RegistrationOptions::validate() const {
   if (auto e = noise.validate(); !e.empty()) return e;
   if (min_vessel_pairs < 0) return "min_vessel_pairs must be ≥ 0";
   if (!(max_scatter_mm > 0)) return "max_scatter_mm must be > 0";
+  if (auto e = uncertainty.validate(); !e.empty()) return e;
   if (start == RigidStart::RIGID)
     if (auto e = rigid.validate(); !e.empty()) return "rigid: " + e;
   for (double r : step.compliance_ratio)

@@ -48,6 +48,7 @@
 #include "constraints/registration/registration_model.hpp"
 #include "constraints/registration/rigid_init.hpp"
 #include "constraints/registration/shift_search.hpp"
+#include "constraints/registration/uncertainty_options.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/geometry/skeleton.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
@@ -137,6 +138,9 @@ struct RegistrationOptions {
   /// A warm-started registration (replay) that does not converge is run again from the rest
   /// shape with the full start; the cold answer is kept when it converges.
   bool cold_retry = true;
+  /// The predicted error of the answer (uncertainty.hpp: predict_uncertainty()); not used by
+  /// the loop itself.
+  UncertaintyOptions uncertainty;
   /// Fault injection for tests: called with every step's result before the loop looks at it.
   std::function<void(StepResult&)> inspect_step;
   /// Empty when valid, else what is wrong.
@@ -154,8 +158,8 @@ struct RegistrationOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp): the scene's groups
-/// constraints, craniotomy, rigid, global_start, shift_search, pairing, filter, solver, noise and
-/// acceptance. `inspect_step` is not an option (tests' fault injection).
+/// constraints, craniotomy, rigid, global_start, shift_search, pairing, filter, solver, noise,
+/// acceptance and uncertainty. `inspect_step` is not an option (tests' fault injection).
 template <class V>
 void visit_fields(RegistrationOptions& o, V&& v) {
   v("rigid.enabled", core::EnumFlag<RigidStart>{o.start, RigidStart::RIGID, RigidStart::IDENTITY},
@@ -190,6 +194,7 @@ void visit_fields(RegistrationOptions& o, V&& v) {
     "fewer paired vessel points at the end: INSUFFICIENT_DATA");
   v("acceptance.max_scatter_mm", o.max_scatter_mm, core::Range{1e-6, 1000},
     "a larger scatter of the vessel points: INSUFFICIENT_DATA (mm)");
+  v.nest("uncertainty.", o.uncertainty);
 }
 
 /// Seconds per stage, summed over iterations.

@@ -84,6 +84,32 @@ Eigen::MatrixXd pseudo_inverse(const Eigen::MatrixXd& a, index_t& rank) {
   return es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose();
 }
 
+/// Regularised lower incomplete gamma P(a, x) (series below a + 1, continued fraction above).
+double gamma_p(double a, double x) {
+  if (!(x > 0)) return 0.0;
+  const double lg = std::lgamma(a);
+  if (x < a + 1.0) {
+    double sum = 1.0 / a, term = sum;
+    for (int n = 1; n < 1000 && std::abs(term) > 1e-15 * std::abs(sum); ++n)
+      term *= x / (a + n), sum += term;
+    return sum * std::exp(-x + a * std::log(x) - lg);
+  }
+  double b = x + 1.0 - a, c = 1e300, d = 1.0 / b, h = d;  // modified Lentz
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = b + an / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return 1.0 - std::exp(-x + a * std::log(x) - lg) * h;
+}
+
 Matrix3d cross_matrix(const Vector3d& v) {
   Matrix3d m;
   m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
@@ -92,14 +118,44 @@ Matrix3d cross_matrix(const Vector3d& v) {
 
 }  // namespace
 
+double chi2_quantile(double k, double p) {
+  BS_VERIFY(k > 0 && p > 0 && p < 1,
+            "uncertainty: chi-square quantile of " << p << " with " << k << " degrees of freedom");
+  double lo = 0.0, hi = k + 10.0 * std::sqrt(2.0 * k) + 10.0;
+  for (int i = 0; i < 200; ++i) {  // bisection on P(k/2, x/2) = p
+    const double mid = 0.5 * (lo + hi);
+    (gamma_p(0.5 * k, 0.5 * mid) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 std::string UncertaintyOptions::validate() const {
   if (!(coarse_spacing_mm >= 0)) return "uncertainty: coarse_spacing_mm must be ≥ 0";
   if (!(hard_row_ratio > 0)) return "uncertainty: hard_row_ratio must be > 0";
   if (!(separated_mm >= 0)) return "uncertainty: separated_mm must be ≥ 0";
   if (!(no_data_median_mm > 0)) return "uncertainty: no_data_median_mm must be > 0";
   if (!(calibration > 0)) return "uncertainty: calibration must be > 0";
+  if (!(scale_confidence >= 0 && scale_confidence < 1))
+    return "uncertainty: scale_confidence must be in [0, 1)";
   if (solve_block < 1) return "uncertainty: solve_block must be ≥ 1";
+  if (!(tracking_translation_mm >= 0) || !std::isfinite(tracking_translation_mm))
+    return "uncertainty: tracking_translation_mm must be ≥ 0";
+  if (!(tracking_rotation_deg >= 0) || !std::isfinite(tracking_rotation_deg))
+    return "uncertainty: tracking_rotation_deg must be ≥ 0";
   return {};
+}
+
+Eigen::VectorXd tracking_variance(ConstRef<MatrixX3d> points, const Vector3d& centre,
+                                  const UncertaintyOptions& uo) {
+  // tr(h Σθ hᵀ), h = [I, −[x − c]×], Σθ = diag(σ_t²/3 I, σ_r²/3 I): σ_t² + σ_r²/3 · tr([d]×[d]×ᵀ),
+  // tr([d]×[d]×ᵀ) = 2|d|².
+  const double st2 = uo.tracking_translation_mm * uo.tracking_translation_mm;
+  const double sr = uo.tracking_rotation_deg * M_PI / 180.0;
+  const double k = 2.0 / 3.0 * sr * sr;
+  Eigen::VectorXd v(points.rows());
+  for (Eigen::Index i = 0; i < points.rows(); ++i)
+    v[i] = st2 + k * (points.row(i).transpose() - centre).squaredNorm();
+  return v;
 }
 
 NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
@@ -312,8 +368,15 @@ ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {
 }
 
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
+                                      const RegistrationOptions& options) {
+  return predict_uncertainty(model, r, options, options.uncertainty);
+}
+
+UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
                                       const RegistrationOptions& options,
                                       const UncertaintyOptions& uo) {
+  const std::string invalid = uo.validate();
+  BS_VERIFY(invalid.empty(), invalid);
   const auto t0 = std::chrono::steady_clock::now();
   const std::clock_t c0 = std::clock();
   const ConstrainedModel& mech = model.mechanics();
@@ -420,7 +483,7 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio
                                                               : options.noise.max_ratio;
   out.vessel_alpha = out.vessel_ratio * scale;
-  char buf[700];
+  char buf[1000];
   if (usable) {
     const double md = static_cast<double>(m);
     out.s2_ml = nv.quadratic / md;
@@ -450,19 +513,27 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                   : "by restricted maximum likelihood (no vessel blocks to hold out)";
         break;
     }
-    if (s2 > 0 && std::isfinite(s2) && scale > 0) {
-      out.s2 = uo.calibration * s2;
+    // The sampling uncertainty of s² with few effectively independent rows: an upper bound.
+    out.scale_rows = nv.heldout_blocks > 0 ? static_cast<double>(nv.heldout_blocks) : md;
+    out.scale_factor =
+        uo.scale_confidence > 0
+            ? out.scale_rows / chi2_quantile(out.scale_rows, 1.0 - uo.scale_confidence)
+            : 1.0;
+    if (s2 > 0 && std::isfinite(s2) && scale > 0 && std::isfinite(out.scale_factor)) {
+      out.s2 = uo.calibration * s2 * out.scale_factor;
       out.estimated = true;
       out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
       std::snprintf(
           buf, sizeof buf,
-          "s² %s of the %lld data rows = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
+          "s² %s of the %lld data rows, at its %.3g upper confidence bound (χ² with %.0f "
+          "effective rows: × %.3g) = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
           "held out); α = the registration's vessel compliance (ratio %.3g × median diag W "
           "%.4g mm/mN), hard rows %.3g × it; implied vessel-row scatter %.3g mm; %s; dura rows "
           "not used",
-          how, static_cast<long long>(m), out.s2, uo.calibration != 1.0 ? " (× calibration)" : "",
-          out.s2_ml, static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale,
-          uo.hard_row_ratio, out.noise_sigma_mm,
+          how, static_cast<long long>(m), uo.scale_confidence, out.scale_rows, out.scale_factor,
+          out.s2, uo.calibration != 1.0 ? " (× calibration)" : "", out.s2_ml,
+          static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale, uo.hard_row_ratio,
+          out.noise_sigma_mm,
           uo.rigid_term ? "the pose of the rigid start is an unknown of the model (rigid term)"
                         : "pose taken as known");
     }
@@ -484,6 +555,27 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.node_rigid = nv.rigid;
   out.node_variance =
       out.s2 * (out.estimated ? Eigen::VectorXd(nv.posterior + nv.rigid) : nv.prior);
+  // The stated tracking accuracy: a rigid error of the data's frame about the rows' centroid
+  // (without rows: the free nodes' centroid), which no row can show; not scaled by s².
+  if (m > 0) {
+    out.tracking_centre = centre;
+  } else {
+    index_t k = 0;
+    for (index_t i = 0; i < n; ++i)
+      if (!dofs.is_fixed_node(i)) out.tracking_centre += r.positions.row(i).transpose(), ++k;
+    if (k > 0) out.tracking_centre /= static_cast<double>(k);
+  }
+  out.node_tracking = tracking_variance(r.positions, out.tracking_centre, uo);
+  out.node_variance += out.node_tracking;
+  if (uo.tracking_translation_mm > 0 || uo.tracking_rotation_deg > 0) {
+    std::snprintf(buf, sizeof buf,
+                  "; stated tracking accuracy %.3g mm / %.3g deg RMS (a rigid error of the data's "
+                  "frame about the rows' centroid, added)",
+                  uo.tracking_translation_mm, uo.tracking_rotation_deg);
+    out.estimation += buf;
+  } else {
+    out.estimation += "; tracking accuracy not included (uncertainty.tracking_*: 0)";
+  }
   out.node_sigma_mm = out.node_variance.cwiseSqrt();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   out.cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;

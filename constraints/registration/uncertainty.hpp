@@ -53,10 +53,15 @@
 /// Gaussian fit: w = P δ, Σ_b w_bᵀ (P_bb)⁺ w_b / Σ_b rank P_bb). On the phantoms ML with the
 /// rigid term measured best (docs/BENCHMARKS.md, "Predicted error"): the held-out scale matches
 /// ML where the model fits and is lower on deep_tumour_one_side_vessels, where it under-predicts.
-/// `calibration` (dimensionless, default 1) multiplies s².
+/// `calibration` (dimensionless, default 1) multiplies s². The chosen estimate is then raised to
+/// its one-sided upper confidence bound (`scale_confidence`, default 0.95): k ŝ² / χ²_{1−c}(k),
+/// k the held-out vessel blocks (else the rows): few vessels, a wider map.
+/// The stated tracking accuracy (uncertainty_options.hpp; default 0) adds a rigid-pose
+/// covariance about the rows' centroid that no row can show: tracking_variance(), not scaled.
 /// Positions in mm, model (pre-operative, world RAS) frame.
 
 #include "constraints/registration/registration.hpp"
+#include "constraints/registration/uncertainty_options.hpp"
 #include "core/assembly/dof_map.hpp"
 #include "core/solver/cholmod_factor.hpp"
 
@@ -67,30 +72,6 @@ namespace brainshift::constraints {
 
 struct LoopInputs;
 struct LoopState;
-
-struct UncertaintyOptions {
-  /// Cell size (mm) of the grid that picks the coarse nodes of the exact prior term; 0 = every
-  /// node exact.
-  double coarse_spacing_mm = 20.0;
-  /// Floor compliance of hard rows, × median diag W (dimensionless).
-  double hard_row_ratio = 1e-3;
-  /// A unilateral row whose value at the final state exceeds this (mm) is separated: not data.
-  double separated_mm = 0.05;
-  /// Without data rows s² cannot be estimated: the prior is scaled so that the median predicted
-  /// error over the free nodes is this (mm), a brain shift of typical size.
-  double no_data_median_mm = 10.0;
-  /// Multiplies the estimated s² (dimensionless).
-  double calibration = 1.0;
-  /// How s² is estimated from the rows: DISCREPANCY (the fitted rows' residual against its
-  /// expectation: the scatter the data show about the answer sets the scale) or MAXIMUM_LIKELIHOOD
-  /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it).
-  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD, HELD_OUT };
-  ScaleEstimator scale_estimator = ScaleEstimator::MAXIMUM_LIKELIHOOD;
-  /// The pose of the rigid start is an unknown with a flat prior (adds the rigid term).
-  bool rigid_term = true;
-  int solve_block = 192;  ///< right-hand sides per solve when computing the prior term
-  [[nodiscard]] std::string validate() const;
-};
 
 /// Traces of the nodal covariance blocks, without the scale s² (mm/mN).
 struct NodalVariance {
@@ -147,6 +128,11 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
                              const Eigen::VectorXd& noise, const UncertaintyOptions& options,
                              const NodalVarianceExtras& extras = {});
 
+/// The p-quantile of the χ² distribution with k (> 0, not necessarily integer) degrees of
+/// freedom, by bisection on the regularised incomplete gamma function (relative error < 1e-12).
+/// \throws brainshift::Error unless k > 0 and 0 < p < 1.
+double chi2_quantile(double k, double p);
+
 /// The predicted error of a registration.
 struct UncertaintyResult {
   bool estimated = false;         ///< s² came from the data (false: no data rows; see estimation)
@@ -166,10 +152,18 @@ struct UncertaintyResult {
   double s2_restricted = 0.0;
   double s2_heldout = 0.0;
   index_t heldout_blocks = 0;  ///< vessel blocks behind s2_heldout
-  index_t rigid_rank = 0;      ///< pose directions the rows determine (6 = all)
-  std::string estimation;      ///< one line: how s² and α were estimated
-  double seconds = 0.0;        ///< wall time
-  double cpu_seconds = 0.0;    ///< process CPU time over the same span (all threads)
+  /// The effective number of rows of s² (the held-out vessel blocks, else the rows) and the
+  /// factor its upper confidence bound (UncertaintyOptions::scale_confidence) applied.
+  double scale_rows = 0.0;
+  double scale_factor = 1.0;
+  index_t rigid_rank = 0;  ///< pose directions the rows determine (6 = all)
+  /// #N: what the stated tracking accuracy adds to tr Σ_n (mm², not scaled by s²; included in
+  /// node_variance), and the centre of its rotation (the rows' centroid, mm, model frame).
+  Eigen::VectorXd node_tracking;
+  Vector3d tracking_centre = Vector3d::Zero();
+  std::string estimation;    ///< one line: how s² and α were estimated
+  double seconds = 0.0;      ///< wall time
+  double cpu_seconds = 0.0;  ///< process CPU time over the same span (all threads)
 };
 
 /// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final
@@ -181,7 +175,17 @@ ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state);
 /// non-finite intermediate values give the no-data answer with the reason in `estimation`.
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
                                       const RegistrationOptions& options,
-                                      const UncertaintyOptions& uo = {});
+                                      const UncertaintyOptions& uo);
+/// The same with the options' own `uncertainty` group (the scene's).
+UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
+                                      const RegistrationOptions& options);
+
+/// What a stated tracking accuracy adds to tr Σ at points (#P×3, mm): a rigid error of the data's
+/// frame, translation of RMS length σ_t = uo.tracking_translation_mm, rotation of RMS angle σ_r =
+/// uo.tracking_rotation_deg about `centre`, both isotropic: σ_t² + (2/3) σ_r² |x − centre|²
+/// (σ_r in rad), mm². Zeros when both are 0.
+Eigen::VectorXd tracking_variance(ConstRef<MatrixX3d> points, const Vector3d& centre,
+                                  const UncertaintyOptions& uo);
 
 /// sqrt of the barycentrically interpolated nodal variance at points (#P×3, model frame, mm);
 /// points outside the mesh take the nearest tetrahedron (BarycentricMapping's rule).

@@ -45,6 +45,8 @@ CaseParameters named_case(const std::string& name, std::uint32_t seed) {
   } else if (name == "tracking_error") {
     p.tracking.translation = Vector3d(2.0, -1.5, 1.5);   // |t| ≈ 2.9 mm
     p.tracking.rotation_deg = Vector3d(2.0, -1.5, 1.5);  // ≈ 2.9°
+    p.tracking_spec_translation_mm = 3.0;                // the declared "3 mm and 3°" (RMS)
+    p.tracking_spec_rotation_deg = 3.0;
   } else if (name == "offset_12mm" || name == "offset_20mm") {
     // The standard sag seen through a large rigid tracking offset (RESECT: 1–20 mm, mostly
     // rigid), in the direction of tracking_error's: 12 mm / 3° or 20 mm / 4°.

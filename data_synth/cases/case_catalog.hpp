@@ -64,6 +64,14 @@ struct CaseParameters {
   /// marks landmarks in the ultrasound (RESECT) — `tracking` is then an offset between the
   /// pre-operative images and the navigation, which the registration must recover (offset_*).
   bool truth_in_image_frame = false;
+  /// The tracking accuracy the case declares, as a site states its tracker's and probe
+  /// calibration's (the predicted error's uncertainty.tracking_*: RMS translation, mm; RMS
+  /// rotation, degrees): the spec of an error of the data's frame that the images cannot show.
+  /// Not a distribution the phantom draws from (`tracking` is fixed): the size the table above
+  /// declares, "off by 3 mm and 3°", on tracking_error; 0 where the offset is the registration's
+  /// to recover (truth_in_image_frame) and without one.
+  double tracking_spec_translation_mm = 0.0;
+  double tracking_spec_rotation_deg = 0.0;
   double deep_landmark_offset = 5.0;  ///< deep landmarks lie this far outside the tumour, mm
 };
 

@@ -6,12 +6,14 @@
 
 #include "constraints/registration/registration_model.hpp"
 #include "constraints/registration/uncertainty.hpp"
+#include "core/error.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <random>
 
@@ -353,8 +355,105 @@ TEST(Uncertainty, HeldOutAndRestrictedScalesMatchDenseRefits) {
   EXPECT_EQ(nv.heldout_rows, 30.0);
 }
 
+// The stated tracking accuracy (uncertainty.tracking_*) against its closed form: a translation
+// of RMS length σ_t adds σ_t² to every node's tr Σ; a rotation of RMS angle σ_r about the rows'
+// centroid c adds tr(h Σθ hᵀ), h = [I, −[x − c]×], Σθ = σ_r²/3 I on the rotation (built here from
+// the 6×6 pose covariance, not from the library's (2/3) σ_r² |x − c|²): it grows as the squared
+// lever arm. Neither depends on s², and the default (0) adds nothing.
+TEST(Uncertainty, AStatedTrackingAccuracyAddsItsClosedForm) {
+  const Scene scene;
+  RegistrationOptions o;
+  IntraopData data;
+  data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
+  const RegistrationResult r = register_model(*scene.model, data, o);
+  const UncertaintyResult base = predict_uncertainty(*scene.model, r, o);
+  ASSERT_TRUE(base.estimated) << base.estimation;
+  ASSERT_EQ(base.node_tracking.size(), base.node_variance.size());
+  EXPECT_EQ(base.node_tracking.cwiseAbs().maxCoeff(), 0.0);  // default: not included
+  RegistrationOptions ot = o;
+  ot.uncertainty.tracking_translation_mm = 1.5;
+  const UncertaintyResult t = predict_uncertainty(*scene.model, r, ot);
+  RegistrationOptions orot = o;
+  orot.uncertainty.tracking_rotation_deg = 2.0;
+  const UncertaintyResult rot = predict_uncertainty(*scene.model, r, orot);
+  EXPECT_EQ(t.s2, base.s2);  // the prior is added, not fitted: s² is the data's alone
+  const double sr = 2.0 * M_PI / 180.0;
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+  cov.bottomRightCorner<3, 3>() = sr * sr / 3.0 * Matrix3d::Identity();
+  const Vector3d c = rot.tracking_centre;
+  double near_d = 1e300, far_d = 0, near_v = 0, far_v = 0;
+  for (index_t i = 0; i < r.positions.rows(); ++i) {
+    // 1e-9 relative: the two variances differ by the added term only (same s², same traces).
+    const double tol = 1e-9 * (1.0 + base.node_variance[i]);
+    EXPECT_NEAR(t.node_variance[i] - base.node_variance[i], 1.5 * 1.5, tol) << "node " << i;
+    const Vector3d d = r.positions.row(i).transpose() - c;
+    Eigen::Matrix<double, 3, 6> h;
+    h.leftCols<3>().setIdentity();
+    h.rightCols<3>() << 0, d.z(), -d.y(), -d.z(), 0, d.x(), d.y(), -d.x(), 0;  // −[d]×
+    const double expected = (h * cov * h.transpose()).trace();
+    EXPECT_NEAR(rot.node_variance[i] - base.node_variance[i], expected, tol) << "node " << i;
+    if (d.norm() < near_d) near_d = d.norm(), near_v = rot.node_tracking[i];
+    if (d.norm() > far_d) far_d = d.norm(), far_v = rot.node_tracking[i];
+  }
+  // Grows as distance²: the farthest node's added variance over the nearest's is their squared
+  // distance ratio (1e-9 relative: exact arithmetic up to rounding).
+  ASSERT_GT(near_v, 0.0);
+  EXPECT_NEAR(far_v / near_v, (far_d * far_d) / (near_d * near_d),
+              1e-9 * (far_d * far_d) / (near_d * near_d));
+  // The centre is the rows' centroid: inside the vessel points' bounding box (grown by 5 mm: the
+  // rows lie on the model's skeleton, the points scatter 0.3 mm about the deformed one).
+  const MatrixX3d& vp = data.vessel_points;
+  EXPECT_TRUE((c.array() >= vp.colwise().minCoeff().transpose().array() - 5.0).all() &&
+              (c.array() <= vp.colwise().maxCoeff().transpose().array() + 5.0).all())
+      << c.transpose();
+  EXPECT_NE(rot.estimation.find("stated tracking accuracy"), std::string::npos) << rot.estimation;
+}
+
+// The χ² quantiles behind the upper confidence bound of s², against tabulated values (4
+// significant digits in the tables: 1e-3 relative).
+TEST(Uncertainty, ChiSquareQuantilesMatchTheTables) {
+  EXPECT_NEAR(chi2_quantile(1, 0.05), 0.003932, 1e-3 * 0.003932);
+  EXPECT_NEAR(chi2_quantile(6, 0.05), 1.635, 1e-3 * 1.635);
+  EXPECT_NEAR(chi2_quantile(21, 0.05), 11.59, 1e-3 * 11.59);
+  EXPECT_NEAR(chi2_quantile(10, 0.95), 18.31, 1e-3 * 18.31);
+  EXPECT_NEAR(chi2_quantile(100, 0.5), 99.33, 1e-3 * 99.33);
+  EXPECT_THROW((void)chi2_quantile(0, 0.5), brainshift::Error);
+  EXPECT_THROW((void)chi2_quantile(5, 1.0), brainshift::Error);
+}
+
+// The upper confidence bound multiplies the point estimate by k / χ²_{1−c}(k), k the held-out
+// vessel blocks; 0 gives the point estimate (1e-12 relative: the same numbers).
+TEST(Uncertainty, TheScaleBoundIsThePointEstimateTimesItsChiSquareFactor) {
+  const Scene scene;
+  RegistrationOptions o;
+  IntraopData data;
+  data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
+  const RegistrationResult r = register_model(*scene.model, data, o);
+  RegistrationOptions point = o;
+  point.uncertainty.scale_confidence = 0.0;
+  const UncertaintyResult u = predict_uncertainty(*scene.model, r, o);
+  const UncertaintyResult p = predict_uncertainty(*scene.model, r, point);
+  ASSERT_TRUE(u.estimated && p.estimated) << u.estimation;
+  ASSERT_GT(u.heldout_blocks, 0);
+  EXPECT_EQ(u.scale_rows, static_cast<double>(u.heldout_blocks));
+  const double factor = u.scale_rows / chi2_quantile(u.scale_rows, 0.05);
+  EXPECT_NEAR(u.scale_factor, factor, 1e-12 * factor);
+  EXPECT_EQ(p.scale_factor, 1.0);
+  EXPECT_NEAR(u.s2, p.s2 * factor, 1e-12 * u.s2);
+  EXPECT_NEAR(p.s2, p.s2_ml, 1e-12 * p.s2);  // the default estimator, unraised
+}
+
 TEST(Uncertainty, BadOptionsAreRefused) {
   UncertaintyOptions o;
+  o.scale_confidence = 1.0;
+  EXPECT_FALSE(o.validate().empty());
+  o = {};
+  o.tracking_translation_mm = -1;
+  EXPECT_FALSE(o.validate().empty());
+  o = {};
+  o.tracking_rotation_deg = std::nan("");
+  EXPECT_FALSE(o.validate().empty());
+  o = {};
   o.hard_row_ratio = 0;
   EXPECT_FALSE(o.validate().empty());
   o = {};
