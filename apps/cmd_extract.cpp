@@ -158,6 +158,7 @@ int run_extract_vessels(const ExtractVesselsArgs& args, std::ostream& out) {
       {"background_suppressed", r.background_suppressed},
       {"masked_fraction", r.masked_fraction},
       {"junctions", r.junction_count},
+      {"points_at_support_edge", r.points_at_support_edge},
       {"endpoints", r.endpoint_count},
       {"components",
        {{"found", r.components_found},

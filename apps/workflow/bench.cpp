@@ -116,6 +116,13 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["block_cv_1se"].noise.one_standard_error = true;
             variants["block_cv_paired"] = variants["block_cv"];
             variants["block_cv_paired"].noise.paired_test = true;
+            // block_cv_1se_bulk: the one-SE rule from the global start with the bulk response,
+            // ε → ∞ meaning the start's rigid + bulk state (issue 14 item 3, v4).
+            variants["block_cv_1se_bulk"] = o;
+            variants["block_cv_1se_bulk"].noise.enabled = true;
+            variants["block_cv_1se_bulk"].noise.one_standard_error = true;
+            variants["block_cv_1se_bulk"].noise.start_is_bulk_state = true;
+            variants["block_cv_1se_bulk"].global_start.bulk_response = true;
             variants["block_cv_paired_smooth"] = variants["block_cv_paired"];
             variants["block_cv_paired_smooth"].noise.smooth_neighbours = 3;
             variants["gcv_compliance"] = o;
@@ -127,8 +134,9 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["dura_unilateral"] = o;
             variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
             methods.insert(methods.end(),
-                           {"block_cv", "block_cv_1se", "block_cv_paired", "block_cv_paired_smooth",
-                            "gcv_compliance", "dura_sliding", "dura_unilateral"});
+                           {"block_cv", "block_cv_1se", "block_cv_1se_bulk", "block_cv_paired",
+                            "block_cv_paired_smooth", "gcv_compliance", "dura_sliding",
+                            "dura_unilateral", "bulk_start_only"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {
@@ -139,7 +147,8 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
               r.prepare_s = prepare_s;
               const std::string& m = method;
               const RegistrationResult res = median_of(args.repeat, [&] {
-                return m == "rigid_only" ? rigid_only(*s.model, data, o)
+                return m == "rigid_only"        ? rigid_only(*s.model, data, o)
+                       : m == "bulk_start_only" ? constraints::start_only(*s.model, data, o)
                        : m == "prescribed_displacement"
                            ? prescribed_displacement(*s.model, data, o)
                            : constraints::register_model(*s.model, data, variants.at(m));

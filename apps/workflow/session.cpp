@@ -84,7 +84,7 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
       {"file", doppler.string()},           {"threshold", v.threshold},
       {"threshold_rule", v.threshold_rule}, {"branches", v.branch_count},
       {"length_mm", v.total_length_mm},     {"points", in.data.vessel_points.rows()},
-      {"nan_voxels", v.non_finite_voxels}};
+      {"nan_voxels", v.non_finite_voxels},  {"points_at_support_edge", v.points_at_support_edge}};
   if (bmode) {
     const IntraopFootprint f = footprint_from_bmode(*bmode);
     in.data.footprint_points = f.points;

@@ -47,7 +47,8 @@ Eigen::VectorXd block_loo_residuals(const Eigen::VectorXd& lambda, const Eigen::
 NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
                                        const std::vector<index_t>& vessel_rows,
                                        const std::vector<index_t>& row_blocks, double scale,
-                                       double current_ratio, const NoiseOptions& options) {
+                                       double current_ratio, const NoiseOptions& options,
+                                       const Eigen::VectorXd* delta_start) {
   NoiseEstimate est;
   est.ratio = current_ratio;
   est.criterion = NoiseCriterion::BLOCK_CV;
@@ -132,15 +133,19 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     scores = std::move(smoothed);
   }
   const std::size_t finite_candidates = scores.size();
+  // ε → ∞: the rows' gaps at the start's state (delta_start) or at the free motion (y).
+  Eigen::VectorXd y_start = y;
+  if (delta_start && delta_start->size() == delta_free.size() && delta_start->allFinite())
+    for (Eigen::Index i = 0; i < m; ++i) y_start[i] = (*delta_start)[use[std::size_t(i)]];
   if (options.consider_start) {
     std::vector<double> s(nb, 0.0);
     for (std::size_t b = 0; b < nb; ++b)
-      for (Eigen::Index i : blocks[b]) s[b] += y[i] * y[i];
+      for (Eigen::Index i : blocks[b]) s[b] += y_start[i] * y_start[i];
     ratios.push_back(std::numeric_limits<double>::infinity());
     eps_of.push_back(std::numeric_limits<double>::infinity());
     scores.push_back(std::move(s));
   }
-  est.cv_start_rms_mm = std::sqrt(y.squaredNorm() / md);
+  est.cv_start_rms_mm = std::sqrt(y_start.squaredNorm() / md);
   auto total = [&](std::size_t k) {
     double t = 0;
     for (double v : scores[k]) t += v;

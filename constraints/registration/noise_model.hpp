@@ -68,6 +68,11 @@ struct NoiseOptions {
   double block_length_mm = 0.0;
   /// BLOCK_CV: ε → ∞ (no deformation beyond the start) is a candidate.
   bool consider_start = true;
+  /// BLOCK_CV: ε → ∞ is the start's rigid + bulk state (the rest nodes plus the bulk response to
+  /// the start's bulk shift), scored by the vessel rows' gaps there (linearised), and kept as
+  /// that state; off: the rest shape in the start's rigid frame. For a global start with the
+  /// bulk response (issue 14 item 3: the `block_cv_1se_bulk` variant of `bench`).
+  bool start_is_bulk_state = false;
   /// BLOCK_CV: the one-standard-error rule — the smoothest candidate whose CV is within one
   /// standard error (paired over the blocks) of the minimum; off: the minimum itself.
   /// Off by default: the vessel rows cannot see what the deformation buys away from the vessels.
@@ -111,6 +116,8 @@ void visit_fields(NoiseOptions& o, V&& v) {
   v("block_length_mm", o.block_length_mm, core::Range{0, 1e6},
     "blocks: whole branches (0) or pieces of at most this arc length (mm)");
   v("consider_start", o.consider_start, "no deformation beyond the start is a candidate");
+  v("start_is_bulk_state", o.start_is_bulk_state,
+    "no deformation means the start's rigid + bulk state (else the rest shape)");
   v("one_standard_error", o.one_standard_error,
     "the smoothest candidate within one standard error of the minimum");
   v("paired_test", o.paired_test,
@@ -166,10 +173,13 @@ NoiseEstimate estimate_vessel_noise(const Eigen::MatrixXd& W, const Eigen::Vecto
 /// as estimate_vessel_noise(), plus the block id of each entry of `vessel_rows` (rows with the
 /// same id are held out together; the two rows of a sliding line must share one). The scatter
 /// (sigma_mm) is GCV's σ̂, as estimate_vessel_noise(); the ratio is the CV choice.
+/// @param[in] delta_start  when given (same rows as delta_free, mm): the rows' gaps at the
+/// state ε → ∞ stands for (NoiseOptions::start_is_bulk_state); else ε → ∞ scores delta_free.
 NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::VectorXd& delta_free,
                                        const std::vector<index_t>& vessel_rows,
                                        const std::vector<index_t>& row_blocks, double scale,
-                                       double current_ratio, const NoiseOptions& options);
+                                       double current_ratio, const NoiseOptions& options,
+                                       const Eigen::VectorXd* delta_start = nullptr);
 
 /// The held-out residuals of every block at compliance ε > 0 for the smoother A = W (W + ε I)⁻¹:
 /// entry i is y_i minus the prediction of row i from all rows outside its block, computed as

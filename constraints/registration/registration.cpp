@@ -385,7 +385,9 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   run_start(model, data, options, initial, vessels, res, shift_basis);
   // ---- end of the start ----------------------------------------------------------------------
 
-  const LoopInputs in = loop_inputs(model, data, options, res, shift_basis);
+  LoopInputs in = loop_inputs(model, data, options, res, shift_basis);
+  if (options.noise.enabled && options.noise.start_is_bulk_state && !initial && in.vessels)
+    in.start_state = start_positions(model, in, res, options, nullptr);
   LoopState state;
   state.positions = res.positions;
   if (initial)
@@ -432,9 +434,10 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
         blocks.push_back(f >= 0 && static_cast<std::size_t>(f) < in.segment_blocks.size()
                              ? in.segment_blocks[static_cast<std::size_t>(f)]
                              : -1);
-      res.noise = choose_vessel_compliance(state.last_delassus, state.last_delta_free,
-                                           state.last_vessel_rows, blocks, state.last_scale, ratio0,
-                                           options.noise);
+      res.noise = choose_vessel_compliance(
+          state.last_delassus, state.last_delta_free, state.last_vessel_rows, blocks,
+          state.last_scale, ratio0, options.noise,
+          in.start_state.rows() ? &state.last_delta_start : nullptr);
     } else {
       res.noise =
           estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
@@ -445,8 +448,9 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     const double change = res.noise.ratio / std::max(ratio0, 1e-300);
     if (options.noise.enabled && res.noise.valid && res.noise.keep_start) {
       // No compliance predicts held-out vessels better than no deformation: the model stays at
-      // rest in the start's frame (ε → ∞). Recorded as a SMOOTH stage of no iterations.
-      state.positions = mesh.nodes();
+      // rest in the start's frame, or at the start's rigid + bulk state (ε → ∞). Recorded as a
+      // SMOOTH stage of no iterations.
+      state.positions = in.start_state.rows() ? in.start_state : mesh.nodes();
       state.warm.clear();
       StageRecord keep;
       keep.kind = StageKind::SMOOTH;
@@ -543,6 +547,36 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
       return cold;
     }
   }
+  return res;
+}
+
+RegistrationResult start_only(const RegistrationModel& model, const IntraopData& data,
+                              const RegistrationOptions& options) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
+  BS_VERIFY(data.vessel_points.allFinite(), "intra-operative points contain NaN or infinity");
+  const auto t_start = Clock::now();
+  RegistrationResult res;
+  res.positions = model.mesh().nodes();
+  res.displacement = MatrixX3d::Zero(res.positions.rows(), 3);
+  const bool vessels =
+      options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
+  if (!vessels) {
+    res.stop = RegistrationStop::NO_DATA;
+    res.stop_reason = "the start only: no vessel points";
+    return res;
+  }
+  std::vector<Matrix3d> shift_basis;
+  run_start(model, data, options, nullptr, vessels, res, shift_basis);
+  const LoopInputs in = loop_inputs(model, data, options, res, shift_basis);
+  res.positions = start_positions(model, in, res, options, nullptr);
+  res.displacement = res.positions - model.mesh().nodes();
+  res.converged = true;
+  res.stop = RegistrationStop::CONVERGED;
+  res.start_returned = true;
+  res.stop_reason = std::string("the start only (rigid") +
+                    (res.shift.accepted ? " + bulk response)" : "; no bulk shift accepted)");
+  res.seconds.total = seconds_since(t_start);
   return res;
 }
 

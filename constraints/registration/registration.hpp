@@ -326,6 +326,14 @@ struct RegistrationResult {
 RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
                             const RegistrationOptions& options);
 
+/// The start alone: the global start (rigid, and the bulk response when
+/// options.global_start.bulk_response) and its state — the rest nodes plus the bulk response to
+/// the start's bulk shift, in the model frame — with no loop. The "start only" baseline of the
+/// benchmark (`bulk_start_only`); stop CONVERGED, or NO_DATA without vessel points.
+/// \throws brainshift::Error as register_model().
+RegistrationResult start_only(const RegistrationModel& model, const IntraopData& data,
+                              const RegistrationOptions& options);
+
 /// Runs the registration.
 /// @param[in] model the prepared model; only read (one model serves any number of registrations).
 /// @param[in] initial warm start: a previous result (its positions, rigid transform and λ are

@@ -218,6 +218,14 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       state.last_delassus = std::move(step.delassus);
       state.last_delta_free = std::move(step.delta_free);
       state.last_scale = step.compliance_scale;
+      state.last_delta_start.resize(0);
+      if (in.start_state.rows() == state.positions.rows()) {
+        const MatrixX3d to_start = in.start_state - state.positions;
+        state.last_delta_start.resize(rows.size());
+        for (index_t i = 0; i < rows.size(); ++i)
+          state.last_delta_start[i] =
+              rows[i].violation + rows[i].direction.dot(rows[i].stencil.position(to_start));
+      }
       state.last_vessel_rows.clear();
       state.last_vessel_features.clear();
       for (index_t i = 0; i < rows.size(); ++i)

@@ -30,6 +30,9 @@ struct LoopInputs {
   std::vector<index_t> segment_tets, triangle_tets;
   std::vector<index_t>
       segment_blocks;  ///< cross-validation block of each skeleton segment (vessel_blocks.hpp)
+  /// The start's rigid + bulk state (#N×3, model frame) when ε → ∞ stands for it
+  /// (NoiseOptions::start_is_bulk_state); empty otherwise.
+  MatrixX3d start_state;
 };
 
 using LambdaKey = std::array<std::int64_t, 3>;  ///< (set, feature, row within the group)
@@ -48,6 +51,9 @@ struct LoopState {
   /// vessels.
   Eigen::MatrixXd last_delassus;
   Eigen::VectorXd last_delta_free;
+  /// The last step's rows' gaps at LoopInputs::start_state, linearised: δ + H (x_start − x)
+  /// (empty without a start state).
+  Eigen::VectorXd last_delta_start;
   double last_scale = 0.0;
   std::vector<index_t> last_vessel_rows;
   std::vector<std::int64_t> last_vessel_features;  ///< the segment of each of last_vessel_rows

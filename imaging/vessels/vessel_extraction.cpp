@@ -176,6 +176,8 @@ std::string VesselExtractionOptions::validate() const {
   if (smoothing_passes < 0) why << "smoothing_passes must be ≥ 0; ";
   if (!(resample_step_mm >= 0.0) || std::isinf(resample_step_mm))
     why << "resample_step_mm must be ≥ 0 and finite, got " << resample_step_mm << "; ";
+  if (!(support_edge_margin_mm >= 0.0) || std::isinf(support_edge_margin_mm))
+    why << "support_edge_margin_mm must be ≥ 0 and finite, got " << support_edge_margin_mm << "; ";
   std::string text = why.str();
   if (!text.empty()) text.resize(text.size() - 2);
   return text;
@@ -350,6 +352,15 @@ VesselExtractionResult extract_vessels(const VolumeF& image,
       remove_short_pieces(result.graph, options.min_piece_length_mm, options.min_piece_elongation);
   smooth_branches(result.graph, options.smoothing_passes);
   if (options.resample_step_mm > 0.0) resample_branches(result.graph, options.resample_step_mm);
+  if (options.drop_at_support_edge) {
+    const SupportEdgeResult edge = drop_points_at_support_edge(
+        result.graph, image, result.foreground_voxels, options.support_edge_margin_mm);
+    result.points_at_support_edge = edge.dropped;
+    result.sector_found = edge.sector_found;
+    if (result.graph.branches.empty())
+      return empty_result(result, "every centreline point lies at the side of the "
+                                  "ultrasound sector (vessels cut by its mask)");
+  }
 
   result.branch_count = int(result.graph.branches.size());
   result.junction_count = result.graph.junction_count();
@@ -370,6 +381,8 @@ VesselExtractionResult extract_vessels(const VolumeF& image,
           << result.components_kept << "/" << result.components_found << " components, "
           << result.branch_count << " branches, " << result.junction_count << " junctions, "
           << result.total_length_mm << " mm";
+  if (result.points_at_support_edge > 0)
+    summary << ", " << result.points_at_support_edge << " points at the sector's side dropped";
   result.message = summary.str();
   logger().info("vessel extraction: {}", result.message);
   return result;

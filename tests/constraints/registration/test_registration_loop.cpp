@@ -231,6 +231,30 @@ TEST(RegistrationLoop, ADivergedStopAfterABulkShiftReturnsTheBulkResponse) {
   EXPECT_TRUE(r.lambda.empty());
 }
 
+TEST(RegistrationLoop, TheStartOnlyIsTheBulkResponseToTheStartsShift) {
+  // issue 14 item 3: start_only() is the start's rigid + bulk state (what the block CV's ε → ∞
+  // stands for with NoiseOptions::start_is_bulk_state; `bench` measures that variant).
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 3);
+  d.vessel_points.rowwise() += Eigen::RowVector3d(0.0, 0.0, -6.0);
+  const RegistrationResult start = start_only(*s.model, d, options());
+  ASSERT_EQ(start.stop, RegistrationStop::CONVERGED) << start.stop_reason;
+  ASSERT_TRUE(start.positions.allFinite());
+  if (!start.shift.accepted) GTEST_SKIP() << "no bulk shift accepted: " << start.shift.message;
+  // The bulk response at the points' nearest nodes averages to the shift (load_basis()'s
+  // normalisation; exact up to rounding, hence 1e-9 mm), as the DIVERGED fallback's.
+  const Vector3d at_points =
+      mean_at_nearest_nodes(s.mesh.nodes(), start.displacement, d.vessel_points);
+  EXPECT_LT((at_points - start.shift.shift).norm(), 1e-9);
+
+  // Fixed nodes do not move (the response of a model fixed below z = −22 mm).
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i)
+    if (s.mesh.nodes()(i, 2) < -22) {
+      EXPECT_LT(start.displacement.row(i).norm(), 1e-9) << "node " << i;
+    }
+}
+
 TEST(RegistrationLoop, AStepThatCannotBeComputedIsRejectedNotZeroed) {
   // The step itself: a non-finite increment is flagged and x left unchanged (it used to be
   // zeroed silently, which the loop then read as a converged increment of 0 mm).
