@@ -39,7 +39,7 @@
 #include <vector>
 
 using namespace brainshift;
-using namespace brainshift::apps;
+using namespace brainshift::workflow;
 
 namespace {
 
@@ -89,7 +89,8 @@ double curvature(const Lines& l, index_t s, const std::vector<std::vector<index_
       if (o == s) continue;
       const auto [c, e] = l.seg[std::size_t(o)];
       Vector3d f = (l.p.row(e) - l.p.row(c)).normalized();
-      const double len = 0.5 * ((l.p.row(e) - l.p.row(c)).norm() + (l.p.row(b) - l.p.row(a)).norm());
+      const double len =
+          0.5 * ((l.p.row(e) - l.p.row(c)).norm() + (l.p.row(b) - l.p.row(a)).norm());
       const double ang = std::acos(std::clamp(std::abs(f.dot(d)), 0.0, 1.0)) * 180.0 / M_PI;
       sum += ang / std::max(len, 1e-6);
       ++n;
@@ -114,7 +115,8 @@ std::string fmt(const Vector3d& v) {
 
 /// Affine fit of the vectors v_i against positions x_i: share of Σ|v|² explained by a constant
 /// and by an affine field (least squares per component).
-std::pair<double, double> explained(const std::vector<Vector3d>& x, const std::vector<Vector3d>& v) {
+std::pair<double, double> explained(const std::vector<Vector3d>& x,
+                                    const std::vector<Vector3d>& v) {
   const int n = int(x.size());
   if (n < 8) return {0, 0};
   Eigen::MatrixXd A(n, 4), V(n, 3);
@@ -232,8 +234,8 @@ int main(int argc, char** argv) try {
     std::printf("%s seed %u: model skeleton (rest) vs true tree (rest): n=%d mean %s rms %.2f\n",
                 name.c_str(), seed, a.n, fmt(a.mean()).c_str(), a.rms());
   }
-  std::printf("Doppler points %ld; probe face %s axis %s\n", long(dop.rows()),
-              fmt(face).c_str(), fmt(axis).c_str());
+  std::printf("Doppler points %ld; probe face %s axis %s\n", long(dop.rows()), fmt(face).c_str(),
+              fmt(axis).c_str());
 
   std::vector<std::vector<index_t>> segs_at_tree(std::size_t(tree_rest.p.rows()));
   for (std::size_t k = 0; k < tree_rest.seg.size(); ++k)
@@ -254,13 +256,13 @@ int main(int argc, char** argv) try {
       const double drawn = 1.4 * r + 0.4;  // DopplerOptions thickening (defaults)
       const Vector3d q = F.transpose() * (p - face), qt = F.transpose() * (n.q - face);
       const double lat_t = qt.head<2>().norm();
-      const double side = (probe.options.footprint_radius + qt.z() * tan_a - lat_t) /
-                          std::sqrt(1 + tan_a * tan_a);
+      const double side =
+          (probe.options.footprint_radius + qt.z() * tan_a - lat_t) / std::sqrt(1 + tan_a * tan_a);
       Vector3d v = p - n.q;
       v -= v.dot(n.tangent) * n.tangent;
       const Vector3d vp = F.transpose() * v;
-      out << i << ',' << branch_of[std::size_t(i)] << ',' << q.z() << ',' << q.x() << ','
-          << q.y() << ',' << qt.z() << ',' << lat_t << ',' << r << ',' << qt.z() - drawn << ','
+      out << i << ',' << branch_of[std::size_t(i)] << ',' << q.z() << ',' << q.x() << ',' << q.y()
+          << ',' << qt.z() << ',' << lat_t << ',' << r << ',' << qt.z() - drawn << ','
           << side - drawn << ',' << vp.x() << ',' << vp.y() << ',' << vp.z() << ',' << n.dist
           << '\n';
     }
@@ -290,14 +292,18 @@ int main(int argc, char** argv) try {
       vs.push_back(v);
       const Vector3d q = F.transpose() * (p - face);
       const double depth = q.z(), lat = q.head<2>().norm();
-      bins[depth < 10 ? "depth 0-10" : depth < 20 ? "depth 10-20" : depth < 35 ? "depth 20-35"
-                                                                               : "depth 35+"]
+      bins[depth < 10   ? "depth 0-10"
+           : depth < 20 ? "depth 10-20"
+           : depth < 35 ? "depth 20-35"
+                        : "depth 35+"]
           .add(vp);
       // radial lateral component: positive = away from the beam axis
       const Vector3d radial_dir =
           lat > 1e-6 ? Vector3d(F * Vector3d(q.x(), q.y(), 0) / lat) : Vector3d::Zero();
-      bins[lat < 10 ? "lat 0-10" : lat < 20 ? "lat 10-20" : "lat 20+"].add(
-          Vector3d(v.dot(radial_dir), 0, vp.z()));
+      bins[lat < 10   ? "lat 0-10"
+           : lat < 20 ? "lat 10-20"
+                      : "lat 20+"]
+          .add(Vector3d(v.dot(radial_dir), 0, vp.z()));
       // radius and curvature of the true tree at the nearest point
       const Nearest nt = nearest(ref.at("tree"), p);
       if (nt.dist <= 5.0) {
@@ -337,10 +343,11 @@ int main(int argc, char** argv) try {
       between += a.n * (a.mean() - m).squaredNorm();
       total += a.sq - 2 * a.sum.dot(m) + a.n * m.squaredNorm();
     }
-    std::printf("   neighbour correlation %.2f (centred %.2f); between-branch share of the "
-                "centred variance %.2f over %zu branches\n",
-                den > 0 ? num / den : 0.0, cden > 0 ? cnum / cden : 0.0,
-                total > 0 ? between / total : 0.0, per_branch.size());
+    std::printf(
+        "   neighbour correlation %.2f (centred %.2f); between-branch share of the "
+        "centred variance %.2f over %zu branches\n",
+        den > 0 ? num / den : 0.0, cden > 0 ? cnum / cden : 0.0, total > 0 ? between / total : 0.0,
+        per_branch.size());
   }
 
   // Where the registrations put the vessels: at the skeleton point nearest each Doppler point,
@@ -362,8 +369,8 @@ int main(int argc, char** argv) try {
       sxy += err.dot(d);
       sxx += d.squaredNorm();
     }
-    std::printf("   %-7s n=%d mean %s rms %.2f; slope on the data error %.2f  (%s)\n",
-                key.c_str(), e.n, fmt(e.mean()).c_str(), e.rms(), sxx > 0 ? sxy / sxx : 0.0,
+    std::printf("   %-7s n=%d mean %s rms %.2f; slope on the data error %.2f  (%s)\n", key.c_str(),
+                e.n, fmt(e.mean()).c_str(), e.rms(), sxx > 0 ? sxy / sxx : 0.0,
                 constraints::to_string(results.at(key).stop).c_str());
   }
   return 0;

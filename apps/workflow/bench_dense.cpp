@@ -15,7 +15,7 @@
 #include <iomanip>
 #include <random>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 DenseTruth dense_truth(const std::filesystem::path& phantom, const imaging::LandmarkPairs& truth,
                        int count, std::uint32_t seed) {
@@ -153,4 +153,4 @@ void write_dense_csv(const std::filesystem::path& path, const DenseScore* landma
   });
 }
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -24,7 +24,7 @@
 #include <string>
 #include <vector>
 
-namespace brainshift::apps {
+namespace brainshift::workflow {
 
 /// Points with known truth: where they were (pre-operative) and where they are (truth frame).
 struct DenseTruth {
@@ -68,4 +68,4 @@ void write_dense_csv(const std::filesystem::path& path, const DenseScore* landma
                      const DenseScore* dense, ConstRef<MatrixX3d> dense_points,
                      ConstRef<MatrixX3d> dense_truth);
 
-}  // namespace brainshift::apps
+}  // namespace brainshift::workflow

@@ -54,8 +54,8 @@ SupportEdgeResult drop_points_at_support_edge(VesselGraph& graph, const VolumeF&
             "support edge: needs a one-component volume, got " << image.components);
   BS_VERIFY(margin_mm >= 0.0 && std::isfinite(margin_mm),
             "support edge: margin must be a finite value >= 0 mm, got " << margin_mm);
-  BS_VERIFY(min_support_ratio >= 1.0, "support edge: min_support_ratio must be >= 1, got "
-                                          << min_support_ratio);
+  BS_VERIFY(min_support_ratio >= 1.0,
+            "support edge: min_support_ratio must be >= 1, got " << min_support_ratio);
   SupportEdgeResult result;
   if (graph.branches.empty() || image.empty()) return result;
   // Without a sector nothing is dropped: the grid's faces are not treated as an edge.
@@ -64,8 +64,8 @@ SupportEdgeResult drop_points_at_support_edge(VesselGraph& graph, const VolumeF&
   std::int64_t outside_count = 0;
   std::vector<std::uint8_t> outside = outside_region(image, outside_count);
   const std::int64_t support = g.voxel_count() - outside_count;
-  result.sector_found = outside_count > 0 && double(support) >= min_support_ratio *
-                                                                    double(foreground_voxels);
+  result.sector_found =
+      outside_count > 0 && double(support) >= min_support_ratio * double(foreground_voxels);
   if (!result.sector_found) return result;
   result.outside_voxels = outside_count;
 
@@ -134,8 +134,10 @@ SupportEdgeResult drop_points_at_support_edge(VesselGraph& graph, const VolumeF&
       while (j + 1 < m && keep[j + 1]) ++j;
       if (j > i) {
         VesselGraph::Branch run;
-        run.points.assign(b.points.begin() + std::ptrdiff_t(i), b.points.begin() + std::ptrdiff_t(j + 1));
-        run.radius.assign(b.radius.begin() + std::ptrdiff_t(i), b.radius.begin() + std::ptrdiff_t(j + 1));
+        run.points.assign(b.points.begin() + std::ptrdiff_t(i),
+                          b.points.begin() + std::ptrdiff_t(j + 1));
+        run.radius.assign(b.radius.begin() + std::ptrdiff_t(i),
+                          b.radius.begin() + std::ptrdiff_t(j + 1));
         auto end_node = [&](std::size_t at, index_t original) {
           if ((at == 0 && original == b.from) || (at + 1 == m && original == b.to)) return original;
           out.nodes.push_back({b.points[at], b.radius[at]});

@@ -358,8 +358,9 @@ VesselExtractionResult extract_vessels(const VolumeF& image,
     result.points_at_support_edge = edge.dropped;
     result.sector_found = edge.sector_found;
     if (result.graph.branches.empty())
-      return empty_result(result, "every centreline point lies at the side of the "
-                                  "ultrasound sector (vessels cut by its mask)");
+      return empty_result(result,
+                          "every centreline point lies at the side of the "
+                          "ultrasound sector (vessels cut by its mask)");
   }
 
   result.branch_count = int(result.graph.branches.size());

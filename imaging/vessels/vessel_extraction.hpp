@@ -115,11 +115,11 @@ struct VesselExtractionResult {
   double kept_volume_mm3 = 0.0;        ///< volume of the kept components
   std::int64_t skeleton_voxels = 0;    ///< after thinning
   int spurs_pruned = 0;
-  int pieces_removed = 0;        ///< graph pieces failing the shape rule
-  int branch_count = 0;          ///< branches of the final graph
-  int junction_count = 0;        ///< nodes of degree ≥ 3
-  int endpoint_count = 0;        ///< nodes of degree 1
-  double total_length_mm = 0.0;  ///< sum of branch lengths
+  int pieces_removed = 0;          ///< graph pieces failing the shape rule
+  int branch_count = 0;            ///< branches of the final graph
+  int junction_count = 0;          ///< nodes of degree ≥ 3
+  int endpoint_count = 0;          ///< nodes of degree 1
+  double total_length_mm = 0.0;    ///< sum of branch lengths
   int points_at_support_edge = 0;  ///< centreline points dropped at the sector's side
   bool sector_found = false;       ///< a sector mask was found (support_edge.hpp)
 };

@@ -80,7 +80,7 @@ TEST(SupportEdge, AVesselCutByTheSectorsSideLeavesNoOffAxisPoints) {
   const Sector s;
   const Vector3d c = s.face_centre;
   const std::vector<AxisSegment> axes{
-      {c + Vector3d(18.0, -14.0, 5.0), c + Vector3d(18.0, 14.0, 5.0)},    // across the edge
+      {c + Vector3d(18.0, -14.0, 5.0), c + Vector3d(18.0, 14.0, 5.0)},     // across the edge
       {c + Vector3d(-12.0, -10.0, 22.0), c + Vector3d(8.0, 12.0, 24.0)}};  // inside
   const VolumeF image = s.doppler(axes, 3.0);
 
@@ -109,7 +109,7 @@ TEST(SupportEdge, AVesselUnderTheProbeFaceIsKept) {
   const Sector s;
   const Vector3d c = s.face_centre;
   const std::vector<AxisSegment> axes{
-      {c + Vector3d(-7.0, -3.0, 0.8), c + Vector3d(7.0, 3.0, 0.8)},       // under the face
+      {c + Vector3d(-7.0, -3.0, 0.8), c + Vector3d(7.0, 3.0, 0.8)},        // under the face
       {c + Vector3d(-12.0, -10.0, 22.0), c + Vector3d(8.0, 12.0, 24.0)}};  // inside
   const VolumeF image = s.doppler(axes, 3.5);
   const VesselExtractionResult off = extract_vessels(image, doppler_options(false));
