@@ -127,7 +127,10 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
     if (free_of_block[a] >= 0) cols.push_back(static_cast<index_t>(a));
   // By one factorisation with the block DOFs ordered last (core/solver/inverse_block.hpp): the
   // trailing factor's inverse. Falls back to unit solves if that factorisation fails.
-  if (options.precompute == BlockPrecompute::PARTIAL_FACTORISATION && factorised != nullptr) {
+  const bool partial = options.precompute == BlockPrecompute::PARTIAL_FACTORISATION ||
+                       (options.precompute == BlockPrecompute::AUTO &&
+                        4 * cols.size() <= static_cast<std::size_t>(dofs.num_free()));
+  if (partial && factorised != nullptr) {
     BS_VERIFY(factorised->rows() == dofs.num_free() && factorised->cols() == dofs.num_free(),
               "factorised matrix is " << factorised->rows() << "×" << factorised->cols() << " for "
                                       << dofs.num_free() << " free DOFs");
