@@ -1,6 +1,7 @@
 #include "core/solver/cholmod_factor.hpp"
 
 #include "core/error.hpp"
+#include "core/solver/cholmod_views.hpp"
 
 #include <cholmod.h>
 
@@ -33,33 +34,8 @@ struct CholmodFactor::Impl {
 
 namespace {
 
-/// Lower triangle of a square A in compressed, sorted form, owning the storage a view needs.
-SparseMatrix lower_triangle(const SparseMatrix& A) {
-  SparseMatrix L = A.triangularView<Eigen::Lower>();
-  L.makeCompressed();
-  return L;
-}
-
-/// A cholmod_sparse view (no copy) of a compressed Eigen matrix. `M` must outlive the view.
-cholmod_sparse sparse_view(SparseMatrix& M, int stype) {
-  BS_ASSERT(M.isCompressed(), "sparse view needs a compressed matrix");
-  cholmod_sparse v{};
-  v.nrow = static_cast<std::size_t>(M.rows());
-  v.ncol = static_cast<std::size_t>(M.cols());
-  v.nzmax = static_cast<std::size_t>(M.nonZeros());
-  v.p = M.outerIndexPtr();
-  v.i = M.innerIndexPtr();
-  v.nz = nullptr;
-  v.x = M.valuePtr();
-  v.z = nullptr;
-  v.stype = stype;
-  v.itype = CHOLMOD_INT;
-  v.xtype = CHOLMOD_REAL;
-  v.dtype = CHOLMOD_DOUBLE;
-  v.sorted = 1;
-  v.packed = 1;
-  return v;
-}
+using detail::lower_triangle;
+using detail::sparse_view;
 
 /// A cholmod_dense view (no copy) of a column-major matrix. `M` must outlive the view.
 cholmod_dense dense_view(Eigen::MatrixXd& M) {

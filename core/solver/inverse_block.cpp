@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/parallel.hpp"
+#include "core/solver/cholmod_views.hpp"
 #include "core/timing.hpp"
 
 #include <cholmod.h>
@@ -36,29 +37,8 @@ struct Factor {
   }
 };
 
-/// A cholmod_sparse view (no copy) of the compressed lower triangle `M` (stype −1).
-cholmod_sparse lower_view(SparseMatrix& M) {
-  cholmod_sparse v{};
-  v.nrow = static_cast<std::size_t>(M.rows());
-  v.ncol = static_cast<std::size_t>(M.cols());
-  v.nzmax = static_cast<std::size_t>(M.nonZeros());
-  v.p = M.outerIndexPtr();
-  v.i = M.innerIndexPtr();
-  v.x = M.valuePtr();
-  v.stype = -1;
-  v.itype = CHOLMOD_INT;
-  v.xtype = CHOLMOD_REAL;
-  v.dtype = CHOLMOD_DOUBLE;
-  v.sorted = 1;
-  v.packed = 1;
-  return v;
-}
-
-SparseMatrix compressed_lower(const SparseMatrix& A) {
-  SparseMatrix L = A.triangularView<Eigen::Lower>();
-  L.makeCompressed();
-  return L;
-}
+/// A symmetric (stype −1) view of the compressed lower triangle `M`.
+cholmod_sparse lower_view(SparseMatrix& M) { return detail::sparse_view(M, -1); }
 
 /// CHOLMOD's fill-reducing ordering of the interior block A_II (its symbolic analysis only).
 std::vector<int> interior_ordering(const SparseMatrix& A, const std::vector<index_t>& interior) {
@@ -127,7 +107,7 @@ InverseBlockResult inverse_block(const SparseMatrix& A, std::span<const index_t>
   c.method[0].ordering = CHOLMOD_GIVEN;
   c.postorder = 0;
   c.supernodal = CHOLMOD_SUPERNODAL;
-  SparseMatrix lower = compressed_lower(A);
+  SparseMatrix lower = detail::lower_triangle(A);
   cholmod_sparse view = lower_view(lower);
   Factor f{cholmod_analyze_p(&view, perm.data(), nullptr, 0, &c), &c};
   BS_VERIFY(f.L != nullptr, "inverse_block: CHOLMOD analysis failed (status " << c.status << ")");
