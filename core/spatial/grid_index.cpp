@@ -139,9 +139,13 @@ std::optional<GridNearest> GridIndex::nearest(const Vector3d& p, double max_dist
   const auto visit_cell = [&](int x, int y, int z) {
     const std::size_t cell = cell_index(x, y, z);
     const double limit = std::min(best.distance, max_distance);
+    // Skip only boxes clearly farther than the limit: an item can tie the best at its box's
+    // distance (a shared vertex at a box corner), and the squared comparison rounds either way;
+    // skipping it would give the tie to whichever item was visited first, not the lowest index.
+    const double limit2 = limit * limit * (1.0 + 1e-12);
     for (index_t k = m_cell_start[cell]; k < m_cell_start[cell + 1]; ++k) {
       const index_t i = m_cell_items[static_cast<std::size_t>(k)];
-      if (box_squared_distance(i, p) > limit * limit) continue;
+      if (box_squared_distance(i, p) > limit2) continue;
       const double d = distance(i);
       if (d <= max_distance && (d < best.distance || (d == best.distance && i < best.item)))
         best = {i, d};

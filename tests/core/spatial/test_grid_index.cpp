@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -180,6 +181,65 @@ TEST(GridIndex, BadQueriesFindNothingAndBadBoxesThrow) {
   lo(4, 0) += 1.0;  // lower corner above the upper one
   EXPECT_THROW(GridIndex(lo, r.hi), Error);
   EXPECT_THROW(GridIndex(r.lo, r.hi.topRows(3)), Error);
+}
+
+// Ties at a shared vertex go to the lowest index, as the header says. A random tree of segments
+// (each new point 2.5 mm from one of the last six): a query whose closest point on several
+// segments is their shared vertex is at exactly the same distance from each (the vertex itself,
+// the same subtraction), and that distance equals the distance to their boxes' common corner,
+// where the squared box distance can round either side of the square of the exact distance. The
+// search must not prune a box at exactly the best distance. Brute force: the lowest index among
+// the least distances, by the same distance function.
+TEST(GridIndex, TiesAtASharedVertexGoToTheLowestIndex) {
+  std::mt19937 rng(5);
+  std::normal_distribution<double> g;
+  const int n = 300;
+  MatrixX3d pts(n + 1, 3);
+  pts.row(0).setZero();
+  std::vector<std::array<index_t, 2>> seg;
+  for (int i = 1; i <= n; ++i) {
+    const int parent = std::uniform_int_distribution<int>(std::max(0, i - 6), i - 1)(rng);
+    pts.row(i) = pts.row(parent) + 2.5 * Vector3d(g(rng), g(rng), g(rng)).normalized().transpose();
+    seg.push_back(std::uniform_int_distribution<int>(0, 1)(rng)
+                      ? std::array<index_t, 2>{parent, i}
+                      : std::array<index_t, 2>{i, parent});
+  }
+  MatrixX3d lo(n, 3), hi(n, 3);
+  for (int f = 0; f < n; ++f) {
+    lo.row(f) = pts.row(seg[f][0]).cwiseMin(pts.row(seg[f][1]));
+    hi.row(f) = pts.row(seg[f][0]).cwiseMax(pts.row(seg[f][1]));
+  }
+  const GridIndex index(lo, hi);
+  Vector3d q;
+  const auto distance = [&](index_t f) {
+    const Vector3d a = pts.row(seg[f][0]).transpose(), b = pts.row(seg[f][1]).transpose();
+    const double t = std::clamp((q - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
+    const Vector3d c = t == 0.0 ? a : t == 1.0 ? b : Vector3d(a + t * (b - a));
+    return (q - c).norm();
+  };
+  std::uniform_real_distribution<double> u(0, 1);
+  const Vector3d box_lo = pts.colwise().minCoeff().transpose().array() - 6.0;
+  const Vector3d box_hi = pts.colwise().maxCoeff().transpose().array() + 6.0;
+  int ties = 0;
+  for (int k = 0; k < 3000; ++k) {
+    q = box_lo + (box_hi - box_lo).cwiseProduct(Vector3d(u(rng), u(rng), u(rng)));
+    index_t best = 0;
+    int at_best = 1;
+    for (index_t f = 1; f < n; ++f) {
+      const double d = distance(f), db = distance(best);
+      if (d < db)
+        best = f, at_best = 1;
+      else if (d == db)
+        ++at_best;
+    }
+    ties += at_best > 1;
+    const auto hit = index.nearest(q, std::numeric_limits<double>::infinity(), distance);
+    ASSERT_TRUE(hit.has_value());
+    EXPECT_EQ(hit->item, best) << "query " << k << ", " << at_best
+                               << " items at the least distance";
+    EXPECT_EQ(hit->distance, distance(best));
+  }
+  EXPECT_GT(ties, 100);  // the sample exercises exact ties
 }
 
 }  // namespace
