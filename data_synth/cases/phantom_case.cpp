@@ -15,6 +15,7 @@
 #include <fstream>
 #include <iomanip>
 #include <memory>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -143,15 +144,20 @@ std::vector<Vector3d> in_truth_frame(const CaseParameters& p, const Probe& probe
   return x;
 }
 
-/// Doppler and B-mode of one deformed state into `dir`; the headers carry the tracking error.
+/// Doppler and B-mode of one deformed state into `dir`; the headers carry the tracking error,
+/// rotated about `pivot` (the probe's face centre when not given). `resected`: the tumour renders
+/// as fluid (the resection case after the resection; never before the dura is opened).
 void write_ultrasound(const CaseParameters& p, const CaseAnatomy& an, const VesselTree& tree,
-                      const TruthField& field, const Probe& probe, const fs::path& dir) {
+                      const TruthField& field, const Probe& probe, const fs::path& dir,
+                      const std::optional<Vector3d>& pivot = std::nullopt,
+                      std::optional<bool> resected = std::nullopt) {
   const imaging::ImageGeometry grid = probe.grid();
-  const imaging::LabelVolume labels = deformed_labels(field, an.image_label, grid, p.resection);
+  const imaging::LabelVolume labels =
+      deformed_labels(field, an.image_label, grid, resected.value_or(p.resection));
   imaging::VolumeF doppler = make_doppler(probe, deformed(tree, field), labels, p.doppler);
   imaging::VolumeF bmode = make_bmode(probe, labels, p.bmode);
   if (!p.tracking.is_zero()) {
-    doppler.geometry = with_tracking_error(grid, probe, p.tracking);
+    doppler.geometry = with_tracking_error(grid, pivot.value_or(probe.face_centre), p.tracking);
     bmode.geometry = doppler.geometry;
   }
   imaging::write_volume(dir / "doppler.nii.gz", doppler);
@@ -267,6 +273,15 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
 
   say(o, "intra-operative ultrasound");
   write_ultrasound(p, an, tree, *truth.field, probe, root / "intraop");
+  // The sweep made on the dura before it is opened (no shift yet), through the same navigation
+  // offset (one world transform: rotated about the same pivot): what `register --pre-dura`
+  // takes the pose from, so that the sag is not mistaken for a pose.
+  say(o, "pre-dura ultrasound");
+  const TruthField rest(pm.mesh, MatrixX3d::Zero(pm.mesh.num_nodes(), 3));
+  const Probe predura_probe = place_probe(p, an, rest);
+  fs::create_directories(root / "intraop" / "predura");
+  write_ultrasound(p, an, tree, rest, predura_probe, root / "intraop" / "predura",
+                   probe.face_centre, false);
 
   json frames = json::array();
   for (int k = 1; k <= o.frames; ++k) {
@@ -309,6 +324,10 @@ CaseSummary write_case(const CaseParameters& p, const CaseAnatomy& an, const Cas
         {"min_jacobian", truth.result.min_jacobian}}},
       {"probe",
        {{"face_centre_mm", to_json(probe.face_centre)}, {"axis", to_json(probe.frame.col(2))}}},
+      {"pre_dura",
+       {{"doppler", "intraop/predura/doppler.nii.gz"},
+        {"bmode", "intraop/predura/bmode.nii.gz"},
+        {"probe_face_centre_mm", to_json(predura_probe.face_centre)}}},
       {"counts",
        {{"landmarks", summary.landmarks},
         {"vessel_landmarks", summary.vessel_landmarks},

@@ -75,8 +75,13 @@ Vector3d TrackingError::apply(const Vector3d& p, const Vector3d& pivot) const {
 
 imaging::ImageGeometry with_tracking_error(const imaging::ImageGeometry& grid, const Probe& probe,
                                            const TrackingError& error) {
+  return with_tracking_error(grid, probe.face_centre, error);
+}
+
+imaging::ImageGeometry with_tracking_error(const imaging::ImageGeometry& grid,
+                                           const Vector3d& pivot, const TrackingError& error) {
   imaging::ImageGeometry g = grid;
-  g.origin = error.apply(grid.origin, probe.face_centre);
+  g.origin = error.apply(grid.origin, pivot);
   g.direction = rotation(error.rotation_deg) * grid.direction;
   return g;
 }

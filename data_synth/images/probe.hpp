@@ -56,5 +56,9 @@ struct TrackingError {
 /// the tracking is off by `error`: the content stays, the grid's world placement moves.
 imaging::ImageGeometry with_tracking_error(const imaging::ImageGeometry& grid, const Probe& probe,
                                            const TrackingError& error);
+/// The same with the error's rotation about `pivot` (world RAS mm) instead of the probe's face
+/// centre: one navigation offset shared by sweeps made at different probe positions.
+imaging::ImageGeometry with_tracking_error(const imaging::ImageGeometry& grid,
+                                           const Vector3d& pivot, const TrackingError& error);
 
 }  // namespace brainshift::data_synth
