@@ -17,6 +17,9 @@ CLI::App* add_register_command(CLI::App& app, RegisterArgs& args) {
                 "B-mode volume (probe footprint; the beam is estimated from the swept region, any "
                 "grid orientation)");
   c->add_option("--mri", args.mri, "pre-operative MRI to warp (same grid as the model's labels)");
+  c->add_option("--pre-dura", args.pre_dura,
+                "power-Doppler volume of a sweep on the dura before it was opened: the navigation "
+                "offset is measured from it, so the sag is not mistaken for a pose");
   c->add_option("--init", args.init, "rigid start: rigid or identity (default: the scene's)")
       ->check(CLI::IsMember({"rigid", "identity"}));
   c->add_option("--out", args.out, "result folder RES")->required();

@@ -133,10 +133,24 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["dura_sliding"].dura.mode = constraints::DuraOptions::Mode::SLIDING;
             variants["dura_unilateral"] = o;
             variants["dura_unilateral"].dura.mode = constraints::DuraOptions::Mode::UNILATERAL;
+            // identity_start — no pose search (the navigation taken as right; the true pose of
+            // the cases without an offset): what the deformation alone does with the sag.
+            variants["identity_start"] = o;
+            variants["identity_start"].start = constraints::RigidStart::IDENTITY;
             methods.insert(methods.end(),
                            {"block_cv", "block_cv_1se", "block_cv_1se_bulk", "block_cv_paired",
                             "block_cv_paired_smooth", "gcv_compliance", "dura_sliding",
-                            "dura_unilateral", "bulk_start_only"});
+                            "dura_unilateral", "bulk_start_only", "identity_start"});
+          }
+          // pre_dura — the pose measured on the sweep made before the dura was opened
+          // (`register --pre-dura`), the loop otherwise the default; in --quick runs too.
+          constraints::IntraopData data_pre = data;
+          if (const auto pre = c.phantom / "intraop/predura/doppler.nii.gz";
+              std::filesystem::exists(pre)) {
+            nlohmann::json ignored;
+            data_pre.pose = pose_from_pre_dura(s, pre, o, ignored);
+            variants["pre_dura"] = o;
+            methods.push_back("pre_dura");
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {
@@ -151,7 +165,8 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
                        : m == "bulk_start_only" ? constraints::start_only(*s.model, data, o)
                        : m == "prescribed_displacement"
                            ? prescribed_displacement(*s.model, data, o)
-                           : constraints::register_model(*s.model, data, variants.at(m));
+                           : constraints::register_model(
+                                 *s.model, m == "pre_dura" ? data_pre : data, variants.at(m));
               });
               score(r, *s.model, res, c, data);
               // Which vessel compliance the loop ended with (the noise model's choice, if applied).
@@ -161,12 +176,15 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
                              : "vessel compliance fixed; " + res.noise.message;
             }));
             // The per-point predicted and actual errors of our default loop (dense calibration).
-            if (method == "constraint_icp" && rows.back().unc_landmark_points) {
+            if ((method == "constraint_icp" || method == "pre_dura") &&
+                rows.back().unc_landmark_points) {
               const BenchRow& b = rows.back();
               std::filesystem::create_directories(dir / "dense");
-              write_dense_csv(dir / "dense" / (name + ".csv"), &*b.unc_landmark_points, c.truth.a,
-                              c.truth.b, b.unc_dense ? &*b.unc_dense : nullptr, c.dense.pre,
-                              c.dense.intra);
+              write_dense_csv(
+                  dir / "dense" /
+                      (name + (method == "constraint_icp" ? "" : "_" + method) + ".csv"),
+                  &*b.unc_landmark_points, c.truth.a, c.truth.b,
+                  b.unc_dense ? &*b.unc_dense : nullptr, c.dense.pre, c.dense.intra);
             }
             if (method == "constraint_icp")
               progress.stage(name + (c.dense.note.empty()

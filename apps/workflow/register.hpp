@@ -21,6 +21,11 @@ struct RegisterOptions {
   std::filesystem::path doppler;               ///< power-Doppler volume (vessels)
   std::optional<std::filesystem::path> bmode;  ///< B-mode volume (probe footprint), optional
   std::optional<std::filesystem::path> mri;    ///< pre-operative MRI to warp (model's grid)
+  /// Power Doppler of a sweep made on the dura before it was opened (no shift yet), in the same
+  /// tracked frame: the navigation offset (the rigid pose) is measured from it, and the sweep
+  /// after opening only adds the deformation (constraints::IntraopData::pose). Without it, the
+  /// pose is searched in the post-opening sweep, where it can absorb part of the sag.
+  std::optional<std::filesystem::path> pre_dura;
   std::string init;           ///< "rigid", "identity" or empty (the scene's choice)
   std::filesystem::path out;  ///< result folder RES (replaced atomically)
 };

@@ -95,6 +95,33 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
   return in;
 }
 
+Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::path& doppler,
+                                     const constraints::RegistrationOptions& options,
+                                     nlohmann::json& report) {
+  const IntraopInputs pre = read_intraop(s, doppler, std::nullopt);
+  const MatrixX3d& p = pre.data.vessel_points;
+  BS_VERIFY(p.rows() >= options.global_start.min_points,
+            doppler.string() << ": " << p.rows() << " vessel points, fewer than the "
+                             << options.global_start.min_points
+                             << " a pose needs (pre-dura sweep)");
+  const constraints::GlobalStartResult g = constraints::pre_dura_pose(*s.model, p, options);
+  report = pre.report["doppler"];
+  report["accepted"] = g.accepted;
+  report["translation_mm"] = g.translation_mm;
+  report["rotation_deg"] = g.rotation_deg;
+  report["rms_before_mm"] = g.rms_before_mm;
+  report["rms_after_mm"] = g.rms_after_mm;
+  report["message"] = g.message;
+  nlohmann::json m = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int c = 0; c < 4; ++c) row.push_back(g.transform.matrix()(r, c));
+    m.push_back(row);
+  }
+  report["model_from_intraop"] = m;
+  return g.transform;
+}
+
 imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri) {
   imaging::VolumeF image = imaging::read_volume(mri);
   BS_VERIFY(

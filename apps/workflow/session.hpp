@@ -41,6 +41,15 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
                            const std::optional<std::filesystem::path>& bmode,
                            const imaging::VesselExtractionOptions& vessels = {});
 
+/// The navigation offset (model ← tracked frame) from the power Doppler of a sweep made on the
+/// dura before it was opened: its vessel points' rigid global start
+/// (constraints::pre_dura_pose()). The identity when no pose scores better than it (the
+/// navigation is right). `report` gets the file, points, transform and message.
+/// \throws brainshift::Error naming the file when it has too few vessel points for a pose.
+Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::path& doppler,
+                                     const constraints::RegistrationOptions& options,
+                                     nlohmann::json& report);
+
 /// Reads the pre-operative MRI to warp and checks it lies on the model's grid (same patient and
 /// scan). \throws brainshift::Error naming the file otherwise.
 imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri);

@@ -164,6 +164,14 @@ RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& d
   return as_rigid(global_start(model.skeleton(), data.vessel_points, {}, o));
 }
 
+GlobalStartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX3d> vessel_points,
+                                const RegistrationOptions& options) {
+  BS_VERIFY(vessel_points.allFinite(), "pre-dura vessel points contain NaN or infinity");
+  GlobalStartOptions o = options.global_start;
+  o.bulk_response = false;  // before the dura is opened the brain has not shifted
+  return global_start(model.skeleton(), vessel_points, {}, o);
+}
+
 namespace {
 
 /// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
@@ -180,6 +188,20 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
   const auto t0 = Clock::now();
   if (initial) {
     res.rigid = initial->rigid;
+  } else if (data.pose) {
+    // The pose is known (a pre-dura sweep): only the bulk shift is searched, in the model frame.
+    res.rigid.transform = *data.pose;
+    res.rigid.converged = true;
+    res.rigid.stop_reason = "given pose (navigation offset measured before the dura was opened)";
+    if (vessels && options.shift_search.enabled) {
+      const ShiftSearchOptions& so = options.shift_search;
+      const MatrixX3d pts = transformed(*data.pose, data.vessel_points);
+      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
+                                             : std::vector<Matrix3d>{};
+      res.shift =
+          search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
+      logger().debug("shift search from the given pose: {}", res.shift.message);
+    }
   } else if (options.start == RigidStart::RIGID && vessels) {
     BasisAt basis_at;
     if (options.shift_load_basis)
@@ -253,11 +275,36 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data,
   return in;
 }
 
+/// The load amplitude a (per axis, in units of the 1 g loads of RegistrationModel::load_response)
+/// whose response moves the vessel points by the start's bulk shift s on average: a = M⁻¹ s, with
+/// M the mean response at the points' nearest nodes (load_basis()'s normalisation). Zero when no
+/// bulk shift was accepted, without the load basis, or when M is singular.
+Vector3d bulk_amplitude(const RegistrationModel& model, const LoopInputs& in,
+                        const RegistrationResult& res, const RegistrationOptions& options) {
+  if (!res.shift.accepted || !res.shift.shift.allFinite() || !options.shift_load_basis)
+    return Vector3d::Zero();
+  const core::TetMesh& mesh = model.mesh();
+  const auto& response = model.load_response();
+  const MatrixX3d& p = in.vessel_points;
+  if (p.rows() == 0) return Vector3d::Zero();
+  Matrix3d mean = Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    Eigen::Index node = 0;
+    (mesh.nodes().rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    for (Eigen::Index k = 0; k < 3; ++k)
+      mean.col(k) += response[static_cast<std::size_t>(k)].row(node).transpose() /
+                     static_cast<double>(p.rows());
+  }
+  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return Vector3d::Zero();
+  const Vector3d a = mean.inverse() * res.shift.shift;
+  return a.allFinite() ? a : Vector3d::Zero();
+}
+
 /// The start's state (issue 14 item 3): the rest nodes plus the bulk response to the start's
-/// accepted bulk shift s, u_n = R_n M⁻¹ s, with R_n the node's load response (column k: axis k)
-/// and M the mean of R over the vessel points' nearest nodes (load_basis()'s normalisation, so
-/// the vessel points see the shift the start found); a translation by s without the load basis;
-/// the rest nodes when no bulk shift was accepted. A warm start's state is its own positions.
+/// accepted bulk shift s, u_n = R_n a with R_n the node's load response (column k: axis k) and a
+/// from bulk_amplitude() (so the vessel points see the shift the start found); a translation by s
+/// without the load basis; the rest nodes when no bulk shift was accepted. A warm start's state
+/// is its own positions.
 MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
                           const RegistrationResult& res, const RegistrationOptions& options,
                           const RegistrationResult* initial) {
@@ -265,27 +312,21 @@ MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
   const core::TetMesh& mesh = model.mesh();
   MatrixX3d x = mesh.nodes();
   if (!res.shift.accepted || !res.shift.shift.allFinite()) return x;
-  const Vector3d s = res.shift.shift;
-  if (!options.shift_load_basis) return x.rowwise() + s.transpose();
+  if (!options.shift_load_basis) return x.rowwise() + res.shift.shift.transpose();
+  const Vector3d a = bulk_amplitude(model, in, res, options);
+  if (a.isZero()) return x;
   const auto& response = model.load_response();
-  auto raw = [&](Eigen::Index node) {
-    Matrix3d r;
+  for (Eigen::Index n = 0; n < x.rows(); ++n)
     for (Eigen::Index k = 0; k < 3; ++k)
-      r.col(k) = response[static_cast<std::size_t>(k)].row(node).transpose();
-    return r;
-  };
-  const MatrixX3d& p = in.vessel_points;
-  if (p.rows() == 0) return x;
-  Matrix3d mean = Matrix3d::Zero();
-  for (Eigen::Index i = 0; i < p.rows(); ++i) {
-    Eigen::Index node = 0;
-    (mesh.nodes().rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff(&node);
-    mean += raw(node) / static_cast<double>(p.rows());
-  }
-  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return x;
-  const Vector3d a = mean.inverse() * s;
-  for (Eigen::Index n = 0; n < x.rows(); ++n) x.row(n) += (raw(n) * a).transpose();
+      x.row(n) += a[k] * response[static_cast<std::size_t>(k)].row(n);
   return x.allFinite() ? x : MatrixX3d(mesh.nodes());
+}
+
+/// The body acceleration (mm/s²) of the bulk load: the load responses are to 1 g (9810 mm/s²)
+/// at StepOptions' default density; scaled for the scene's density.
+Vector3d bulk_gravity(const Vector3d& amplitude, const RegistrationOptions& options) {
+  if (!(options.step.density > 0)) return Vector3d::Zero();  // massless: no body load can act
+  return 9810.0 * amplitude * (StepOptions{}.density / options.step.density);
 }
 
 RegistrationStop stop_of(StageStop s) {
@@ -366,6 +407,13 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   BS_VERIFY(data.landmark_targets.rows() == data.landmark_model_points.rows(),
             "landmarks: " << data.landmark_model_points.rows() << " model points but "
                           << data.landmark_targets.rows() << " targets");
+  BS_VERIFY(
+      !data.pose ||
+          (data.pose->matrix().allFinite() &&
+           (data.pose->linear().transpose() * data.pose->linear() - Matrix3d::Identity()).norm() <
+               1e-6 &&
+           data.pose->linear().determinant() > 0),
+      "the given pose must be a finite rotation and translation");
 
   const bool vessels =
       options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
@@ -386,6 +434,12 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   // ---- end of the start ----------------------------------------------------------------------
 
   LoopInputs in = loop_inputs(model, data, options, res, shift_basis);
+  if (initial)
+    in.bulk_gravity = initial->bulk_gravity;
+  else if (options.bulk_as_load == BulkLoad::ON ||
+           (options.bulk_as_load == BulkLoad::AUTO && data.pose))
+    in.bulk_gravity = bulk_gravity(bulk_amplitude(model, in, res, options), options);
+  res.bulk_gravity = in.bulk_gravity;
   if (options.noise.enabled && options.noise.start_is_bulk_state && !initial && in.vessels)
     in.start_state = start_positions(model, in, res, options, nullptr);
   LoopState state;

@@ -104,6 +104,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
   step_options.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)] =
       stage.vessel_compliance_ratio;
   step_options.keep_system = stage.keep_system;
+  step_options.gravity += in.bulk_gravity;
   const double max_radius = options.step.max_increment > 0
                                 ? options.step.max_increment
                                 : std::numeric_limits<double>::infinity();

@@ -33,6 +33,9 @@ struct LoopInputs {
   /// The start's rigid + bulk state (#N×3, model frame) when ε → ∞ stands for it
   /// (NoiseOptions::start_is_bulk_state); empty otherwise.
   MatrixX3d start_state;
+  /// The body acceleration (mm/s², model frame) whose linear response is the start's bulk
+  /// response (RegistrationOptions::bulk_as_load), added to every step's gravity; zero otherwise.
+  Vector3d bulk_gravity = Vector3d::Zero();
 };
 
 using LambdaKey = std::array<std::int64_t, 3>;  ///< (set, feature, row within the group)

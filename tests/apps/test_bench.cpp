@@ -58,8 +58,23 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
     EXPECT_GT(run["peak_rss_mib"].get<double>(), 1.0);
     EXPECT_GT(run["nodes"].get<int>(), 500);
   }
-  EXPECT_EQ(methods,
-            (std::set<std::string>{"constraint_icp", "rigid_only", "prescribed_displacement"}));
+  EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "rigid_only",
+                                            "prescribed_displacement", "pre_dura"}));
+  // The pose from the pre-dura sweep keeps the unmoving brain where it is: over 500 points in
+  // the whole brain the error is measured 2.9 mm against 9.0 mm with the pose searched after the
+  // dura is opened (which absorbs the sag and moves the fixed base); asked: under half.
+  double dense_icp = -1, dense_pre = -1;
+  for (const auto& run : j["runs"])
+    if (run["suite"] == "cases" && run["case"] == "standard" &&
+        run["uncertainty_dense_actual_mean_mm"].is_number()) {
+      if (run["method"] == "constraint_icp")
+        dense_icp = run["uncertainty_dense_actual_mean_mm"].get<double>();
+      if (run["method"] == "pre_dura")
+        dense_pre = run["uncertainty_dense_actual_mean_mm"].get<double>();
+    }
+  ASSERT_GT(dense_icp, 0.0);
+  ASSERT_GT(dense_pre, 0.0);
+  EXPECT_LT(dense_pre, 0.5 * dense_icp);
   EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "start", "vessel_sampling", "compliance",
                                            "pgs_tolerance", "constraint_sets"}));
   // Two mesh sizes give a growth exponent for the registration time.
