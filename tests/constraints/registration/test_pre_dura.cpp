@@ -54,10 +54,7 @@ TEST(PreDura, ThePoseOfTheUndeformedSweepIsKeptAndTheSagGoesToTheDeformation) {
   const auto base_error = [&](const Eigen::Isometry3d& model_from_intra) {
     // Where a registration puts the (unmoving) base in the intra-operative frame, against where
     // the offset puts it.
-    return (apply(model_from_intra.inverse(), base) - apply(O, base))
-        .rowwise()
-        .norm()
-        .maxCoeff();
+    return (apply(model_from_intra.inverse(), base) - apply(O, base)).rowwise().norm().maxCoeff();
   };
   EXPECT_LT(base_error(pre.transform), 0.5) << pre.message;
 
@@ -155,7 +152,8 @@ TEST(BulkLoad, ASagThatIsTheModelsOwnLoadResponseIsMetWithoutTheCompliantRowsLag
   std::cout << "[ bulk load ] skeleton mean error " << ea << " mm with the load, " << eb
             << " mm without\n";
   // With the load the answer is at the noise floor (0.3 mm per axis, averaged by the compliant
-  // rows over neighbours: < 0.4 mm; 0.52 mm RMS per point), and clearly better than the lagging answer.
+  // rows over neighbours: < 0.4 mm; 0.52 mm RMS per point), and clearly better than the lagging
+  // answer.
   EXPECT_LT(ea, 0.4);
   EXPECT_LT(ea, 0.8 * eb);
   EXPECT_TRUE(a.converged) << a.stop_reason;

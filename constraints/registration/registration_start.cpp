@@ -1,0 +1,206 @@
+#include "constraints/registration/registration_start.hpp"
+
+#include "constraints/registration/global_start.hpp"
+#include "core/error.hpp"
+#include "core/logger.hpp"
+#include "core/timing.hpp"
+
+#include <cmath>
+
+namespace brainshift::constraints {
+
+namespace detail {
+
+using core::Clock;
+using core::seconds_since;
+
+MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p) {
+  MatrixX3d out(p.rows(), 3);
+  for (Eigen::Index i = 0; i < p.rows(); ++i)
+    out.row(i) = (T * Vector3d(p.row(i).transpose())).transpose();
+  return out;
+}
+
+/// The segments of `s` with both ends within the bounding box of `points` enlarged by `margin`
+/// (mm): the part of the pre-operative tree the probe can have seen. A rigid ICP against the
+/// whole tree slides onto vessels outside the field of view (a dense cortical tree offers a
+/// near-match every few millimetres).
+core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points, double margin) {
+  if (points.rows() == 0) return s;
+  const Vector3d lo = points.colwise().minCoeff().transpose().array() - margin;
+  const Vector3d hi = points.colwise().maxCoeff().transpose().array() + margin;
+  auto inside = [&](index_t i) {
+    const Vector3d p = s.points.row(i).transpose();
+    return (p.array() >= lo.array()).all() && (p.array() <= hi.array()).all();
+  };
+  core::Skeleton out = s;
+  out.segments.clear();
+  for (const auto& seg : s.segments)
+    if (inside(seg[0]) && inside(seg[1])) out.segments.push_back(seg);
+  return out.segments.empty() ? s : out;
+}
+
+}  // namespace detail
+
+// ===== Start (issue 14 item 2; global_start.hpp)
+// =====================================================
+
+namespace {
+
+/// The start's result as the loop's rigid start (`RegistrationResult::rigid`).
+RigidInitResult as_rigid(const GlobalStartResult& g) {
+  RigidInitResult r;
+  r.transform = g.transform;
+  r.converged = g.accepted;
+  r.iterations = g.refine_iterations;
+  r.stop_reason = "global start: " + g.message;
+  r.rms_before_mm = g.rms_before_mm;
+  r.rms_after_mm = g.rms_after_mm;
+  r.pairs_used = g.pairs;
+  return r;
+}
+
+/// The start's bulk shift as the loop's first-stage shift (`RegistrationResult::shift`).
+ShiftSearchResult as_shift(const GlobalStartResult& g) {
+  ShiftSearchResult s;
+  s.shift = g.bulk_shift;
+  s.accepted = g.bulk_accepted;
+  s.score = g.score;
+  s.score_zero = g.score_identity;
+  s.message = g.bulk_accepted ? "from the global start" : "none from the global start";
+  return s;
+}
+
+}  // namespace
+
+RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
+                            const RegistrationOptions& options) {
+  GlobalStartOptions o = options.global_start;
+  o.bulk_response = false;
+  return as_rigid(global_start(model.skeleton(), data.vessel_points, {}, o));
+}
+
+GlobalStartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX3d> vessel_points,
+                                const RegistrationOptions& options) {
+  BS_VERIFY(vessel_points.allFinite(), "pre-dura vessel points contain NaN or infinity");
+  GlobalStartOptions o = options.global_start;
+  o.bulk_response = false;  // before the dura is opened the brain has not shifted
+  return global_start(model.skeleton(), vessel_points, {}, o);
+}
+
+namespace detail {
+
+/// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
+/// options, the warm start (`initial`, may be null) and whether vessels are used; outputs:
+/// res.rigid, res.shift, res.seconds.rigid and the per-point basis of the bulk shift.
+void run_start(const RegistrationModel& model, const IntraopData& data,
+               const RegistrationOptions& options, const RegistrationResult* initial, bool vessels,
+               RegistrationResult& res, std::vector<Matrix3d>& shift_basis) {
+  const core::TetMesh& mesh = model.mesh();
+  // Warm start: the previous frame's pose. RIGID: the global start (global_start.hpp) — rigid pose
+  // plus the model's bulk response, found by an exhaustive search of the distance map and refined
+  // by robust ICP, kept only when it scores better than the identity. IDENTITY: no rigid part; the
+  // bulk shift alone is searched (shift_search.hpp).
+  const auto t0 = Clock::now();
+  if (initial) {
+    res.rigid = initial->rigid;
+  } else if (data.pose) {
+    // The pose is known (a pre-dura sweep): only the bulk shift is searched, in the model frame.
+    res.rigid.transform = *data.pose;
+    res.rigid.converged = true;
+    res.rigid.stop_reason = "given pose (navigation offset measured before the dura was opened)";
+    if (vessels && options.shift_search.enabled) {
+      const ShiftSearchOptions& so = options.shift_search;
+      const MatrixX3d pts = transformed(*data.pose, data.vessel_points);
+      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
+                                             : std::vector<Matrix3d>{};
+      res.shift =
+          search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
+      logger().debug("shift search from the given pose: {}", res.shift.message);
+    }
+  } else if (options.start == RigidStart::RIGID && vessels) {
+    BasisAt basis_at;
+    if (options.shift_load_basis)
+      basis_at = [&](ConstRef<MatrixX3d> x) { return load_basis(mesh, model.load_response(), x); };
+    res.start = global_start(model.skeleton(), data.vessel_points, basis_at, options.global_start);
+    res.rigid = as_rigid(res.start);
+    res.shift = as_shift(res.start);
+    if (res.shift.accepted && options.shift_load_basis)
+      shift_basis = load_basis(mesh, model.load_response(),
+                               transformed(res.rigid.transform, data.vessel_points));
+    logger().debug("global start: {}", res.start.message);
+  } else {
+    res.rigid.converged = true;
+    res.rigid.stop_reason = options.start == RigidStart::RIGID
+                                ? "identity (no vessel points for the global start)"
+                                : "identity (no rigid initialisation requested)";
+    if (vessels && options.shift_search.enabled) {
+      const ShiftSearchOptions& so = options.shift_search;
+      const MatrixX3d& pts = data.vessel_points;
+      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
+                                             : std::vector<Matrix3d>{};
+      res.shift =
+          search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
+      logger().debug("shift search: {}", res.shift.message);
+    }
+  }
+  res.seconds.rigid = seconds_since(t0);
+}
+
+/// The load amplitude a (per axis, in units of the 1 g loads of RegistrationModel::load_response)
+/// whose response moves the vessel points by the start's bulk shift s on average: a = M⁻¹ s, with
+/// M the mean response at the points' nearest nodes (load_basis()'s normalisation). Zero when no
+/// bulk shift was accepted, without the load basis, or when M is singular.
+Vector3d bulk_amplitude(const RegistrationModel& model, const LoopInputs& in,
+                        const RegistrationResult& res, const RegistrationOptions& options) {
+  if (!res.shift.accepted || !res.shift.shift.allFinite() || !options.shift_load_basis)
+    return Vector3d::Zero();
+  const core::TetMesh& mesh = model.mesh();
+  const auto& response = model.load_response();
+  const MatrixX3d& p = in.vessel_points;
+  if (p.rows() == 0) return Vector3d::Zero();
+  Matrix3d mean = Matrix3d::Zero();
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    Eigen::Index node = 0;
+    (mesh.nodes().rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    for (Eigen::Index k = 0; k < 3; ++k)
+      mean.col(k) += response[static_cast<std::size_t>(k)].row(node).transpose() /
+                     static_cast<double>(p.rows());
+  }
+  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return Vector3d::Zero();
+  const Vector3d a = mean.inverse() * res.shift.shift;
+  return a.allFinite() ? a : Vector3d::Zero();
+}
+
+/// The start's state (issue 14 item 3): the rest nodes plus the bulk response to the start's
+/// accepted bulk shift s, u_n = R_n a with R_n the node's load response (column k: axis k) and a
+/// from bulk_amplitude() (so the vessel points see the shift the start found); a translation by s
+/// without the load basis; the rest nodes when no bulk shift was accepted. A warm start's state
+/// is its own positions.
+MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
+                          const RegistrationResult& res, const RegistrationOptions& options,
+                          const RegistrationResult* initial) {
+  if (initial) return initial->positions;
+  const core::TetMesh& mesh = model.mesh();
+  MatrixX3d x = mesh.nodes();
+  if (!res.shift.accepted || !res.shift.shift.allFinite()) return x;
+  if (!options.shift_load_basis) return x.rowwise() + res.shift.shift.transpose();
+  const Vector3d a = bulk_amplitude(model, in, res, options);
+  if (a.isZero()) return x;
+  const auto& response = model.load_response();
+  for (Eigen::Index n = 0; n < x.rows(); ++n)
+    for (Eigen::Index k = 0; k < 3; ++k)
+      x.row(n) += a[k] * response[static_cast<std::size_t>(k)].row(n);
+  return x.allFinite() ? x : MatrixX3d(mesh.nodes());
+}
+
+/// The body acceleration (mm/s²) of the bulk load: the load responses are to 1 g (9810 mm/s²)
+/// at StepOptions' default density; scaled for the scene's density.
+Vector3d bulk_gravity(const Vector3d& amplitude, const RegistrationOptions& options) {
+  if (!(options.step.density > 0)) return Vector3d::Zero();  // massless: no body load can act
+  return 9810.0 * amplitude * (StepOptions{}.density / options.step.density);
+}
+
+}  // namespace detail
+
+}  // namespace brainshift::constraints

@@ -1,0 +1,44 @@
+#pragma once
+/// @file
+/// @brief The registration's start (internal to register_model() and start_only()): the pose
+/// (a warm start's, a given one, or the global start's) and the bulk shift, the start's state,
+/// and the bulk shift as a load. Positions in mm, model frame (world RAS of the pre-operative
+/// model) unless said otherwise.
+
+#include "constraints/registration/registration.hpp"
+#include "constraints/registration/registration_stage.hpp"
+
+#include <vector>
+
+namespace brainshift::constraints::detail {
+
+/// T · p for every row of p (#N×3, mm).
+MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p);
+
+/// The segments of `s` with both ends within the bounding box of `points` enlarged by `margin`
+/// (mm): the part of the pre-operative tree the probe can have seen.
+core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points, double margin);
+
+/// The start: the pose — a warm start's (`initial`), the given one (IntraopData::pose) or the
+/// global start's (options.start RIGID) — and the bulk shift. Writes res.rigid, res.shift,
+/// res.start, res.seconds.rigid and the per-point basis of the bulk shift.
+void run_start(const RegistrationModel& model, const IntraopData& data,
+               const RegistrationOptions& options, const RegistrationResult* initial, bool vessels,
+               RegistrationResult& res, std::vector<Matrix3d>& shift_basis);
+
+/// The load amplitude a (per axis, in units of the 1 g loads of RegistrationModel::load_response)
+/// whose response moves the vessel points (in.vessel_points, model frame) by the start's bulk
+/// shift on average. Zero when no bulk shift was accepted, without the load basis, or singular.
+Vector3d bulk_amplitude(const RegistrationModel& model, const LoopInputs& in,
+                        const RegistrationResult& res, const RegistrationOptions& options);
+
+/// The start's state (#N×3): the rest nodes plus the bulk response to the accepted bulk shift
+/// (a translation without the load basis); a warm start's own positions.
+MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
+                          const RegistrationResult& res, const RegistrationOptions& options,
+                          const RegistrationResult* initial);
+
+/// The body acceleration (mm/s²) of amplitude `a` (bulk_amplitude()) at the scene's density.
+Vector3d bulk_gravity(const Vector3d& amplitude, const RegistrationOptions& options);
+
+}  // namespace brainshift::constraints::detail
