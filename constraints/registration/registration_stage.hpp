@@ -81,12 +81,13 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
 /// Δx_{k+1} ≈ J Δx_k; a dominant eigenvalue λ < 0 of J turns every step back with
 /// |Δx_{k+1}| / |Δx_k| → |λ|, and the iteration converges by itself iff |λ| < 1. So 1 is the
 /// boundary and 0.9 leaves a margin for a one-step ratio's noise (the largest increment moves
-/// between nodes, a pairing change jolts one step): a non-contracting oscillation has ratios of
-/// 1 or more on average, so a ratio that reads low once costs one held radius, not a missed
-/// collapse. And 0.9 is about the slowest contraction that can still settle in the loop's
-/// budget: from the 5 mm radius to the 0.01 mm tolerance at ratio 0.9 takes
-/// ln 500 / ln(1/0.9) ≈ 59 steps of the 80 the HELD and FREE stages have together; a slower one
-/// would not settle in time anyway, so shrinking it loses nothing that would have converged.
+/// between nodes; the element rotations change G a little from step to step): a
+/// non-contracting oscillation has ratios of 1 or more on average, so a ratio that reads low
+/// once costs one held radius, not a missed collapse. And 0.9 is about the slowest contraction that
+/// can still settle in the loop's budget: from the 5 mm radius to the 0.01 mm tolerance at ratio
+/// 0.9 takes ln 500 / ln(1/0.9) ≈ 59 steps of the 80 the HELD and FREE stages have together; a
+/// slower one would not settle in time anyway, so shrinking it loses nothing that would have
+/// converged.
 inline constexpr double contraction_bound = 0.9;
 
 /// What the trust region reads of a step, against the step before it in the same stage.
