@@ -25,8 +25,13 @@
 /// (rigid pose plus the bulk response to the start's bulk shift), never a half-deformed one.
 ///
 /// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
-/// that halves when a step turns back on the previous one (negative cosine between successive
-/// nodal increments: oscillation) and grows back by 1.5× otherwise.
+/// that grows by 1.5× while the steps go on in the same direction. When a step turns back on the
+/// previous one (negative cosine between successive nodal increments: oscillation) the radius
+/// halves unless the oscillation clearly contracts: made with the same pairs as the previous
+/// step, not limited, and its max nodal increment at most 0.9× the previous one's
+/// (contraction_bound in registration_stage.hpp says why 0.9). Such a turn-back is a converging
+/// oscillation and keeps the radius (HOLD): halving it there only races the convergence, and
+/// the race, not the data, decided whether the loop converged or ended NOT_SETTLING.
 /// A step that had to be limited never counts as converged; a radius below the increment
 /// tolerance stops the loop with NOT_SETTLING and a diagnosis instead of oscillating.
 ///
@@ -257,7 +262,11 @@ std::string to_string(PairingMode mode);
 enum class TrustDecision : std::uint8_t {
   NONE,    ///< first step of a stage, or the stage ended
   GROW,    ///< the step continued the previous one: radius × 1.5 (up to the maximum)
-  SHRINK,  ///< the step turned back on the previous one (oscillation): radius × 0.5
+  HOLD,    ///< the step turned back but contracted (same pairs as the previous step, not
+           ///< limited, max_increment_mm at most 0.9× the previous step's): a converging
+           ///< oscillation, radius unchanged
+  SHRINK,  ///< the step turned back otherwise (no clear contraction of one map's iteration: an
+           ///< oscillation that may not settle by itself): radius × 0.5
 };
 std::string to_string(TrustDecision d);
 

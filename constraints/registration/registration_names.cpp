@@ -52,6 +52,8 @@ std::string to_string(TrustDecision d) {
       return "none";
     case TrustDecision::GROW:
       return "grow";
+    case TrustDecision::HOLD:
+      return "hold";
     case TrustDecision::SHRINK:
       return "shrink";
   }

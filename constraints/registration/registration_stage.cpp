@@ -76,14 +76,19 @@ void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held,
 
 }  // namespace
 
-TrustDecision trust_update(std::optional<double> cosine, double max_radius, double& radius) {
-  if (!cosine) return TrustDecision::NONE;
-  if (*cosine < 0.0) {
-    radius *= 0.5;
-    return TrustDecision::SHRINK;
+TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, double& radius) {
+  if (!steps.cosine) return TrustDecision::NONE;
+  if (*steps.cosine >= 0.0) {
+    radius = std::min(max_radius, 1.5 * radius);
+    return TrustDecision::GROW;
   }
-  radius = std::min(max_radius, 1.5 * radius);
-  return TrustDecision::GROW;
+  // A turn-back. It is a converging oscillation, which halving would only race, when it is one
+  // map's iteration (the same pairs) and clearly shorter than the previous step; a limited
+  // step's length is the radius's and says nothing about contraction.
+  if (steps.same_pairing && !steps.limited && steps.length_ratio <= contraction_bound)
+    return TrustDecision::HOLD;
+  radius *= 0.5;
+  return TrustDecision::SHRINK;
 }
 
 StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState& state) {
@@ -110,6 +115,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
                                 : std::numeric_limits<double>::infinity();
   double radius = max_radius;
   MatrixX3d previous_dx;                     // the last step's increment, for the oscillation test
+  double previous_increment = 0.0;           // its max nodal |Δx| (mm)
   std::vector<std::set<PairKey>> pair_sets;  // per iteration of this stage
   bool frozen = false;
 
@@ -253,23 +259,36 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
                        step.pending_increment < options.increment_tolerance_mm;
     const bool settled =
         small && (stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen);
-    std::optional<double> cosine;
+    SuccessiveSteps steps;
+    steps.limited = step.limited;
+    // The pairs of this step and the previous one are the same ones: held, frozen, or fresh and
+    // unchanged.
+    steps.same_pairing =
+        stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen;
     if (!settled && previous_dx.size() > 0) {
       const double denom = dx.norm() * previous_dx.norm();
-      cosine = denom > 0 ? (dx.array() * previous_dx.array()).sum() / denom : 1.0;
+      steps.cosine = denom > 0 ? (dx.array() * previous_dx.array()).sum() / denom : 1.0;
+      // In the norm of the radius and of the stop test (max nodal |Δx|), so that the history's
+      // max_increment_mm shows why the radius was held or halved.
+      steps.length_ratio = previous_increment > 0 ? rec.max_increment_mm / previous_increment
+                                                  : std::numeric_limits<double>::infinity();
     }
-    if (!settled) rec.trust = trust_update(cosine, max_radius, radius);
+    if (!settled) rec.trust = trust_update(steps, max_radius, radius);
     previous_dx = dx;
+    previous_increment = rec.max_increment_mm;
     rec.seconds = seconds_since(t_it);
     state.history.push_back(rec);
     record.iterations = it;
     logger().debug(
         "registration iteration {} ({}): {} vessel + {} footprint pairs ({}), {} dura rows, {} "
         "rows, "
-        "|dx| {:.4f} mm, PGS {} ({} sweeps), trust {:.3g} mm {}",
+        "|dx| {:.4f} mm, PGS {} ({} sweeps), trust {:.3g} mm {} (cosine {:.2f}, |dx| ratio {:.2f}, "
+        "{} pairs)",
         state.history.size(), to_string(stage.kind), rec.vessel_pairs, rec.footprint_pairs,
         to_string(rec.pairing), rec.dura_rows, rec.rows, rec.max_increment_mm,
-        to_string(rec.pgs_stop), rec.pgs_iterations, rec.trust_radius_mm, to_string(rec.trust));
+        to_string(rec.pgs_stop), rec.pgs_iterations, rec.trust_radius_mm, to_string(rec.trust),
+        steps.cosine.value_or(std::numeric_limits<double>::quiet_NaN()), steps.length_ratio,
+        steps.same_pairing ? "same" : "new");
     if (settled) {
       record.stop = StageStop::SETTLED;
       break;

@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <set>
 #include <vector>
 
@@ -77,9 +78,46 @@ struct StageOptions {
 /// iterate and returns DIVERGED.
 StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState& state);
 
-/// The trust region's rule, alone: given the cosine between this increment and the previous
-/// one (nullopt for a stage's first step), the new radius and the decision. Halves on a negative
-/// cosine (the step turned back: oscillation), grows by 1.5× up to `max_radius` otherwise.
-TrustDecision trust_update(std::optional<double> cosine, double max_radius, double& radius);
+/// A turn-back counts as a contracting oscillation when its step is at most this fraction of
+/// the previous one (max nodal |Δx|, both made with the same pairs, this one not limited).
+/// With the pairs fixed, near its fixed point the loop is x_{k+1} = G(x_k) with
+/// Δx_{k+1} ≈ J Δx_k; a dominant eigenvalue λ < 0 of J turns every step back with
+/// |Δx_{k+1}| / |Δx_k| → |λ|, and the iteration converges by itself iff |λ| < 1. So 1 is the
+/// boundary and 0.9 leaves a margin for a one-step ratio's noise (the largest increment moves
+/// between nodes; the element rotations change G a little from step to step): a
+/// non-contracting oscillation has ratios of 1 or more on average, so a ratio that reads low
+/// once costs one held radius, not a missed collapse. And 0.9 is about the slowest contraction that
+/// can still settle in the loop's budget: from the 5 mm radius to the 0.01 mm tolerance at ratio
+/// 0.9 takes ln 500 / ln(1/0.9) ≈ 59 steps of the 80 the HELD and FREE stages have together; a
+/// slower one would not settle in time anyway, so shrinking it loses nothing that would have
+/// converged.
+inline constexpr double contraction_bound = 0.9;
+
+/// What the trust region reads of a step, against the step before it in the same stage.
+struct SuccessiveSteps {
+  /// Cosine between this increment and the previous one (all nodes, #N×3 flattened); nullopt for
+  /// a stage's first step. Negative: the step turned back.
+  std::optional<double> cosine;
+  double length_ratio = 1.0;  ///< this step's max nodal |Δx| over the previous step's
+  bool limited = false;       ///< this step was scaled down to the radius
+  /// Both steps were made with the same pairs (HELD, FROZEN, or fresh pairs unchanged), so both
+  /// iterate one map and their length ratio measures its contraction. Across a pairing change
+  /// the steps answer different data and their ratio measures nothing of the kind.
+  bool same_pairing = true;
+};
+
+/// The trust region's rule, alone (radii in mm).
+/// @param[in] steps this step against the previous one.
+/// @param[in] max_radius the radius never grows beyond this.
+/// @param[in,out] radius the radius the next step is limited to.
+/// @return NONE without a previous step; GROW (× 1.5, up to `max_radius`) when the step did not
+///   turn back (cosine ≥ 0); HOLD (unchanged) when it turned back but contracted: same pairs,
+///   not limited and length_ratio ≤ contraction_bound (a converging oscillation, which halving
+///   would race to a NOT_SETTLING stop); SHRINK (× 0.5) otherwise: an oscillation that does not
+///   contract, or a turn-back across a pairing change, or a limited step (whose length is the
+///   radius's and says nothing about contraction). Data the model cannot meet keep turning
+///   back without contracting, and a radius below the increment tolerance ends the stage
+///   NOT_SETTLING.
+TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, double& radius);
 
 }  // namespace brainshift::constraints
