@@ -35,7 +35,7 @@ namespace brainshift::apps::slicer {
 namespace {
 
 using core::Clock;
-constexpr auto since = &core::seconds_since;  // core/timing.hpp
+using core::seconds_since;
 
 std::optional<std::filesystem::path> optional_path(const Values& v, const char* name) {
   const auto it = v.find(name);
@@ -115,7 +115,7 @@ void write_outputs(const RegisterPaths& p, const workflow::Session& s,
   const nlohmann::json extra = {{"slicer_module", "BrainshiftRegister"}};
   if (p.report) {
     nlohmann::json report = workflow::result_report(s, r, in, extra);
-    report["timing"]["outputs"] = since(t_out);
+    report["timing"]["outputs"] = seconds_since(t_out);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"})
       total += report["timing"][k].get<double>();
@@ -154,10 +154,10 @@ int register_body(const Values& v, const ProgressReport& progress) {
   const auto t_out = Clock::now();
   const workflow::ResultFields f = workflow::compute_result_fields(s, r, mri ? &*mri : nullptr);
   progress("writing the outputs", 0.85);
-  write_outputs(p, s, r, in, mri ? &*mri : nullptr, f, t_out, since(t_out));
+  write_outputs(p, s, r, in, mri ? &*mri : nullptr, f, t_out, seconds_since(t_out));
 
   std::cout << "registered in " << r.iterations << " iterations (" << r.stop_reason
-            << "); registration " << r.seconds.total << " s, total " << since(t0)
+            << "); registration " << r.seconds.total << " s, total " << seconds_since(t0)
             << " s; max displacement "
             << (r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0)
             << " mm\n";

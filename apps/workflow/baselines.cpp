@@ -11,7 +11,7 @@ namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
-constexpr auto since = &core::seconds_since;  // core/timing.hpp
+using core::seconds_since;
 
 }  // namespace
 
@@ -31,7 +31,7 @@ RegistrationResult rigid_only(constraints::RegistrationModel& model,
   r.converged = true;
   r.stop = constraints::RegistrationStop::CONVERGED;
   r.stop_reason = "rigid only";
-  r.seconds.rigid = r.seconds.total = since(t0);
+  r.seconds.rigid = r.seconds.total = seconds_since(t0);
   return r;
 }
 
@@ -47,7 +47,7 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
   const constraints::RigidInitResult rigid = options.start == constraints::RigidStart::RIGID
                                                  ? constraints::rigid_start(model, data, options)
                                                  : constraints::RigidInitResult{};
-  const double t_rigid = since(t0);
+  const double t_rigid = seconds_since(t0);
   const MatrixX3d& S = model.skeleton().points;
   std::map<index_t, std::pair<Vector3d, int>> sum;  // skeleton point → (Σ targets, count)
   for (Eigen::Index i = 0; i < data.vessel_points.rows(); ++i) {
@@ -79,7 +79,7 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
   RegistrationResult r = constraints::register_model(model, d, o);
   r.rigid = rigid;
   r.seconds.rigid = t_rigid;
-  r.seconds.total = since(t0);
+  r.seconds.total = seconds_since(t0);
   return r;
 }
 

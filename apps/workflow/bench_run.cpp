@@ -26,10 +26,10 @@
 namespace brainshift::workflow {
 namespace {
 
-using core::Clock;
-constexpr auto since = &core::seconds_since;  // core/timing.hpp
 using constraints::RegistrationOptions;
 using constraints::RegistrationResult;
+using core::Clock;
+using core::seconds_since;
 /// Dense calibration: points drawn uniformly among the brain voxels, fixed seed.
 constexpr int kDensePoints = 500;
 constexpr std::uint32_t kDenseSeed = 16;
@@ -161,7 +161,7 @@ double prepare_case(const CaseData& c, const std::filesystem::path& model, doubl
   pa.mesh_refinement = refinement;
   pa.out = model;
   (void)prepare_model(pa, Progress("prepare"));
-  return since(t0);
+  return seconds_since(t0);
 }
 
 MatrixX3d doppler_points(const Session& s, const CaseData& c, double step_mm) {

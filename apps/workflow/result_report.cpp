@@ -15,7 +15,7 @@ namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
-constexpr auto since = &core::seconds_since;  // core/timing.hpp
+using core::seconds_since;
 
 nlohmann::json matrix_json(const Eigen::Matrix4d& m) {
   nlohmann::json j = nlohmann::json::array();
@@ -107,7 +107,7 @@ void write_result(const std::filesystem::path& res, const Session& s,
   const auto t0 = Clock::now();
   // Everything is written in the intra-operative frame (result_fields.hpp).
   const ResultFields f = compute_result_fields(s, r, mri, with_uncertainty);
-  write_result(res, s, r, in, mri, f, extra, since(t0));
+  write_result(res, s, r, in, mri, f, extra, seconds_since(t0));
 }
 
 void write_result(const std::filesystem::path& res, const Session& s,
@@ -122,7 +122,7 @@ void write_result(const std::filesystem::path& res, const Session& s,
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
     auto t = Clock::now();
     const auto done = [&t](const char* what) {
-      logger().debug("register: wrote {} in {:.3f} s", what, since(t));
+      logger().debug("register: wrote {} in {:.3f} s", what, seconds_since(t));
       t = Clock::now();
     };
     imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &f.u_intra);
@@ -142,7 +142,7 @@ void write_result(const std::filesystem::path& res, const Session& s,
                          f.displacement, in.data,
                          f.uncertainty.computed ? &f.uncertainty.map : nullptr);
     done("overlay.png");
-    report["timing"]["outputs"] = seconds_fields + since(t0);
+    report["timing"]["outputs"] = seconds_fields + seconds_since(t0);
     double total = 0;
     for (const char* k : {"load_model", "extraction", "registration", "outputs"})
       total += report["timing"][k].get<double>();

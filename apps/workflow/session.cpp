@@ -14,7 +14,7 @@ namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
-constexpr auto since = &core::seconds_since;  // core/timing.hpp
+using core::seconds_since;
 
 void mesh_box(const core::TetMesh& mesh, Vector3d& lo, Vector3d& hi) {
   lo = mesh.nodes().colwise().minCoeff().transpose();
@@ -43,7 +43,7 @@ Session open_session(const std::filesystem::path& model_dir) {
   }
   s.model = std::make_unique<constraints::RegistrationModel>(sc.mesh, sc.fixed_nodes, sc.skeleton,
                                                              sc.surface, compliance);
-  s.seconds_load = since(t0);
+  s.seconds_load = seconds_since(t0);
   const auto& op = s.model->mechanics().compliance();
   std::string status = op.cache_status();
   if (!cache_problem.empty())
@@ -91,7 +91,7 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
     in.data.footprint_normals = f.normals;
     in.report["bmode"] = f.report;
   }
-  in.seconds = since(t0);
+  in.seconds = seconds_since(t0);
   return in;
 }
 

@@ -52,7 +52,7 @@ std::string GlobalStartOptions::validate() const {
 namespace {
 
 using core::Clock;
-constexpr auto since = &core::seconds_since;  // core/timing.hpp
+using core::seconds_since;
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kMaxVoxels = 4.0e6;
 
@@ -317,7 +317,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
                       ? "no skeleton segments: identity"
                       : std::to_string(points.rows()) + " vessel points, fewer than the " +
                             std::to_string(o.min_points) + " needed: identity";
-    res.seconds = since(t0);
+    res.seconds = seconds_since(t0);
     return res;
   }
   Search S{skeleton, o, points.colwise().mean().transpose(), {}, {}, {}, nullptr};
@@ -346,7 +346,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   }
   const detail::DistanceGrid grid(skeleton, lo, hi, h, o.coarse_kernel_mm);
   S.grid = &grid;
-  res.seconds_table = since(t0);
+  res.seconds_table = seconds_since(t0);
 
   // 1. Coarse: every translation × every rotation of the grid (identity first).
   auto t1 = Clock::now();
@@ -358,7 +358,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
           if (x || y || z) rotations.push_back(rot_step * Vector3d(x, y, z));
   std::vector<Pose> cands = coarse_search(S, rotations, step, sv, K);
   res.candidates = static_cast<int>(cands.size());
-  res.seconds_coarse = since(t1);
+  res.seconds_coarse = seconds_since(t1);
 
   // 2. Fine rescoring of the candidates.
   t1 = Clock::now();
@@ -367,7 +367,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   for (Pose& c : cands) c = rescore(S, c, rot_step, step);
   std::sort(cands.begin(), cands.end(),
             [](const Pose& a, const Pose& b) { return a.score > b.score; });
-  res.seconds_fine = since(t1);
+  res.seconds_fine = seconds_since(t1);
 
   // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the
   // points.
@@ -409,7 +409,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
       }
     }
   }
-  res.seconds_refine = since(t1);
+  res.seconds_refine = seconds_since(t1);
 
   // 4. Decision by the data score.
   res.rms_before_mm = S.rms(identity);
@@ -447,7 +447,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   }
   os << " (" << res.candidates << " candidates, " << res.refine_iterations << " refinement rounds)";
   res.message = os.str();
-  res.seconds = since(t0);
+  res.seconds = seconds_since(t0);
   logger().debug(
       "global start: {} in {:.1f} ms (table {:.1f}, coarse {:.1f}, fine {:.1f}, refine {:.1f})",
       res.message, 1e3 * res.seconds, 1e3 * res.seconds_table, 1e3 * res.seconds_coarse,
