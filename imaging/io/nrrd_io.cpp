@@ -251,9 +251,11 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
   BS_VERIFY(int(sizes.size()) == dimension,
             file << ": NRRD sizes has " << sizes.size() << " values, expected " << dimension);
   const int first_domain = dimension - 3;
+  // The component axis: 1 (scalars), 3 (vectors), up to a 3×3 tensor's 9 in the files we
+  // meet; 1024 bounds it well before the element count could overflow.
+  BS_VERIFY(dimension == 3 || (sizes[0] >= 1 && sizes[0] <= 1024),
+            file << ": NRRD component axis of size " << sizes[0] << " (expected 1 to 1024)");
   const int components = dimension == 4 ? int(sizes[0]) : 1;
-  BS_VERIFY(components >= 1,
-            file << ": zero-size image (component axis of size " << components << ")");
 
   ImageGeometry g;
   for (int a = 0; a < 3; ++a) {
@@ -261,6 +263,12 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
               file << ": bad NRRD size " << sizes[first_domain + a]);
     g.size[a] = int(sizes[first_domain + a]);
   }
+  // A header that claims more than 2^36 elements (256 GiB of floats) is refused before anything
+  // is allocated (a damaged or hostile header; the product below would also overflow).
+  BS_VERIFY(double(g.size[0]) * double(g.size[1]) * double(g.size[2]) * double(components) <
+                double(1LL << 36),
+            file << ": NRRD sizes claim " << g.size[0] << "×" << g.size[1] << "×" << g.size[2]
+                 << "×" << components << " elements, more than this tool reads");
   Vector3d signs(1, 1, 1);
   if (has("space")) {
     signs = space_signs(fields["space"], file);

@@ -2,6 +2,7 @@
 // header with comment lines, `space: left-posterior-superior`, oblique `space directions`, gzip
 // data, key:=value pairs, short voxels for label maps) read into world RAS.
 
+#include "expect_error.hpp"
 #include "temp_folder.hpp"
 
 #include "imaging/io/image_io.hpp"
@@ -71,6 +72,26 @@ TEST(NrrdFromSlicer, AGzipShortLabelMapInObliqueLpsReadsIntoRasWithItsLabels) {
   EXPECT_LT((v.geometry.index_to_world({0, 0, 0}) - Vector3d(-60, -80, -30)).norm(), TOL);
   EXPECT_LT((v.geometry.index_to_world({1, 0, 0}) - Vector3d(-60, -79.5, -30)).norm(), TOL);
   EXPECT_LT((v.geometry.index_to_world({0, 2, 1}) - Vector3d(-61.5, -80, -28.8)).norm(), TOL);
+}
+
+TEST(NrrdFromSlicer, AHeaderClaimingAHugeOrEmptyComponentAxisIsOneLineNamingTheFile) {
+  // Damaged headers are refused before any allocation: a component axis of 10^12 (its int
+  // conversion used to wrap), one of 0, and three sizes whose product is 2^45 voxels.
+  const tests::TempFolder dir;
+  auto write = [&](const std::string& name, const std::string& dim, const std::string& sizes) {
+    std::ofstream out(dir / name, std::ios::binary);
+    out << "NRRD0004\ntype: float\ndimension: " << dim << "\nsizes: " << sizes
+        << "\nencoding: raw\nendian: little\n\n"
+        << std::string(64, '\0');
+    return dir / name;
+  };
+  tests::expect_error(
+      [&] { (void)read_volume(write("huge_axis.nrrd", "4", "1000000000000 2 2 2")); },
+      {"huge_axis.nrrd", "component axis"});
+  tests::expect_error([&] { (void)read_volume(write("zero_axis.nrrd", "4", "0 2 2 2")); },
+                      {"zero_axis.nrrd", "component axis"});
+  tests::expect_error([&] { (void)read_volume(write("huge.nrrd", "3", "32768 32768 32768")); },
+                      {"huge.nrrd", "elements"});
 }
 
 }  // namespace
