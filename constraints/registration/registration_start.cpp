@@ -104,6 +104,7 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
   const auto t0 = Clock::now();
   if (initial) {
     res.rigid = initial->rigid;
+    res.start = initial->start;  // the pose's origin (for the predicted error), not rerun
   } else if (data.pose) {
     // The pose is known (a pre-dura sweep): only the bulk shift is searched, in the model frame.
     res.rigid.transform = *data.pose;

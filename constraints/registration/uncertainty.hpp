@@ -137,6 +137,9 @@ double chi2_quantile(double k, double p);
 struct UncertaintyResult {
   bool estimated = false;         ///< s² came from the data (false: no data rows; see estimation)
   Eigen::VectorXd node_sigma_mm;  ///< #N: sqrt(tr Σ_n), mm; the rigid term alone on fixed nodes
+  /// #N: the confounded pose's term, mm² (UncertaintyOptions::pose_confounded; zeros when not
+  /// added), included in node_variance.
+  Eigen::VectorXd node_pose;
   Eigen::VectorXd node_variance;  ///< #N: tr Σ_n, mm²
   double s2 = 0.0;                ///< prior scale (mN·mm)
   double vessel_alpha = 0.0;      ///< the vessel rows' compliance (mm/mN)

@@ -52,6 +52,16 @@ struct UncertaintyOptions {
   double tracking_translation_mm = 0.0;
   /// RMS angle of the rotation error of the data's frame about the rows' centroid, degrees.
   double tracking_rotation_deg = 0.0;
+  /// A pose searched on the sweep it registers (the global start, not a pose given by a pre-dura
+  /// sweep) cannot tell a navigation offset from the part of the sag that looks like a shift and
+  /// a tilt in the field of view; whatever part of its motion is sag moves the whole model with
+  /// it. The two explanations agree where the data are and differ by the pose's motion where
+  /// the sag does not reach: the pose's motion at each node, times one minus the node's load
+  /// response relative to the data's (0 at the data, the whole motion at the fixed base), is
+  /// added (predict_uncertainty()).
+  /// Measured on the twelve phantom cases (docs/BENCHMARKS.md, "Predicted error: the pose
+  /// searched after opening").
+  bool pose_confounded = true;
   [[nodiscard]] std::string validate() const;
 };
 
@@ -71,6 +81,9 @@ void visit_fields(UncertaintyOptions& o, V&& v) {
     "stated tracking accuracy: RMS translation error of the data's frame (mm; 0: not included)");
   v("tracking_rotation_deg", o.tracking_rotation_deg, core::Range{0, 45},
     "stated tracking accuracy: RMS rotation error of the data's frame about its centroid (deg)");
+  v("pose_confounded", o.pose_confounded,
+    "a pose searched on the registered sweep itself adds its own motion as a rigid uncertainty "
+    "(it cannot be told from the sag)");
 }
 
 }  // namespace brainshift::constraints
