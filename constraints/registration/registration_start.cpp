@@ -97,10 +97,20 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
                const RegistrationOptions& options, const RegistrationResult* initial, bool vessels,
                RegistrationResult& res, std::vector<Matrix3d>& shift_basis) {
   const core::TetMesh& mesh = model.mesh();
-  // Warm start: the previous frame's pose. RIGID: the global start (global_start.hpp) — rigid pose
+  // Warm start: the previous frame's pose. A given pose (a pre-dura sweep): kept, the bulk shift
+  // searched in its frame. RIGID: the global start (global_start.hpp) — rigid pose
   // plus the model's bulk response, found by an exhaustive search of the distance map and refined
   // by robust ICP, kept only when it scores better than the identity. IDENTITY: no rigid part; the
   // bulk shift alone is searched (shift_search.hpp).
+  // The bulk-shift search alone (shift_search.hpp), at points already in the model frame.
+  const auto search_bulk_shift = [&](const MatrixX3d& pts) {
+    const ShiftSearchOptions& so = options.shift_search;
+    shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
+                                           : std::vector<Matrix3d>{};
+    res.shift =
+        search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
+    logger().debug("shift search: {}", res.shift.message);
+  };
   const auto t0 = Clock::now();
   if (initial) {
     res.rigid = initial->rigid;
@@ -110,15 +120,8 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
     res.rigid.transform = *data.pose;
     res.rigid.converged = true;
     res.rigid.stop_reason = "given pose (navigation offset measured before the dura was opened)";
-    if (vessels && options.shift_search.enabled) {
-      const ShiftSearchOptions& so = options.shift_search;
-      const MatrixX3d pts = transformed(*data.pose, data.vessel_points);
-      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
-                                             : std::vector<Matrix3d>{};
-      res.shift =
-          search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
-      logger().debug("shift search from the given pose: {}", res.shift.message);
-    }
+    if (vessels && options.shift_search.enabled)
+      search_bulk_shift(transformed(*data.pose, data.vessel_points));
   } else if (options.start == RigidStart::RIGID && vessels) {
     BasisAt basis_at;
     if (options.shift_load_basis)
@@ -135,15 +138,7 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
     res.rigid.stop_reason = options.start == RigidStart::RIGID
                                 ? "identity (no vessel points for the global start)"
                                 : "identity (no rigid initialisation requested)";
-    if (vessels && options.shift_search.enabled) {
-      const ShiftSearchOptions& so = options.shift_search;
-      const MatrixX3d& pts = data.vessel_points;
-      shift_basis = options.shift_load_basis ? load_basis(mesh, model.load_response(), pts)
-                                             : std::vector<Matrix3d>{};
-      res.shift =
-          search_shift(skeleton_near(model.skeleton(), pts, so.radius_mm), pts, shift_basis, so);
-      logger().debug("shift search: {}", res.shift.message);
-    }
+    if (vessels && options.shift_search.enabled) search_bulk_shift(data.vessel_points);
   }
   res.seconds.rigid = seconds_since(t0);
 }

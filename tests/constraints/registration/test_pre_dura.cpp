@@ -5,6 +5,7 @@
 // load the start's bulk shift becomes reproduces that shift at the vessel points.
 #include "sag_scene.hpp"
 
+#include "constraints/registration/uncertainty.hpp"
 #include "core/error.hpp"
 
 #include <gtest/gtest.h>
@@ -87,6 +88,53 @@ TEST(PreDura, APoseThatIsNotARotationAndTranslationIsRefused) {
   d.pose = Eigen::Isometry3d::Identity();
   d.pose->translation().x() = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW((void)register_model(*s.model, d, RegistrationOptions{}), Error);
+}
+
+TEST(PreDura, APoseSearchedOnTheSweepAddsItsMotionWhereTheSagDoesNotReach) {
+  // The predicted error's confounded-pose term (UncertaintyOptions::pose_confounded): on the
+  // fixed base (no load response) it is the pose's whole motion, exactly; near the data it is
+  // small; with the pose given by a pre-dura sweep, or switched off, it is absent.
+  Scene s;
+  const Eigen::Isometry3d O = navigation_offset();
+  IntraopData d;
+  d.vessel_points = apply(O, sample_deformed(s.skeleton, 0.3, 12, 1.0));
+  RegistrationOptions o;
+  o.start = RigidStart::RIGID;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.start.accepted) << r.start.message;
+  const UncertaintyResult u = predict_uncertainty(*s.model, r, o);
+  ASSERT_EQ(u.node_pose.size(), s.mesh.num_nodes());
+  const Eigen::Isometry3d to_intra = r.rigid.transform.inverse();
+  double base = 0.0, data = 0.0;
+  int nb = 0, nd = 0;
+  std::vector<bool> at_data(static_cast<std::size_t>(s.mesh.num_nodes()), false);
+  for (index_t i = 0; i < r.data_rows.size(); ++i)
+    for (int k = 0; k < r.data_rows[i].stencil.size; ++k)
+      at_data[static_cast<std::size_t>(r.data_rows[i].stencil.node[static_cast<std::size_t>(k)])] =
+          true;
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i) {
+    const Vector3d x = r.positions.row(i).transpose();
+    if (s.model->mechanics().dofs().is_fixed_node(i)) {
+      // ρ = 0 on a fixed node: the term is the pose's motion squared (round-off only).
+      EXPECT_NEAR(u.node_pose[i], (to_intra * x - x).squaredNorm(),
+                  1e-9 * (1 + (to_intra * x - x).squaredNorm()));
+      base += u.node_pose[i], ++nb;
+    }
+    if (at_data[static_cast<std::size_t>(i)]) data += u.node_pose[i], ++nd;
+  }
+  ASSERT_GT(nb, 0);
+  ASSERT_GT(nd, 0);
+  // Near the data the load response is about the data's mean, so the term nearly vanishes: at
+  // most a quarter of the base's (mm², measured far below).
+  EXPECT_LT(data / nd, 0.25 * base / nb) << data / nd << " vs " << base / nb;
+
+  RegistrationOptions off = o;
+  off.uncertainty.pose_confounded = false;
+  EXPECT_EQ(predict_uncertainty(*s.model, r, off).node_pose.norm(), 0.0);
+  IntraopData given = d;
+  given.pose = r.rigid.transform;
+  const RegistrationResult g = register_model(*s.model, given, o);
+  EXPECT_EQ(predict_uncertainty(*s.model, g, o).node_pose.norm(), 0.0);
 }
 
 TEST(BulkLoad, TheLoadReproducesTheStartsBulkShiftAtTheVesselPoints) {
