@@ -145,19 +145,6 @@ std::string UncertaintyOptions::validate() const {
   return {};
 }
 
-Eigen::VectorXd tracking_variance(ConstRef<MatrixX3d> points, const Vector3d& centre,
-                                  const UncertaintyOptions& uo) {
-  // tr(h Σθ hᵀ), h = [I, −[x − c]×], Σθ = diag(σ_t²/3 I, σ_r²/3 I): σ_t² + σ_r²/3 · tr([d]×[d]×ᵀ),
-  // tr([d]×[d]×ᵀ) = 2|d|².
-  const double st2 = uo.tracking_translation_mm * uo.tracking_translation_mm;
-  const double sr = uo.tracking_rotation_deg * M_PI / 180.0;
-  const double k = 2.0 / 3.0 * sr * sr;
-  Eigen::VectorXd v(points.rows());
-  for (Eigen::Index i = 0; i < points.rows(); ++i)
-    v[i] = st2 + k * (points.row(i).transpose() - centre).squaredNorm();
-  return v;
-}
-
 NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
                              ConstRef<MatrixX3d> nodes, const SparseMatrix& G,
                              const Eigen::VectorXd& noise, const UncertaintyOptions& options,
@@ -567,39 +554,10 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   }
   out.node_tracking = tracking_variance(r.positions, out.tracking_centre, uo);
   out.node_variance += out.node_tracking;
-  // The pose searched on this sweep (UncertaintyOptions::pose_confounded): what of its motion is
-  // sag cannot be told from a navigation offset. The two explanations agree where the data are
-  // and differ by the pose's motion where the sag does not reach (the fixed base): at node n the
-  // term is (|T⁻¹x − x| (1 − ρ_n))², with ρ_n the node's load response (Frobenius norm of its
-  // 3×3 response to uniform loads) relative to its mean at the data rows' nodes, clipped to
-  // [0, 1].
+  // The pose searched on this sweep (UncertaintyOptions::pose_confounded).
   const bool confounded = uo.pose_confounded && r.start.accepted && m > 0;
-  out.node_pose = Eigen::VectorXd::Zero(n);
-  if (confounded) {
-    const auto& resp = model.load_response();
-    const auto response_at = [&](index_t node) {
-      Matrix3d M;
-      for (Eigen::Index k = 0; k < 3; ++k)
-        M.col(k) = resp[static_cast<std::size_t>(k)].row(node).transpose();
-      return M.norm();
-    };
-    double reference = 0.0;
-    for (const index_t i : used) {
-      const Stencil& st = r.data_rows[i].stencil;
-      for (int k = 0; k < st.size; ++k)
-        reference += st.weight[static_cast<std::size_t>(k)] *
-                     response_at(st.node[static_cast<std::size_t>(k)]) / static_cast<double>(m);
-    }
-    const Eigen::Isometry3d to_intra = r.rigid.transform.inverse();
-    if (reference > 0)
-      for (index_t i = 0; i < n; ++i) {
-        const Vector3d x = r.positions.row(i).transpose();
-        const double rho = std::clamp(response_at(i) / reference, 0.0, 1.0);
-        const double d = (to_intra * x - x).norm() * (1.0 - rho);
-        out.node_pose[i] = d * d;
-      }
-    out.node_variance += out.node_pose;
-  }
+  out.node_pose = confounded ? confounded_pose_variance(model, r, used) : Eigen::VectorXd::Zero(n);
+  out.node_variance += out.node_pose;
   if (uo.tracking_translation_mm > 0 || uo.tracking_rotation_deg > 0) {
     std::snprintf(buf, sizeof buf,
                   "; stated tracking accuracy %.3g mm / %.3g deg RMS (a rigid error of the data's "

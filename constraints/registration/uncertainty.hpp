@@ -190,6 +190,16 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
 Eigen::VectorXd tracking_variance(ConstRef<MatrixX3d> points, const Vector3d& centre,
                                   const UncertaintyOptions& uo);
 
+/// The confounded-pose term (UncertaintyOptions::pose_confounded) at every node, mm²: a pose
+/// searched on the registered sweep and the sag it may have absorbed agree at the data and differ
+/// by the pose's motion where the sag does not reach, so node n gets (|T⁻¹x − x| (1 − ρ_n))²
+/// with T = r.rigid.transform, x the node's final position (model frame) and ρ_n its load
+/// response (Frobenius norm of its 3×3 response to uniform loads) over the mean at the nodes of
+/// the data rows `rows` (indices into r.data_rows), clipped to [0, 1]. Zeros without rows.
+Eigen::VectorXd confounded_pose_variance(const RegistrationModel& model,
+                                         const RegistrationResult& r,
+                                         const std::vector<index_t>& rows);
+
 /// sqrt of the barycentrically interpolated nodal variance at points (#P×3, model frame, mm);
 /// points outside the mesh take the nearest tetrahedron (BarycentricMapping's rule).
 Eigen::VectorXd sigma_at(const core::TetMesh& mesh, const Eigen::VectorXd& node_variance,
