@@ -84,8 +84,9 @@ struct IntraopData {
   /// p_model = pose · p_intra; e.g. the rigid start of a pre-dura sweep, pre_dura_pose()). Given,
   /// it replaces the pose search of the start: a sweep made after the dura is opened cannot tell
   /// a pose from the sag it sees as a near-uniform shift, and a pose that absorbs the sag moves
-  /// the whole model, fixed base included (docs/BENCHMARKS.md, "Pose from a pre-dura sweep").
-  /// The bulk shift is then searched in that frame (shift_search.hpp).
+  /// the whole model, fixed base included (docs/BENCHMARKS.md, "The bulk shift as a load, and the
+  /// pose from a pre-dura sweep"). The bulk shift is then searched in that frame
+  /// (shift_search.hpp).
   std::optional<Eigen::Isometry3d> pose;
 };
 
