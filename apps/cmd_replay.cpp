@@ -16,6 +16,9 @@ CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args) {
   c->add_option("--sequence", args.sequence, "folder with frame_*/doppler.nii.gz (+ bmode.nii.gz)")
       ->required();
   c->add_option("--out", args.out, "result folder RES")->required();
+  c->add_option("--pre-dura", args.pre_dura,
+                "power-Doppler volume of a sweep on the dura before it was opened: the navigation "
+                "offset is measured on it once and kept for every frame");
   c->add_option("--uncertainty", args.uncertainty,
                 "predicted error (uncertainty.nii.gz, ~0.1-0.2 s a frame): every frame, only the "
                 "last frame, or none")

@@ -39,6 +39,12 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
   nlohmann::json summary = {{"model", args.model.string()},
                             {"sequence", args.sequence.string()},
                             {"frames", nlohmann::json::array()}};
+  // The navigation offset from the pre-dura sweep, once, before anything is written.
+  std::optional<Eigen::Isometry3d> pose;
+  if (args.pre_dura) {
+    progress.stage("the navigation offset from the pre-dura sweep " + args.pre_dura->string());
+    pose = pose_from_pre_dura(s, *args.pre_dura, s.loaded.scene.options, summary["pre_dura"]);
+  }
   std::vector<double> latency;
   int failed = 0, unconverged = 0;
   std::optional<constraints::RegistrationResult> previous;
@@ -49,10 +55,11 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
       nlohmann::json entry = {{"frame", name}};
       try {
         const std::filesystem::path bmode = f / "bmode.nii.gz";
-        const IntraopInputs in = read_intraop(s, f / "doppler.nii.gz",
-                                              std::filesystem::exists(bmode)
-                                                  ? std::optional<std::filesystem::path>(bmode)
-                                                  : std::nullopt);
+        IntraopInputs in = read_intraop(s, f / "doppler.nii.gz",
+                                        std::filesystem::exists(bmode)
+                                            ? std::optional<std::filesystem::path>(bmode)
+                                            : std::nullopt);
+        in.data.pose = pose;
         const constraints::RegistrationResult r = constraints::register_model(
             *s.model, in.data, s.loaded.scene.options, previous ? &*previous : nullptr);
         const bool with_uncertainty =

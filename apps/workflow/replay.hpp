@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
+#include <optional>
 #include <string>
 
 namespace brainshift::workflow {
@@ -24,6 +25,10 @@ struct ReplayOptions {
   /// "none"; a frame without it has no uncertainty.nii.gz and report `uncertainty` =
   /// {"computed": false}.
   std::string uncertainty = "every";
+  /// Power Doppler of a sweep made on the dura before it was opened: the navigation offset is
+  /// measured on it once and given to every frame (constraints::IntraopData::pose; as
+  /// `register --pre-dura`). replay.json → `pre_dura` says what was measured.
+  std::optional<std::filesystem::path> pre_dura;
 };
 
 /// What replay did (replay.json's content and its counts).

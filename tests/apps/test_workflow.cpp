@@ -243,6 +243,20 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     // along the beam; docs/BENCHMARKS.md): < 2 mm at the centroid and < 5° (measured 0.4 mm, 3°).
     EXPECT_LT(p["translation_mm"].get<double>(), 2.0) << p.dump();
     EXPECT_LT(p["rotation_deg"].get<double>(), 5.0) << p.dump();
+    // replay --pre-dura: the offset is measured once and every frame keeps it.
+    const auto rep_pre = dir / "replay_pre";
+    const CliRun rr = run_brainshift(dir, "replay --model " + q(model) + " --sequence " +
+                                              q(ph / "intraop") + " --pre-dura " + q(pre) +
+                                              " --uncertainty none --out " + q(rep_pre));
+    ASSERT_TRUE(rr.exit_code == 0 || rr.exit_code == 2) << rr.out << rr.err;
+    const auto sp = read_json(rep_pre / "replay.json");
+    ASSERT_TRUE(sp.contains("pre_dura")) << sp.dump();
+    EXPECT_EQ(sp["pre_dura"]["model_from_intraop"], p["model_from_intraop"]);
+    EXPECT_NE(sp["frames"][0]["status"], "failed") << sp.dump();
+    EXPECT_NE(read_json(rep_pre / "frame_000" / "report.json")["rigid"]["stop_reason"]
+                  .get<std::string>()
+                  .find("given pose"),
+              std::string::npos);
     // A pre-dura sweep without vessels is a one-line error naming it; nothing is written.
     imaging::VolumeF zero = imaging::read_volume(pre);
     std::fill(zero.data.begin(), zero.data.end(), 0.0F);
