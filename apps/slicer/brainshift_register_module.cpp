@@ -1,7 +1,8 @@
 // BrainshiftRegister: `brainshift register` as a 3D Slicer command-line module.
 //
 //   BrainshiftRegister --xml                      (the module description Slicer reads)
-//   BrainshiftRegister --model MODEL --doppler D.nrrd [--bmode B.nrrd] [--preopMRI M.nrrd]
+//   BrainshiftRegister --model MODEL --doppler D.nrrd [--bmode B.nrrd] [--preDura P.nrrd]
+//                      [--preopMRI M.nrrd]
 //                      [--warpedMRI W.nrrd] [--preopToIntraop P.nrrd] [--intraopToPreop I.nrrd]
 //                      [--reportFile R.json] [--init scene|rigid|identity] [--resultDirectory RES]
 //
@@ -52,7 +53,8 @@ bool has_extension(const std::filesystem::path& p, const std::string& ext) {
 /// The module's paths (absent: not given).
 struct RegisterPaths {
   std::filesystem::path model, doppler;
-  std::optional<std::filesystem::path> bmode, mri, warped, to_intra, to_pre, report, result_dir;
+  std::optional<std::filesystem::path> bmode, pre_dura, mri, warped, to_intra, to_pre, report,
+      result_dir;
 };
 
 RegisterPaths paths_of(const Values& v) {
@@ -60,6 +62,7 @@ RegisterPaths paths_of(const Values& v) {
   p.model = v.at("model");
   p.doppler = v.at("doppler");
   p.bmode = optional_path(v, "bmode");
+  p.pre_dura = optional_path(v, "preDura");
   p.mri = optional_path(v, "preopMRI");
   p.warped = optional_path(v, "warpedMRI");
   p.to_intra = optional_path(v, "preopToIntraop");
@@ -138,13 +141,17 @@ int register_body(const Values& v, const ProgressReport& progress) {
   progress("loading the model " + p.model.string(), 0.05);
   workflow::Session s = workflow::open_session(p.model);
   progress("extracting vessels" + std::string(p.bmode ? " and the probe footprint" : ""), 0.25);
-  const workflow::IntraopInputs in = workflow::read_intraop(s, p.doppler, p.bmode);
+  workflow::IntraopInputs in = workflow::read_intraop(s, p.doppler, p.bmode);
   const std::optional<imaging::VolumeF> mri =
       p.mri ? std::optional<imaging::VolumeF>(workflow::read_preop_mri(s, *p.mri)) : std::nullopt;
   constraints::RegistrationOptions options = s.loaded.scene.options;
   const std::string init = v.count("init") ? v.at("init") : "scene";
   if (init == "rigid") options.start = constraints::RigidStart::RIGID;
   if (init == "identity") options.start = constraints::RigidStart::IDENTITY;
+  if (p.pre_dura) {  // the navigation offset, measured before the dura was opened (as --pre-dura)
+    progress("the navigation offset from the pre-dura sweep", 0.35);
+    in.data.pose = workflow::pose_from_pre_dura(s, *p.pre_dura, options, in.report["pre_dura"]);
+  }
   progress("registering (" + std::to_string(in.data.vessel_points.rows()) + " vessel points, " +
                std::to_string(in.data.footprint_points.rows()) + " footprint points)",
            0.4);

@@ -134,6 +134,12 @@ ModuleDescription register_module() {
             "k = 0 at the probe.",
             "input", false, "type=\"scalar\""));
   in.parameters.push_back(
+      image("preDura", "Pre-dura power Doppler (optional)",
+            "Tracked power-Doppler volume of a sweep on the dura before it was opened: the "
+            "navigation offset is measured on it and kept, so the sag is not mistaken for a pose "
+            "(far from the probe the warp is then right too).",
+            "input", false, "type=\"scalar\""));
+  in.parameters.push_back(
       image("preopMRI", "Pre-operative MRI (optional)",
             "The MRI to warp, on the grid of the model's label map; needed for the warped MRI.",
             "input", false, "type=\"scalar\""));

@@ -106,6 +106,7 @@ TEST(SlicerModules, RegisterTakesTheModelAndUltrasoundAndWritesImageTransformsAn
   expect_parameter(ps, "model", "directory", "input");
   expect_parameter(ps, "doppler", "image", "input");
   expect_parameter(ps, "bmode", "image", "input");
+  expect_parameter(ps, "preDura", "image", "input");
   expect_parameter(ps, "preopMRI", "image", "input");
   expect_parameter(ps, "warpedMRI", "image", "output");
   expect_parameter(ps, "preopToIntraop", "transform", "output", ".nrrd");

@@ -80,6 +80,7 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
   to_slicer_nrrd(ph / "preop/mri.nii.gz", in / "mri.nrrd", false, true);
   to_slicer_nrrd(ph / "intraop/doppler.nii.gz", in / "doppler.nrrd", false, true);
   to_slicer_nrrd(ph / "intraop/bmode.nii.gz", in / "bmode.nrrd", false, false);
+  to_slicer_nrrd(ph / "intraop/predura/doppler.nii.gz", in / "predura.nrrd", false, true);
 
   // BrainshiftPrepare into an empty folder (what Slicer's directory button gives).
   const tests::XmlModule prepare = tests::module_xml(dir, "BrainshiftPrepare");
@@ -105,6 +106,7 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
       {"model", model},
       {"doppler", in / "doppler.nrrd"},
       {"bmode", in / "bmode.nrrd"},
+      {"preDura", in / "predura.nrrd"},
       {"preopMRI", in / "mri.nrrd"},
       {"warpedMRI", out / "warped.nrrd"},
       {"preopToIntraop", out / "preop_to_intraop.nrrd"},
@@ -125,6 +127,10 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
   const auto report = nlohmann::json::parse(read_all(out / "report.json"));
   EXPECT_TRUE(report.contains("converged"));
   EXPECT_TRUE(report["timing"].contains("total"));
+  // The pose came from the pre-dura sweep (as `register --pre-dura`).
+  EXPECT_TRUE(report["intraop"].contains("pre_dura")) << report["intraop"].dump();
+  EXPECT_NE(report["rigid"]["stop_reason"].get<std::string>().find("given pose"),
+            std::string::npos);
   for (const char* f : {"report.json", "deformed.vtu", "preop_to_intraop.nrrd",
                         "intraop_to_preop.nrrd", "warped_mri.nii.gz"})
     EXPECT_TRUE(std::filesystem::exists(out / "res" / f)) << f;
