@@ -17,13 +17,13 @@ namespace {
 using core::Clock;
 using core::seconds_since;
 
+}  // namespace
+
 nlohmann::json matrix_json(const Eigen::Matrix4d& m) {
   nlohmann::json j = nlohmann::json::array();
   for (int r = 0; r < 4; ++r) j.push_back({m(r, 0), m(r, 1), m(r, 2), m(r, 3)});
   return j;
 }
-
-}  // namespace
 
 nlohmann::json registration_report(const constraints::RegistrationResult& r) {
   using constraints::ConstraintSet;

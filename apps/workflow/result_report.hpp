@@ -41,4 +41,7 @@ nlohmann::json result_report(const Session& s, const constraints::RegistrationRe
 /// Everything in report.json about the registration itself.
 nlohmann::json registration_report(const constraints::RegistrationResult& r);
 
+/// A 4×4 matrix as four rows of four numbers (a rigid transform in the reports).
+nlohmann::json matrix_json(const Eigen::Matrix4d& m);
+
 }  // namespace brainshift::workflow

@@ -2,6 +2,7 @@
 
 #include "apps/workflow/compliance_cache.hpp"
 #include "apps/workflow/intraop_footprint.hpp"
+#include "apps/workflow/result_report.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/timing.hpp"
@@ -112,13 +113,7 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::pa
   report["rms_before_mm"] = g.rms_before_mm;
   report["rms_after_mm"] = g.rms_after_mm;
   report["message"] = g.message;
-  nlohmann::json m = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(g.transform.matrix()(r, c));
-    m.push_back(row);
-  }
-  report["model_from_intraop"] = m;
+  report["model_from_intraop"] = matrix_json(g.transform.matrix());
   return g.transform;
 }
 

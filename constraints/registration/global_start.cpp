@@ -455,6 +455,24 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   return res;
 }
 
+Matrix3d load_response_at(const std::array<MatrixX3d, 3>& response, Eigen::Index node) {
+  Matrix3d r;
+  for (Eigen::Index k = 0; k < 3; ++k)
+    r.col(k) = response[static_cast<std::size_t>(k)].row(node).transpose();
+  return r;
+}
+
+Matrix3d mean_load_response(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+                            ConstRef<MatrixX3d> points) {
+  Matrix3d mean = Matrix3d::Zero();
+  if (points.rows() == 0) return mean;
+  const NearestNode nearest(mesh.nodes());
+  for (Eigen::Index i = 0; i < points.rows(); ++i)
+    mean += load_response_at(response, nearest.nearest(points.row(i).transpose())) /
+            static_cast<double>(points.rows());
+  return mean;
+}
+
 std::vector<Matrix3d> load_basis(const core::TetMesh& mesh,
                                  const std::array<MatrixX3d, 3>& response,
                                  ConstRef<MatrixX3d> points) {
@@ -463,10 +481,8 @@ std::vector<Matrix3d> load_basis(const core::TetMesh& mesh,
   Matrix3d mean = Matrix3d::Zero();
   const NearestNode nearest(mesh.nodes());
   for (Eigen::Index i = 0; i < points.rows(); ++i) {
-    const Eigen::Index node = nearest.nearest(points.row(i).transpose());
-    for (Eigen::Index k = 0; k < 3; ++k)
-      basis[static_cast<std::size_t>(i)].col(k) =
-          response[static_cast<std::size_t>(k)].row(node).transpose();
+    basis[static_cast<std::size_t>(i)] =
+        load_response_at(response, nearest.nearest(points.row(i).transpose()));
     mean += basis[static_cast<std::size_t>(i)] / static_cast<double>(points.rows());
   }
   if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return {};

@@ -159,6 +159,14 @@ using BasisAt = std::function<std::vector<Matrix3d>(ConstRef<MatrixX3d>)>;
 /// \throws brainshift::Error when options.validate() fails or the inputs are not finite.
 GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
                                const BasisAt& basis_at, const GlobalStartOptions& options);
+/// The 3×3 load response at a node of `response` (#N×3 nodal displacements per axis, mm):
+/// column k is the node's displacement under a uniform load along axis k.
+Matrix3d load_response_at(const std::array<MatrixX3d, 3>& response, Eigen::Index node);
+
+/// The mean of load_response_at() over the rest nodes nearest each point (model frame, #P×3 mm):
+/// load_basis()'s normalisation. Zero without points.
+Matrix3d mean_load_response(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
+                            ConstRef<MatrixX3d> points);
 
 /// Per point, the 3×3 response (column k: displacement under a uniform load along axis k) of the
 /// linear model at the rest node nearest the point, normalised so that the mean over the points

@@ -73,19 +73,16 @@ ShiftSearchResult as_shift(const GlobalStartResult& g) {
 
 }  // namespace
 
-RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
-                            const RegistrationOptions& options) {
-  GlobalStartOptions o = options.global_start;
-  o.bulk_response = false;
-  return as_rigid(global_start(model.skeleton(), data.vessel_points, {}, o));
-}
-
 GlobalStartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX3d> vessel_points,
                                 const RegistrationOptions& options) {
-  BS_VERIFY(vessel_points.allFinite(), "pre-dura vessel points contain NaN or infinity");
   GlobalStartOptions o = options.global_start;
   o.bulk_response = false;  // before the dura is opened the brain has not shifted
   return global_start(model.skeleton(), vessel_points, {}, o);
+}
+
+RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
+                            const RegistrationOptions& options) {
+  return as_rigid(pre_dura_pose(model, data.vessel_points, options));  // the same rigid-only start
 }
 
 namespace detail {
@@ -149,20 +146,10 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
 /// bulk shift was accepted, without the load basis, or when M is singular.
 Vector3d bulk_amplitude(const RegistrationModel& model, const LoopInputs& in,
                         const RegistrationResult& res, const RegistrationOptions& options) {
-  if (!res.shift.accepted || !res.shift.shift.allFinite() || !options.shift_load_basis)
+  if (!res.shift.accepted || !res.shift.shift.allFinite() || !options.shift_load_basis ||
+      in.vessel_points.rows() == 0)
     return Vector3d::Zero();
-  const core::TetMesh& mesh = model.mesh();
-  const auto& response = model.load_response();
-  const MatrixX3d& p = in.vessel_points;
-  if (p.rows() == 0) return Vector3d::Zero();
-  Matrix3d mean = Matrix3d::Zero();
-  for (Eigen::Index i = 0; i < p.rows(); ++i) {
-    Eigen::Index node = 0;
-    (mesh.nodes().rowwise() - p.row(i)).rowwise().squaredNorm().minCoeff(&node);
-    for (Eigen::Index k = 0; k < 3; ++k)
-      mean.col(k) += response[static_cast<std::size_t>(k)].row(node).transpose() /
-                     static_cast<double>(p.rows());
-  }
+  const Matrix3d mean = mean_load_response(model.mesh(), model.load_response(), in.vessel_points);
   if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return Vector3d::Zero();
   const Vector3d a = mean.inverse() * res.shift.shift;
   return a.allFinite() ? a : Vector3d::Zero();
@@ -184,9 +171,7 @@ MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
   const Vector3d a = bulk_amplitude(model, in, res, options);
   if (a.isZero()) return x;
   const auto& response = model.load_response();
-  for (Eigen::Index n = 0; n < x.rows(); ++n)
-    for (Eigen::Index k = 0; k < 3; ++k)
-      x.row(n) += a[k] * response[static_cast<std::size_t>(k)].row(n);
+  for (std::size_t k = 0; k < 3; ++k) x += a[static_cast<Eigen::Index>(k)] * response[k];
   return x.allFinite() ? x : MatrixX3d(mesh.nodes());
 }
 

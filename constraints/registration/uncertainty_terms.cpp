@@ -24,12 +24,8 @@ Eigen::VectorXd confounded_pose_variance(const RegistrationModel& model,
   const index_t n = model.mesh().num_nodes();
   Eigen::VectorXd v = Eigen::VectorXd::Zero(n);
   if (rows.empty()) return v;
-  const auto& resp = model.load_response();
   const auto response_at = [&](index_t node) {
-    Matrix3d M;
-    for (Eigen::Index k = 0; k < 3; ++k)
-      M.col(k) = resp[static_cast<std::size_t>(k)].row(node).transpose();
-    return M.norm();
+    return load_response_at(model.load_response(), node).norm();
   };
   // The load response's mean at the data rows' nodes (stencil weights sum to 1 per row).
   double reference = 0.0;

@@ -45,7 +45,6 @@ TEST(PreDura, ThePoseOfTheUndeformedSweepIsKeptAndTheSagGoesToTheDeformation) {
   ASSERT_TRUE(pre.accepted) << pre.message;
   // The pose of 0.3 mm-noise points over a 60 mm field: within 0.5 mm of the truth at every fixed
   // node (the farthest from the vessels, ≈ 50 mm away): a 0.3° error there would be 0.26 mm.
-  const Eigen::Isometry3d truth = O.inverse();
   std::vector<index_t> fixed;
   for (index_t i = 0; i < s.mesh.num_nodes(); ++i)
     if (s.mesh.nodes()(i, 2) < -22) fixed.push_back(i);
