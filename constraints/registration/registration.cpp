@@ -264,6 +264,7 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
            (options.bulk_as_load == BulkLoad::AUTO && data.pose))
     in.bulk_gravity = bulk_gravity(bulk_amplitude(model, in, res, options), options);
   res.bulk_gravity = in.bulk_gravity;
+  if (!in.bulk_gravity.isZero()) in.bulk_rest = detail::bulk_rest(model, in.bulk_gravity, options);
   if (options.noise.enabled && options.noise.start_is_bulk_state && !initial && in.vessels)
     in.start_state = start_positions(model, in, res, options, nullptr);
   LoopState state;

@@ -31,7 +31,12 @@
 /// step, not limited, and its max nodal increment at most 0.9× the previous one's
 /// (contraction_bound in registration_stage.hpp says why 0.9). Such a turn-back is a converging
 /// oscillation and keeps the radius (HOLD): halving it there only races the convergence, and
-/// the race, not the data, decided whether the loop converged or ended NOT_SETTLING.
+/// the race, not the data, decided whether the loop converged or ended NOT_SETTLING. A reversal
+/// (cosine ≤ −0.5) with the same pairs that does not contract and is below the radius is the
+/// step's own overshoot (a period-2 oscillation of the corotational iteration, which halving
+/// the radius cannot reach until it binds): the elastic part of the following steps is damped
+/// instead (DAMP: relaxation × 0.6, down to 0.2; undone one step at a time on a creep; the stop
+/// test scales with it). Constants and measurements in registration_stage.hpp.
 /// A step that had to be limited never counts as converged; a radius below the increment
 /// tolerance stops the loop with NOT_SETTLING and a diagnosis instead of oscillating.
 ///
@@ -147,6 +152,11 @@ struct RegistrationOptions {
   /// (a pre-dura sweep) the bulk shift is the sag itself and the load takes standard from 1.52
   /// to 1.35 mm. AUTO: on when the pose is given (IntraopData::pose), else off. Needs
   /// shift_load_basis. A warm start keeps the previous frame's load.
+  /// The load is carried as a pre-strained elastic rest (core::RestShape: the rest nodes plus
+  /// its linear response), not as a body force: the same load in the linear model, but the
+  /// corotational iteration then starts from a stress-free state instead of carrying a 20 mm
+  /// load, under which it did not settle (large_shift with a pre-dura pose: 28 elements inverted,
+  /// iteration cap, 3.9 mm; as the rest: converged, 0.95 mm; docs/BENCHMARKS.md).
   BulkLoad bulk_as_load = BulkLoad::AUTO;
   /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
   /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
@@ -268,6 +278,10 @@ enum class TrustDecision : std::uint8_t {
            ///< oscillation, radius unchanged
   SHRINK,  ///< the step turned back otherwise (no clear contraction of one map's iteration: an
            ///< oscillation that may not settle by itself): radius × 0.5
+  DAMP,    ///< the step turned back without contracting, with the same pairs and below the
+           ///< radius (a period-2 oscillation of the mechanics' quasi-Newton iteration, which a
+           ///< radius does not reach until it binds): the elastic part of the following steps is
+           ///< damped (relaxation × damp_factor, down to min_relaxation), radius unchanged
 };
 std::string to_string(TrustDecision d);
 
@@ -291,6 +305,7 @@ struct IterationRecord {
   double trust_radius_mm = 0.0;  ///< the trust region this iteration's step was limited to
   bool limited = false;          ///< the step was scaled down to the trust region
   TrustDecision trust = TrustDecision::NONE;
+  double relaxation = 1.0;  ///< of this iteration's step (StepOptions::relaxation; DAMP lowers it)
   double vessel_compliance_ratio = 0.0;  ///< of this iteration's vessel rows
   FilterReport vessel_filter;
   FilterReport footprint_filter;

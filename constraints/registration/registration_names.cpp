@@ -56,6 +56,8 @@ std::string to_string(TrustDecision d) {
       return "hold";
     case TrustDecision::SHRINK:
       return "shrink";
+    case TrustDecision::DAMP:
+      return "damp";
   }
   BS_UNREACHABLE();
 }

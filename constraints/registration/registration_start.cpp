@@ -182,6 +182,27 @@ Vector3d bulk_gravity(const Vector3d& amplitude, const RegistrationOptions& opti
   return 9810.0 * amplitude * (StepOptions{}.density / options.step.density);
 }
 
+std::shared_ptr<const core::RestShape> bulk_rest(const RegistrationModel& model,
+                                                 const Vector3d& gravity,
+                                                 const RegistrationOptions& options) {
+  const Vector3d one = bulk_gravity(Vector3d::Ones(), options);  // per unit amplitude
+  if (!(one.array() > 0).all() || !gravity.allFinite()) return nullptr;
+  MatrixX3d x = model.mesh().nodes();
+  const auto& response = model.load_response();
+  for (std::size_t k = 0; k < 3; ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    x += (gravity[i] / one[i]) * response[k];
+  }
+  if (!x.allFinite()) return nullptr;
+  auto rest = std::make_shared<core::RestShape>(model.mechanics().model().rest_shape(x));
+  if (rest->degenerate > 0)
+    logger().warn(
+        "bulk load: {} elements are flat or inverted in its response; they keep the "
+        "mesh's rest",
+        rest->degenerate);
+  return rest;
+}
+
 }  // namespace detail
 
 }  // namespace brainshift::constraints

@@ -8,6 +8,7 @@
 #include "constraints/registration/registration.hpp"
 #include "constraints/registration/registration_stage.hpp"
 
+#include <memory>
 #include <vector>
 
 namespace brainshift::constraints::detail {
@@ -40,5 +41,10 @@ MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
 
 /// The body acceleration (mm/s²) of amplitude `a` (bulk_amplitude()) at the scene's density.
 Vector3d bulk_gravity(const Vector3d& amplitude, const RegistrationOptions& options);
+/// The elastic rest of the bulk load `gravity` (bulk_gravity()'s units): the rest nodes plus its
+/// linear response (the load responses scaled back to amplitudes). Null when there is no load.
+std::shared_ptr<const core::RestShape> bulk_rest(const RegistrationModel& model,
+                                                 const Vector3d& gravity,
+                                                 const RegistrationOptions& options);
 
 }  // namespace brainshift::constraints::detail

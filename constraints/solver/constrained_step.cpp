@@ -66,12 +66,12 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
   std::vector<Matrix3d>
       rotations;  // nodal; empty = identity (LINEAR, UNWARPED, EXACT's own operator)
   if (options.mechanics == Mechanics::LINEAR) {
-    const MatrixX3d u = x - m_model.mesh().nodes();
+    const MatrixX3d u = x - (options.rest ? options.rest->nodes : m_model.mesh().nodes());
     f_int = m_K0 * Eigen::Map<const Eigen::VectorXd>(u.data(), 3 * n);
   } else {
-    const core::ElementRotations er = m_model.element_rotations(x);
+    const core::ElementRotations er = m_model.element_rotations(x, options.rest.get());
     res.inverted_elements = er.inverted_count;
-    f_int = m_model.internal_force(x, er.rotation);
+    f_int = m_model.internal_force(x, er.rotation, options.rest.get());
     if (options.mechanics == Mechanics::WARPED)
       rotations = core::nodal_rotations(m_model.mesh(), er.rotation);
     if (options.mechanics == Mechanics::EXACT) {
@@ -152,6 +152,7 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
   }
   {
     const double step = Eigen::Map<const MatrixX3d>(dx.data(), n, 3).rowwise().norm().maxCoeff();
+    res.uncut_increment = step;
     if (options.max_increment > 0 && step > options.max_increment) {
       dx *= options.max_increment / step;
       res.limited = true;

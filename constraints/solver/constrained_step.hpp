@@ -79,10 +79,15 @@ struct StepOptions {
   /// nodes for λ − λ⁰. Used only when the dense block covers the rows and the mechanics is not
   /// EXACT; otherwise the step makes its two solves.
   bool fold_correction = false;
+  /// The elastic rest of the step's forces and rotations (core::RestShape, a pre-strained
+  /// state); null: the mesh's rest. Not an option: the registration sets it for its bulk load
+  /// (RegistrationOptions::bulk_as_load). LINEAR measures u from its nodes too.
+  std::shared_ptr<const core::RestShape> rest;
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// solver. `keep_system` is not an option (the registration loop sets it for its noise model).
+/// solver. `keep_system` and `rest` are not options (the registration loop sets it for its noise
+/// model).
 template <class V>
 void visit_fields(StepOptions& o, V&& v) {
   v("trust_region_mm", o.max_increment, core::Range{0, 1000},
@@ -115,6 +120,7 @@ struct StepResult {
   PgsResult pgs;
   double max_increment = 0.0;     ///< max nodal |Δx| of this step (after limiting), mm
   bool limited = false;           ///< the increment was scaled down to StepOptions::max_increment
+  double uncut_increment = 0.0;   ///< max nodal |Δx| before limiting (mm); = max_increment if not
   index_t inverted_elements = 0;  ///< at the start of the step
   /// False when the increment was not finite (a diverging iteration): the step is then rejected,
   /// x is the input positions unchanged and the caller must stop (never count it as converged).

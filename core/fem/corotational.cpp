@@ -34,20 +34,25 @@ CorotationalModel::CorotationalModel(const TetMesh& mesh) : m_mesh(mesh) {
   }
 }
 
-ElementRotations CorotationalModel::element_rotations(ConstRef<MatrixX3d> x) const {
+ElementRotations CorotationalModel::element_rotations(ConstRef<MatrixX3d> x,
+                                                      const RestShape* rest) const {
   const index_t n = m_mesh.num_nodes();
   BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows, expected " << n << " nodes");
   for (index_t i = 0; i < n; ++i) {
     BS_VERIFY(x.row(i).allFinite(), "node " << i << " has a non-finite position (" << x(i, 0)
                                             << ", " << x(i, 1) << ", " << x(i, 2) << ")");
   }
+  BS_VERIFY(!rest || (rest->nodes.rows() == n &&
+                      rest->edges_inv.size() == static_cast<std::size_t>(m_mesh.num_tets())),
+            "the rest shape is not of this mesh");
   const MatrixX4i& T = m_mesh.tets();
   ElementRotations out;
   out.rotation.resize(static_cast<std::size_t>(m_mesh.num_tets()));
   for (index_t t = 0; t < m_mesh.num_tets(); ++t) {
     Matrix3d Ds;
     for (int k = 0; k < 3; ++k) Ds.col(k) = (x.row(T(t, k + 1)) - x.row(T(t, 0))).transpose();
-    const Matrix3d F = Ds * m_shapes[static_cast<std::size_t>(t)].rest_edges_inv;
+    const auto ut = static_cast<std::size_t>(t);
+    const Matrix3d F = Ds * (rest ? rest->edges_inv[ut] : m_shapes[ut].rest_edges_inv);
     bool inverted = false;
     out.rotation[static_cast<std::size_t>(t)] = rotation_from_deformation_gradient(F, &inverted);
     if (inverted) ++out.inverted_count;
@@ -56,18 +61,23 @@ ElementRotations CorotationalModel::element_rotations(ConstRef<MatrixX3d> x) con
 }
 
 Eigen::VectorXd CorotationalModel::internal_force(ConstRef<MatrixX3d> x,
-                                                  const std::vector<Matrix3d>& rotations) const {
+                                                  const std::vector<Matrix3d>& rotations,
+                                                  const RestShape* rest) const {
   const index_t n = m_mesh.num_nodes();
   const index_t nt = m_mesh.num_tets();
   BS_VERIFY(x.rows() == n, "positions have " << x.rows() << " rows, expected " << n << " nodes");
   BS_VERIFY(static_cast<index_t>(rotations.size()) == nt,
             "got " << rotations.size() << " element rotations, expected " << nt);
+  BS_VERIFY(
+      !rest || (rest->nodes.rows() == n && rest->mesh_rest.size() == static_cast<std::size_t>(nt)),
+      "the rest shape is not of this mesh");
   const MatrixX4i& T = m_mesh.tets();
   Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n);
   for (index_t t = 0; t < nt; ++t) {
     const Matrix3d& R = rotations[static_cast<std::size_t>(t)];
     const Vector12d xe = gather(x, T, t);
-    const Vector12d Xe = gather(m_mesh.nodes(), T, t);
+    const bool own = rest && !rest->mesh_rest[static_cast<std::size_t>(t)];
+    const Vector12d Xe = gather(own ? rest->nodes : m_mesh.nodes(), T, t);
     Vector12d d;  // R̂ᵀ x_e − X_e
     for (int k = 0; k < 4; ++k) {
       d.segment<3>(3 * k) = R.transpose() * xe.segment<3>(3 * k) - Xe.segment<3>(3 * k);
@@ -76,6 +86,32 @@ Eigen::VectorXd CorotationalModel::internal_force(ConstRef<MatrixX3d> x,
     for (int k = 0; k < 4; ++k) f.segment<3>(3 * T(t, k)) += R * g.segment<3>(3 * k);
   }
   return f;
+}
+
+RestShape CorotationalModel::rest_shape(ConstRef<MatrixX3d> nodes) const {
+  const index_t n = m_mesh.num_nodes();
+  BS_VERIFY(nodes.rows() == n, "rest shape has " << nodes.rows() << " rows, expected " << n);
+  BS_VERIFY(nodes.allFinite(), "rest shape has a non-finite node");
+  const MatrixX4i& T = m_mesh.tets();
+  RestShape rest;
+  rest.nodes = nodes;
+  rest.edges_inv.resize(static_cast<std::size_t>(m_mesh.num_tets()));
+  rest.mesh_rest.assign(static_cast<std::size_t>(m_mesh.num_tets()), 0);
+  for (index_t t = 0; t < m_mesh.num_tets(); ++t) {
+    const auto ut = static_cast<std::size_t>(t);
+    Matrix3d Dm;
+    for (int k = 0; k < 3; ++k)
+      Dm.col(k) = (nodes.row(T(t, k + 1)) - nodes.row(T(t, 0))).transpose();
+    // det Dm / 6 is the signed volume; the mesh's is positive (validated).
+    if (Dm.determinant() / 6.0 >= 1e-3 * m_shapes[ut].volume) {
+      rest.edges_inv[ut] = Dm.inverse();
+    } else {
+      rest.edges_inv[ut] = m_shapes[ut].rest_edges_inv;
+      rest.mesh_rest[ut] = 1;
+      ++rest.degenerate;
+    }
+  }
+  return rest;
 }
 
 Eigen::VectorXd CorotationalModel::gravity_force(const Vector3d& gravity, double density) const {

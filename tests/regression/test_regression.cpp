@@ -61,6 +61,7 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndGapToRigid) {
   const auto j = read_json(dir / "b" / "results.json");
   const nlohmann::json* icp = nullptr;
   const nlohmann::json* rigid = nullptr;
+  const nlohmann::json* pre_dura = nullptr;
   for (const auto& run : j["runs"]) {
     SCOPED_TRACE(run.dump());
     EXPECT_TRUE(run["ok"].get<bool>());
@@ -73,9 +74,14 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndGapToRigid) {
     }
     if (run["method"] == "constraint_icp") icp = &run;
     if (run["method"] == "rigid_only") rigid = &run;
+    if (run["method"] == "pre_dura") pre_dura = &run;
   }
-  ASSERT_TRUE(icp && rigid);
+  ASSERT_TRUE(icp && rigid && pre_dura);
   EXPECT_EQ((*icp)["stop"].get<std::string>(), "converged") << name;
+  // The pose from the phantom's pre-dura sweep (register --pre-dura) with the bulk shift carried
+  // as the elastic rest: it settles on every case too (before the rest shape and DAMP,
+  // large_shift and both ICBM152 cases hit the iteration cap; docs/BENCHMARKS.md).
+  EXPECT_EQ((*pre_dura)["stop"].get<std::string>(), "converged") << name << " (pre_dura)";
   const double tre = (*icp)["tre_mean_mm"].get<double>();
   const double limit = rec["tre_mean_mm"].get<double>() * margin["tre_factor"].get<double>() +
                        margin["tre_add_mm"].get<double>();

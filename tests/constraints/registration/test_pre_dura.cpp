@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numbers>
 #include <random>
 
@@ -205,6 +206,44 @@ TEST(BulkLoad, ASagThatIsTheModelsOwnLoadResponseIsMetWithoutTheCompliantRowsLag
   EXPECT_LT(ea, 0.8 * eb);
   EXPECT_TRUE(a.converged) << a.stop_reason;
   EXPECT_TRUE(b.converged) << b.stop_reason;
+}
+
+TEST(BulkLoad, ALargeSagUnderItsLoadSettlesFromThePreStrainedRest) {
+  // The same sag at 12 mm: on this 60 mm-high model with an 8 mm fixed base that is what the
+  // large_shift phantom's 19 mm is to a brain. Carried as a body force the corotational
+  // iteration did not settle under it (not_settling after 56 iterations, measured; 14 mm: 37
+  // elements inverted; on the large_shift phantom up to 28 and the iteration cap): the warped
+  // compliance lacks the geometric stiffness of a large load. Carried as the elastic rest
+  // (core::RestShape) the load's equilibrium is stress free and the loop only corrects the
+  // remainder: it converges (36 iterations), with no element inverted on the way.
+  Scene s;
+  StepOptions linear;
+  linear.mechanics = Mechanics::LINEAR;
+  linear.gravity = Vector3d(0, 0, -9810.0);
+  MatrixX3d u =
+      s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, linear).x - s.mesh.nodes();
+  u *= 12.0 / u.col(2).cwiseAbs().maxCoeff();
+  const MatrixX3d truth = s.model->skeleton_mapping().apply(s.mesh.nodes() + u);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 0.3);
+  IntraopData d;
+  d.vessel_points = truth;
+  for (Eigen::Index i = 0; i < truth.rows(); ++i)
+    d.vessel_points.row(i) += Vector3d(g(rng), g(rng), g(rng)).transpose();
+  d.pose = Eigen::Isometry3d::Identity();  // as from a pre-dura sweep: the load is AUTO-on
+  RegistrationOptions o;
+  index_t inverted = 0;
+  o.inspect_step = [&](StepResult& r) { inverted = std::max(inverted, r.inverted_elements); };
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_GT(r.bulk_gravity.norm(), 0.0);
+  const double e = (s.model->skeleton_mapping().apply(r.positions) - truth).rowwise().norm().mean();
+  std::cout << "[ bulk load ] 12 mm sag: " << to_string(r.stop) << " in " << r.iterations
+            << " iterations, skeleton mean error " << e << " mm, " << inverted
+            << " inverted elements at most\n";
+  EXPECT_TRUE(r.converged) << r.stop_reason;
+  EXPECT_EQ(inverted, 0);
+  // The 10 mm test's floor (0.4 mm; measured 0.29 here, 0.39 with the body force).
+  EXPECT_LT(e, 0.4);
 }
 
 }  // namespace

@@ -164,6 +164,62 @@ TEST_F(CorotationalTest, NonFinitePositionThrowsNamingTheNode) {
   EXPECT_THROW((void)model.element_rotations(x.topRows(5)), Error);
 }
 
+TEST_F(CorotationalTest, APreStrainedRestIsStressFreeAndRotatesWithTheBody) {
+  // The rest shape X + u (a 5 % strain field): there, and under any rigid motion of it, every
+  // rotation is the motion's and the force is zero, although the mesh's rest would see 5 %
+  // strain.
+  std::mt19937 rng(11);
+  const RestShape rest = model.rest_shape(mesh.nodes() + smooth_displacement(mesh.nodes(), 0.5));
+  EXPECT_EQ(rest.degenerate, 0);
+  for (const Matrix3d& Q :
+       {Matrix3d::Identity().eval(), axis_angle(120, Vector3d(1, -1, 2)), random_rotation(rng)}) {
+    const MatrixX3d x = transform(rest.nodes, Q, Vector3d(4, -2, 9));
+    const ElementRotations er = model.element_rotations(x, &rest);
+    EXPECT_EQ(er.inverted_count, 0);
+    for (const Matrix3d& R : er.rotation) ASSERT_LE((R - Q).norm(), 1e-12);  // SVD rounding
+    const Eigen::VectorXd f = model.internal_force(x, er.rotation, &rest);
+    // As RigidMotionsGiveZeroForce: cancellation in Rᵀx − X', 1e-13 relative.
+    EXPECT_LE(f.norm(), 1e-13 * K0.norm() * x.norm()) << "‖f‖ = " << f.norm();
+    EXPECT_GT(force_at(model, x).norm(), 1e3 * f.norm());  // the mesh's rest is strained there
+  }
+}
+
+TEST_F(CorotationalTest, APreStrainedRestSubtractsItsLinearForce) {
+  // With the rotations held at the identity the force is linear: K0 (x − X − u) = K0 (x − X) −
+  // K0 u, to rounding (an independent sum: the assembled K0).
+  const MatrixX3d u = smooth_displacement(mesh.nodes(), 0.2);
+  const RestShape rest = model.rest_shape(mesh.nodes() + u);
+  const std::vector<Matrix3d> identity(static_cast<std::size_t>(mesh.num_tets()),
+                                       Matrix3d::Identity());
+  const MatrixX3d x = mesh.nodes() + smooth_displacement(mesh.nodes(), 0.35);
+  const Eigen::VectorXd u_vec = Eigen::Map<const Eigen::VectorXd>(u.data(), u.size());
+  const Eigen::VectorXd expected = model.internal_force(x, identity) - K0 * u_vec;
+  EXPECT_LE(tests::relative_difference(model.internal_force(x, identity, &rest), expected), 1e-12);
+}
+
+TEST_F(CorotationalTest, AnInvertedElementOfAPreStrainedRestKeepsTheMeshsRest) {
+  // A rest that turns some elements inside out cannot be their stress-free state: they keep the
+  // mesh's rest (counted), the rest stay pre-strained, and everything stays finite.
+  MatrixX3d y = mesh.nodes();
+  y.row(0) = Vector3d(50, 50, 50).transpose();
+  const RestShape rest = model.rest_shape(y);
+  EXPECT_GT(rest.degenerate, 0);
+  const ElementRotations er = model.element_rotations(y, &rest);
+  const Eigen::VectorXd f = model.internal_force(y, er.rotation, &rest);
+  ASSERT_TRUE(f.allFinite());
+  // Node 0's elements are the degenerate ones; a node that touches none of them is in
+  // equilibrium there.
+  std::vector<bool> touches(static_cast<std::size_t>(mesh.num_nodes()), false);
+  for (index_t t = 0; t < mesh.num_tets(); ++t)
+    if (rest.mesh_rest[static_cast<std::size_t>(t)])
+      for (int k = 0; k < 4; ++k) touches[static_cast<std::size_t>(mesh.tets()(t, k))] = true;
+  EXPECT_TRUE(touches[0]);
+  for (index_t i = 0; i < mesh.num_nodes(); ++i)
+    if (!touches[static_cast<std::size_t>(i)])
+      ASSERT_LE(f.segment<3>(3 * i).norm(), 1e-9 * f.norm());
+  EXPECT_THROW((void)model.rest_shape(y.topRows(4)), Error);
+}
+
 TEST(CorotationalModel, BadMeshesThrowNamingTheElementOrNode) {
   MatrixX3d X(5, 3);
   X << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1;
