@@ -59,6 +59,7 @@
 #include "cmd_simulate.hpp"
 
 #include "core/error.hpp"
+#include "core/process_memory.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -67,6 +68,9 @@
 
 int main(int argc, char** argv) {
   namespace apps = brainshift::apps;
+  // A short-lived command that allocates and frees volumes of tens of MB: reuse freed memory
+  // instead of faulting in fresh pages for each (core/process_memory.hpp).
+  (void)brainshift::core::keep_freed_memory_for_reuse();
   CLI::App app{"brainshift: brain-shift compensation with a corotational FEM brain model",
                "brainshift"};
   app.require_subcommand(1);
