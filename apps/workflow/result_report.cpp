@@ -65,6 +65,9 @@ void finish(const std::filesystem::path& dir, const Session& s, const IntraopInp
   for (const char* k : {"load_model", "extraction", "registration", "outputs"})
     total += report["timing"][k].get<double>();
   report["timing"]["total"] = total;
+  if (report["timing"].contains("elapsed_before_outputs"))  // given by register_and_write()
+    report["timing"]["elapsed"] = report["timing"]["elapsed_before_outputs"].get<double>() +
+                                  report["timing"]["outputs"].get<double>();
   std::ofstream(dir / "report.json") << report.dump(2) << '\n';
 }
 
