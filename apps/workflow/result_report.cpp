@@ -8,8 +8,10 @@
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <functional>
 
 namespace brainshift::workflow {
 namespace {
@@ -17,18 +19,26 @@ namespace {
 using core::Clock;
 using core::seconds_since;
 
-/// Writes the files of one part of the result's fields into `dir`.
-void write_part(const std::filesystem::path& dir, const ResultFields& f, ResultPart part) {
+/// Writes the files of one part of the result's fields into `dir`; `transform_written` is called
+/// once its Slicer transform (FORWARD: intraop_to_preop.nrrd, INVERSE: preop_to_intraop.nrrd)
+/// is written, before the part's other files.
+void write_part(const std::filesystem::path& dir, const ResultFields& f, ResultPart part,
+                const std::function<void()>& transform_written = {}) {
   const core::Stopwatch watch;
+  const auto transform_done = [&] {
+    if (transform_written) transform_written();
+  };
   const char* what = "";
   switch (part) {
-    case ResultPart::FORWARD:
-      imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
+    case ResultPart::FORWARD:  // the Slicer transform first (navigation needs it most)
       imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
-      what = "displacement.nii.gz and intraop_to_preop.nrrd";
+      transform_done();
+      imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
+      what = "intraop_to_preop.nrrd and displacement.nii.gz";
       break;
     case ResultPart::INVERSE:
       imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
+      transform_done();
       what = "preop_to_intraop.nrrd";
       break;
     case ResultPart::WARPED_MRI:
@@ -165,8 +175,18 @@ void write_result(const std::filesystem::path& res, const Session& s,
     // Everything is written in the intra-operative frame (result_fields.hpp); each part's files
     // as soon as it is computed, on the thread that computed it.
     ResultFields f;
-    compute_result_fields(s, r, mri, with_uncertainty, threads, f,
-                          [&](ResultPart part) { write_part(dir, f, part); });
+    // When the two Slicer transforms were written (each lane writes one first), s since t0.
+    double transform_written[2] = {0.0, 0.0};
+    compute_result_fields(s, r, mri, with_uncertainty, threads, f, [&](ResultPart part) {
+      write_part(dir, f, part, [&] {
+        const int k = part == ResultPart::FORWARD ? 0 : 1;
+        transform_written[k] = seconds_since(t0);
+      });
+    });
+    report["timing"]["transforms_written"] = std::max(transform_written[0], transform_written[1]);
+    if (report["timing"].contains("elapsed_before_outputs"))
+      report["timing"]["to_transform"] = report["timing"]["elapsed_before_outputs"].get<double>() +
+                                         report["timing"]["transforms_written"].get<double>();
     write_mesh(dir, s, f);
     finish(dir, s, in, mri, f, report, seconds_since(t0));
   });
