@@ -79,7 +79,7 @@ ImageGeometry geometry(int variant) {
                    Eigen::AngleAxisd(-0.2, Vector3d(1, 1, 0).normalized()))
                       .toRotationMatrix();
   if (variant == 2) g.direction.col(2) *= -1.0;  // left-handed
-  if (variant == 4)                              // rotated by more than π/2: a negative quaternion w
+  if (variant == 4)  // rotated by more than π/2: a negative quaternion w
     g.direction = Eigen::AngleAxisd(2.9, Vector3d(0.2, -1, 0.4).normalized()).toRotationMatrix();
   return g;
 }
