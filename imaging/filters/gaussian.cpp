@@ -51,12 +51,20 @@ VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<
             "Gaussian filter: volume holds " << image.data.size() << " values for "
                                              << image.geometry.voxel_count() << " voxels");
   VolumeF out = image;
-  bool any_non_finite = false;
-  for (float& v : out.data)
-    if (!std::isfinite(v)) {
-      v = 0.0F;
-      any_non_finite = true;
-    }
+  // Non-finite voxels count as 0 in the passes (restored below); planes on threads.
+  const std::size_t plane =
+      std::size_t(image.geometry.size[0]) * std::size_t(image.geometry.size[1]);
+  std::vector<char> non_finite_in(std::size_t(image.geometry.size[2]), 0);
+  parallel_for(image.geometry.size[2], [&](int k0, int k1) {
+    for (int k = k0; k < k1; ++k)
+      for (std::size_t v = plane * std::size_t(k); v < plane * std::size_t(k + 1); ++v)
+        if (!std::isfinite(out.data[v])) {
+          out.data[v] = 0.0F;
+          non_finite_in[std::size_t(k)] = 1;
+        }
+  });
+  const bool any_non_finite =
+      std::find(non_finite_in.begin(), non_finite_in.end(), 1) != non_finite_in.end();
   const Eigen::Vector3i& n = image.geometry.size;
   for (int axis = 0; axis < 3; ++axis) {
     const double s = sigma_mm / image.geometry.spacing[axis];
