@@ -10,7 +10,8 @@ namespace brainshift::core {
 /// new volume faults in zeroed pages again: ≈ 244k page faults and 0.3 s of kernel time in one
 /// `register` of the 16 M-voxel Doppler, half of them avoided this way (docs/BENCHMARKS.md
 /// "Speed"). The price: the process holds its peak heap until it exits, so call it only at the
-/// start of a short-lived command (the `brainshift` CLI, the Slicer modules), never in a library.
+/// start of a short-lived command (`brainshift register`, `replay`, `extract`, the Slicer module
+/// BrainshiftRegister), never in a library.
 /// No effect (and false) without glibc.
 /// @return true when the setting was applied.
 bool keep_freed_memory_for_reuse();

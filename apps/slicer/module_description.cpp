@@ -1,7 +1,6 @@
 #include "module_description.hpp"
 
 #include "core/error.hpp"
-#include "core/process_memory.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -129,8 +128,6 @@ std::string to_xml(const ModuleDescription& m) {
 int run_module(int argc, char** argv, const std::string& executable,
                const ModuleDescription& module,
                const std::function<int(const Values&, const ProgressReport&)>& body) {
-  // A short-lived process allocating and freeing large volumes (core/process_memory.hpp).
-  (void)core::keep_freed_memory_for_reuse();
   for (int a = 1; a < argc; ++a) {
     if (std::string(argv[a]) == "--xml") {
       std::cout << to_xml(module);
