@@ -59,6 +59,7 @@
 #include "cmd_simulate.hpp"
 
 #include "core/error.hpp"
+#include "core/process_memory.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -106,6 +107,11 @@ int main(int argc, char** argv) {
     return e.get_exit_code() != 0 ? e.get_exit_code() : 1;
   }
 
+  // The intra-operative commands allocate and free volumes of tens of MB and end soon after:
+  // reuse freed memory instead of faulting in fresh pages for each (core/process_memory.hpp).
+  // Not for the long or heavy ones (bench, prepare), whose peak heap would be kept.
+  if (reg->parsed() || replay->parsed() || extract_vessels->parsed() || extract_footprint->parsed())
+    (void)brainshift::core::keep_freed_memory_for_reuse();
   try {
     if (simulate->parsed()) return apps::run_simulate(simulate_args, std::cout);
     if (demo->parsed()) return apps::run_demo(demo_args, std::cout);

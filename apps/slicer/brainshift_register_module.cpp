@@ -21,6 +21,7 @@
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/result_fields.hpp"
 #include "core/error.hpp"
+#include "core/process_memory.hpp"
 #include "core/timing.hpp"
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"
@@ -179,6 +180,9 @@ int register_body(const Values& v, const ProgressReport& progress) {
 
 int main(int argc, char** argv) {
   namespace slicer = brainshift::apps::slicer;
+  // Allocates and frees volumes of tens of MB and ends soon after: reuse freed memory instead of
+  // faulting in fresh pages for each (core/process_memory.hpp).
+  (void)brainshift::core::keep_freed_memory_for_reuse();
   return slicer::run_module(argc, argv, "BrainshiftRegister", slicer::register_module(),
                             slicer::register_body);
 }

@@ -27,6 +27,7 @@
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
 
+#include <functional>
 #include <optional>
 
 namespace brainshift::workflow {
@@ -47,5 +48,27 @@ struct ResultFields {
 /// \throws brainshift::Error when the result's positions do not fit the model.
 ResultFields compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
                                    const imaging::VolumeF* mri, bool with_uncertainty = true);
+
+/// The parts of ResultFields, in the order a serial computation makes them.
+enum class ResultPart {
+  FORWARD,      ///< displacement and intraop_to_preop (one rasterisation)
+  INVERSE,      ///< preop_to_intraop
+  WARPED_MRI,   ///< warped_mri (only with an MRI)
+  UNCERTAINTY,  ///< uncertainty (only when asked for)
+};
+/// Called with each part as soon as it is computed, on the thread that computed it.
+using ResultPartReady = std::function<void(ResultPart)>;
+
+/// As compute_result_fields(), into `f`, handing each part to `ready` as soon as it is there (to
+/// write its file while the rest is computed). With `threads` ≥ 2 the forward fields are computed
+/// on the calling thread and the inverse field, the warped MRI and the predicted error, in that
+/// order, on a second thread, so `ready` runs on both threads at once; it may read only the part
+/// it is given (and intraop_from_model, u_intra) until this returns. With `threads` = 1 all parts
+/// come in the order of ResultPart on the calling thread. The fields do not depend on `threads`
+/// (each kernel's result is independent of its thread count). An exception from either thread
+/// (a kernel's or `ready`'s) is rethrown here once both have stopped.
+void compute_result_fields(const Session& s, const constraints::RegistrationResult& r,
+                           const imaging::VolumeF* mri, bool with_uncertainty, int threads,
+                           ResultFields& f, const ResultPartReady& ready);
 
 }  // namespace brainshift::workflow

@@ -3,6 +3,7 @@
 #include "imaging/overlay/overlay.hpp"
 
 #include <cmath>
+#include <future>
 
 namespace brainshift::workflow {
 
@@ -37,14 +38,17 @@ void write_result_overlay(const std::filesystem::path& path, const imaging::Volu
   if (mri && warped) {
     in.left = mri;
     in.right = warped;
+    // The two images are independent: the predicted-error one on a second thread.
+    std::future<void> second;
+    if (uncertainty)
+      second = std::async(std::launch::async, [&, u = in]() mutable {
+        imaging::OverlayOptions uo;
+        u.right = nullptr;
+        magnitude_panel(u, uo);
+        imaging::write_overlay_png(path.parent_path() / "overlay_uncertainty.png", u, uo);
+      });
     imaging::write_overlay_png(path, in, o);
-    if (uncertainty) {
-      imaging::OverlayInput u = in;
-      imaging::OverlayOptions uo;
-      u.right = nullptr;
-      magnitude_panel(u, uo);
-      imaging::write_overlay_png(path.parent_path() / "overlay_uncertainty.png", u, uo);
-    }
+    if (second.valid()) second.get();
     return;
   }
   magnitude_panel(in, o);

@@ -8,14 +8,78 @@
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <fstream>
+#include <functional>
 
 namespace brainshift::workflow {
 namespace {
 
 using core::Clock;
 using core::seconds_since;
+
+/// Writes the files of one part of the result's fields into `dir`; `transform_written` is called
+/// once its Slicer transform (FORWARD: intraop_to_preop.nrrd, INVERSE: preop_to_intraop.nrrd)
+/// is written, before the part's other files.
+void write_part(const std::filesystem::path& dir, const ResultFields& f, ResultPart part,
+                const std::function<void()>& transform_written = {}) {
+  const core::Stopwatch watch;
+  const auto transform_done = [&] {
+    if (transform_written) transform_written();
+  };
+  const char* what = "";
+  switch (part) {
+    case ResultPart::FORWARD:  // the Slicer transform first (navigation needs it most)
+      imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
+      transform_done();
+      imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
+      what = "intraop_to_preop.nrrd and displacement.nii.gz";
+      break;
+    case ResultPart::INVERSE:
+      imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
+      transform_done();
+      what = "preop_to_intraop.nrrd";
+      break;
+    case ResultPart::WARPED_MRI:
+      imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
+      what = "warped_mri.nii.gz";
+      break;
+    case ResultPart::UNCERTAINTY:
+      imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
+      what = "uncertainty.nii.gz";
+      break;
+  }
+  logger().debug("register: wrote {} in {:.3f} s", what, watch.seconds());
+}
+
+void write_mesh(const std::filesystem::path& dir, const Session& s, const ResultFields& f) {
+  const core::Stopwatch watch;
+  imaging::write_tet_mesh(dir / "deformed.vtu", s.model->mesh(), &f.u_intra);
+  logger().debug("register: wrote deformed.vtu in {:.3f} s", watch.seconds());
+}
+
+/// The overlay and report.json, last (the report's output time `seconds_outputs` counts to here).
+void finish(const std::filesystem::path& dir, const Session& s, const IntraopInputs& in,
+            const imaging::VolumeF* mri, const ResultFields& f, nlohmann::json& report,
+            double seconds_outputs) {
+  const core::Stopwatch watch;
+  write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr,
+                       f.displacement, in.data,
+                       f.uncertainty.computed ? &f.uncertainty.map : nullptr);
+  logger().debug("register: wrote overlay.png in {:.3f} s", watch.seconds());
+  report["uncertainty"] = f.uncertainty.computed ? uncertainty_report(s, f.uncertainty, in.data)
+                                                 : nlohmann::json{{"computed", false}};
+  report["timing"]["outputs"] = seconds_outputs + watch.seconds();
+  double total = 0;
+  for (const char* k : {"load_model", "extraction", "registration", "outputs"})
+    total += report["timing"][k].get<double>();
+  report["timing"]["total"] = total;
+  if (report["timing"].contains("elapsed_before_outputs"))  // given by register_and_write()
+    report["timing"]["elapsed"] = report["timing"]["elapsed_before_outputs"].get<double>() +
+                                  report["timing"]["outputs"].get<double>();
+  std::ofstream(dir / "report.json") << report.dump(2) << '\n';
+}
 
 }  // namespace
 
@@ -104,11 +168,29 @@ nlohmann::json result_report(const Session& s, const constraints::RegistrationRe
 
 void write_result(const std::filesystem::path& res, const Session& s,
                   const constraints::RegistrationResult& r, const IntraopInputs& in,
-                  const imaging::VolumeF* mri, const nlohmann::json& extra, bool with_uncertainty) {
+                  const imaging::VolumeF* mri, const nlohmann::json& extra, bool with_uncertainty,
+                  int threads) {
   const auto t0 = Clock::now();
-  // Everything is written in the intra-operative frame (result_fields.hpp).
-  const ResultFields f = compute_result_fields(s, r, mri, with_uncertainty);
-  write_result(res, s, r, in, mri, f, extra, seconds_since(t0));
+  nlohmann::json report = result_report(s, r, in, extra);
+  write_folder_atomically(res, [&](const std::filesystem::path& dir) {
+    // Everything is written in the intra-operative frame (result_fields.hpp); each part's files
+    // as soon as it is computed, on the thread that computed it.
+    ResultFields f;
+    // When the two Slicer transforms were written (each lane writes one first), s since t0.
+    double transform_written[2] = {0.0, 0.0};
+    compute_result_fields(s, r, mri, with_uncertainty, threads, f, [&](ResultPart part) {
+      write_part(dir, f, part, [&] {
+        const int k = part == ResultPart::FORWARD ? 0 : 1;
+        transform_written[k] = seconds_since(t0);
+      });
+    });
+    report["timing"]["transforms_written"] = std::max(transform_written[0], transform_written[1]);
+    if (report["timing"].contains("elapsed_before_outputs"))
+      report["timing"]["to_transform"] = report["timing"]["elapsed_before_outputs"].get<double>() +
+                                         report["timing"]["transforms_written"].get<double>();
+    write_mesh(dir, s, f);
+    finish(dir, s, in, mri, f, report, seconds_since(t0));
+  });
 }
 
 void write_result(const std::filesystem::path& res, const Session& s,
@@ -116,39 +198,14 @@ void write_result(const std::filesystem::path& res, const Session& s,
                   const imaging::VolumeF* mri, const ResultFields& f, const nlohmann::json& extra,
                   double seconds_fields) {
   const auto t0 = Clock::now();
-  const core::TetMesh& mesh = s.model->mesh();
   nlohmann::json report = result_report(s, r, in, extra);
-  report["uncertainty"] = f.uncertainty.computed ? uncertainty_report(s, f.uncertainty, in.data)
-                                                 : nlohmann::json{{"computed", false}};
   write_folder_atomically(res, [&](const std::filesystem::path& dir) {
-    auto t = Clock::now();
-    const auto done = [&t](const char* what) {
-      logger().debug("register: wrote {} in {:.3f} s", what, seconds_since(t));
-      t = Clock::now();
-    };
-    imaging::write_tet_mesh(dir / "deformed.vtu", mesh, &f.u_intra);
-    done("deformed.vtu");
-    imaging::write_volume(dir / "displacement.nii.gz", f.displacement);
-    done("displacement.nii.gz");
-    imaging::write_displacement_for_slicer(dir / "preop_to_intraop.nrrd", f.preop_to_intraop);
-    imaging::write_displacement_for_slicer(dir / "intraop_to_preop.nrrd", f.intraop_to_preop);
-    done("the two Slicer transforms");
-    if (f.uncertainty.computed) {
-      imaging::write_volume(dir / "uncertainty.nii.gz", f.uncertainty.map);
-      done("uncertainty.nii.gz");
-    }
-    if (f.warped_mri) imaging::write_volume(dir / "warped_mri.nii.gz", *f.warped_mri);
-    done("warped_mri.nii.gz");
-    write_result_overlay(dir / "overlay.png", mri, f.warped_mri ? &*f.warped_mri : nullptr,
-                         f.displacement, in.data,
-                         f.uncertainty.computed ? &f.uncertainty.map : nullptr);
-    done("overlay.png");
-    report["timing"]["outputs"] = seconds_fields + seconds_since(t0);
-    double total = 0;
-    for (const char* k : {"load_model", "extraction", "registration", "outputs"})
-      total += report["timing"][k].get<double>();
-    report["timing"]["total"] = total;
-    std::ofstream(dir / "report.json") << report.dump(2) << '\n';
+    write_mesh(dir, s, f);
+    write_part(dir, f, ResultPart::FORWARD);
+    write_part(dir, f, ResultPart::INVERSE);
+    if (f.warped_mri) write_part(dir, f, ResultPart::WARPED_MRI);
+    if (f.uncertainty.computed) write_part(dir, f, ResultPart::UNCERTAINTY);
+    finish(dir, s, in, mri, f, report, seconds_fields + seconds_since(t0));
   });
 }
 

@@ -20,10 +20,13 @@ namespace brainshift::workflow {
 /// intraop_to_preop.nrrd, overlay.png, warped_mri.nii.gz with an MRI from read_preop_mri())
 /// atomically. `extra` is merged into the report. Without `with_uncertainty` the predicted
 /// error is skipped: no uncertainty.nii.gz, report `uncertainty` = {"computed": false}.
+/// With `threads` ≥ 2 the fields are computed on two threads and each file is written as soon as
+/// its field is there (compute_result_fields() with a callback); the files are the same bytes
+/// as with `threads` = 1 (all in turn), only report.json's times differ.
 void write_result(const std::filesystem::path& res, const Session& s,
                   const constraints::RegistrationResult& r, const IntraopInputs& in,
                   const imaging::VolumeF* mri, const nlohmann::json& extra,
-                  bool with_uncertainty = true);
+                  bool with_uncertainty = true, int threads = 2);
 
 struct ResultFields;
 /// As above with the fields already computed (compute_result_fields() with the same `mri`);

@@ -22,6 +22,22 @@ void mesh_box(const core::TetMesh& mesh, Vector3d& lo, Vector3d& hi) {
   hi = mesh.nodes().colwise().maxCoeff().transpose();
 }
 
+void verify_overlap(const Session& s, const imaging::ImageGeometry& g,
+                    const std::filesystem::path& doppler) {
+  Vector3d lo, hi;
+  mesh_box(s.model->mesh(), lo, hi);
+  BS_VERIFY(grid_overlaps(g, lo, hi, 5.0),
+            doppler.string()
+                << ": does not overlap the model (different space or patient? check the tracking)");
+}
+
+imaging::VolumeF read_doppler(const std::filesystem::path& doppler) {
+  imaging::VolumeF d = imaging::read_volume(doppler);
+  BS_VERIFY(d.components == 1, doppler.string() << ": expected a scalar Doppler volume, got "
+                                                << d.components << " components");
+  return d;
+}
+
 }  // namespace
 
 Session open_session(const std::filesystem::path& model_dir) {
@@ -62,20 +78,30 @@ Session open_session(const std::filesystem::path& model_dir) {
   return s;
 }
 
-IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
-                           const std::optional<std::filesystem::path>& bmode,
-                           const imaging::VesselExtractionOptions& vessels) {
+DopplerExtraction extract_doppler(const std::filesystem::path& doppler,
+                                  const imaging::VesselExtractionOptions& vessels) {
+  const auto t0 = Clock::now();
+  DopplerExtraction out;
+  out.file = doppler;
+  const imaging::VolumeF d = read_doppler(doppler);
+  out.geometry = d.geometry;
+  try {
+    out.vessels = imaging::extract_vessels(d, vessels);
+  } catch (...) {
+    out.failure = std::current_exception();
+  }
+  out.seconds = seconds_since(t0);
+  return out;
+}
+
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
+                           const std::optional<std::filesystem::path>& bmode) {
   const auto t0 = Clock::now();
   IntraopInputs in;
-  const imaging::VolumeF d = imaging::read_volume(doppler);
-  BS_VERIFY(d.components == 1, doppler.string() << ": expected a scalar Doppler volume, got "
-                                                << d.components << " components");
-  Vector3d lo, hi;
-  mesh_box(s.model->mesh(), lo, hi);
-  BS_VERIFY(grid_overlaps(d.geometry, lo, hi, 5.0),
-            doppler.string()
-                << ": does not overlap the model (different space or patient? check the tracking)");
-  const imaging::VesselExtractionResult v = imaging::extract_vessels(d, vessels);
+  const std::filesystem::path& doppler = d.file;
+  verify_overlap(s, d.geometry, doppler);
+  if (d.failure) std::rethrow_exception(d.failure);
+  const imaging::VesselExtractionResult& v = d.vessels;
   BS_VERIFY(v.non_finite_voxels < d.geometry.voxel_count(),
             doppler.string() << ": every voxel is NaN or infinite");
   BS_VERIFY(v.status == imaging::VesselStatus::OK,
@@ -92,8 +118,23 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
     in.data.footprint_normals = f.normals;
     in.report["bmode"] = f.report;
   }
-  in.seconds = seconds_since(t0);
+  in.seconds = d.seconds + seconds_since(t0);
   return in;
+}
+
+IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
+                           const std::optional<std::filesystem::path>& bmode,
+                           const imaging::VesselExtractionOptions& vessels) {
+  // Serially the overlap is checked before extracting (no extraction of a misplaced volume).
+  const auto t0 = Clock::now();
+  DopplerExtraction e;
+  e.file = doppler;
+  const imaging::VolumeF d = read_doppler(doppler);
+  e.geometry = d.geometry;
+  verify_overlap(s, e.geometry, doppler);
+  e.vessels = imaging::extract_vessels(d, vessels);
+  e.seconds = seconds_since(t0);
+  return read_intraop(s, e, bmode);
 }
 
 Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::path& doppler,
@@ -118,7 +159,11 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::pa
 }
 
 imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri) {
-  imaging::VolumeF image = imaging::read_volume(mri);
+  return read_preop_mri(s, mri, imaging::read_volume(mri));
+}
+
+imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri,
+                                imaging::VolumeF image) {
   BS_VERIFY(
       same_grid(image.geometry, s.loaded.preop_grid),
       mri.string() << ": not on the grid of the model's labels (another patient or another scan?)");

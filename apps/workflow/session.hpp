@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -41,6 +42,27 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
                            const std::optional<std::filesystem::path>& bmode,
                            const imaging::VesselExtractionOptions& vessels = {});
 
+/// A power-Doppler volume read and its vessels extracted, before anything is checked against a
+/// model: the model-independent part of read_intraop(), so that it can run while the model loads.
+struct DopplerExtraction {
+  std::filesystem::path file;
+  imaging::ImageGeometry geometry;          ///< the volume's grid (world RAS, mm)
+  imaging::VesselExtractionResult vessels;  ///< what extraction found
+  std::exception_ptr failure;  ///< thrown by the extraction; rethrown after the overlap check
+  double seconds = 0.0;        ///< reading and extraction, s
+};
+/// Reads `doppler` and extracts its vessels (no model needed).
+/// \throws brainshift::Error naming the file when it cannot be read or is not a scalar volume;
+/// an error of the extraction itself is kept in DopplerExtraction::failure (read_intraop()
+/// reports it after checking that the volume overlaps the model, as a serial run does).
+DopplerExtraction extract_doppler(const std::filesystem::path& doppler,
+                                  const imaging::VesselExtractionOptions& vessels = {});
+/// read_intraop() from an extraction made beforehand: the same checks in the same order (overlap
+/// with the model, then the extraction's outcome), the same result; IntraopInputs::seconds
+/// includes DopplerExtraction::seconds.
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
+                           const std::optional<std::filesystem::path>& bmode);
+
 /// The navigation offset (model ← tracked frame) from the power Doppler of a sweep made on the
 /// dura before it was opened: its vessel points' rigid global start
 /// (constraints::pre_dura_pose()). The identity when no pose scores better than it (the
@@ -53,5 +75,8 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::pa
 /// Reads the pre-operative MRI to warp and checks it lies on the model's grid (same patient and
 /// scan). \throws brainshift::Error naming the file otherwise.
 imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri);
+/// As above with the MRI already read from `mri` (e.g. while the model loaded).
+imaging::VolumeF read_preop_mri(const Session& s, const std::filesystem::path& mri,
+                                imaging::VolumeF image);
 
 }  // namespace brainshift::workflow

@@ -89,8 +89,16 @@ double percentile(std::vector<double> values, double p) {
             "percentile " << p << " is outside [0, 100]");
   for (std::size_t i = 0; i < values.size(); ++i)
     BS_VERIFY(std::isfinite(values[i]), "value " << i << " is not finite (" << values[i] << ")");
-  std::sort(values.begin(), values.end());
-  return sorted_percentile(values, p);
+  // The two order statistics by selection, O(n) (a full sort took 0.15 s on the 1.3 M voxels of
+  // the predicted-error map): x_⌊h⌋ by nth_element, x_⌊h⌋+1 the smallest of what lies above it.
+  // The same values as sorting, so the same result to the bit.
+  const double h = double(values.size() - 1) * p / 100.0;
+  const auto lo = std::size_t(std::floor(h));
+  const auto at = values.begin() + std::ptrdiff_t(lo);
+  std::nth_element(values.begin(), at, values.end());
+  const double x_lo = *at;
+  const double x_hi = lo + 1 < values.size() ? *std::min_element(at + 1, values.end()) : x_lo;
+  return x_lo + (h - double(lo)) * (x_hi - x_lo);
 }
 
 ErrorStats error_stats(const std::vector<double>& errors_mm) {

@@ -19,7 +19,7 @@ namespace brainshift::imaging {
 /// "type 7" rule of Hyndman & Fan 1996, R's and NumPy's default): with x₀ ≤ … ≤ x_{n−1} sorted
 /// and h = (n − 1)·p/100, P_p = x_⌊h⌋ + (h − ⌊h⌋)(x_⌊h⌋+1 − x_⌊h⌋). So P₀ = min, P₁₀₀ = max,
 /// P₅₀ = the usual median.
-/// @param[in] values  n ≥ 1 finite values (any order; copied and sorted).
+/// @param[in] values  n ≥ 1 finite values (any order; copied; O(n) by selection, no sort).
 /// @param[in] p  percent in [0, 100].
 /// \throws brainshift::Error when `values` is empty, a value is not finite, or p ∉ [0, 100].
 double percentile(std::vector<double> values, double p);

@@ -1,5 +1,6 @@
 #include "imaging/filters/gaussian.hpp"
 
+#include "imaging/filters/parallel.hpp"
 #include "imaging/filters/separable.hpp"
 
 #include <algorithm>
@@ -50,12 +51,20 @@ VolumeF gaussian_filter(const VolumeF& image, double sigma_mm, const std::array<
             "Gaussian filter: volume holds " << image.data.size() << " values for "
                                              << image.geometry.voxel_count() << " voxels");
   VolumeF out = image;
-  bool any_non_finite = false;
-  for (float& v : out.data)
-    if (!std::isfinite(v)) {
-      v = 0.0F;
-      any_non_finite = true;
-    }
+  // Non-finite voxels count as 0 in the passes (restored below); planes on threads.
+  const std::size_t plane =
+      std::size_t(image.geometry.size[0]) * std::size_t(image.geometry.size[1]);
+  std::vector<char> non_finite_in(std::size_t(image.geometry.size[2]), 0);
+  parallel_for(image.geometry.size[2], [&](int k0, int k1) {
+    for (int k = k0; k < k1; ++k)
+      for (std::size_t v = plane * std::size_t(k); v < plane * std::size_t(k + 1); ++v)
+        if (!std::isfinite(out.data[v])) {
+          out.data[v] = 0.0F;
+          non_finite_in[std::size_t(k)] = 1;
+        }
+  });
+  const bool any_non_finite =
+      std::find(non_finite_in.begin(), non_finite_in.end(), 1) != non_finite_in.end();
   const Eigen::Vector3i& n = image.geometry.size;
   for (int axis = 0; axis < 3; ++axis) {
     const double s = sigma_mm / image.geometry.spacing[axis];
@@ -111,24 +120,30 @@ VolumeF downsample(const VolumeF& image, const Eigen::Vector3i& factor, bool max
   c.origin = g.index_to_world(0.5 * (factor.cast<double>() - Vector3d::Ones()));
   VolumeF out(c, 1, 0.0F);
   std::vector<float> count(out.data.size(), 0.0F);
-  for (int k = 0; k < g.size[2]; ++k)
-    for (int j = 0; j < g.size[1]; ++j) {
-      const std::int64_t row = c.linear_index(0, j / factor[1], k / factor[2]);
-      const float* in = &image.data[std::size_t(g.linear_index(0, j, k))];
-      for (int i = 0; i < g.size[0]; ++i) {
-        const float v = in[i];
-        if (!std::isfinite(v)) continue;
-        const std::size_t o = std::size_t(row + i / factor[0]);
-        if (maximum)
-          out.data[o] = count[o] == 0.0F ? v : std::max(out.data[o], v);
-        else
-          out.data[o] += v;
-        count[o] += 1.0F;
+  // Output planes in parallel: each output voxel is accumulated by one thread, over its input
+  // voxels in the same (k, j, i) order as one pass, so the result does not depend on the split.
+  parallel_for(c.size[2], [&](int kc0, int kc1) {
+    for (int k = kc0 * factor[2]; k < std::min(g.size[2], kc1 * factor[2]); ++k)
+      for (int j = 0; j < g.size[1]; ++j) {
+        const std::int64_t row = c.linear_index(0, j / factor[1], k / factor[2]);
+        const float* in = &image.data[std::size_t(g.linear_index(0, j, k))];
+        for (int i = 0; i < g.size[0]; ++i) {
+          const float v = in[i];
+          if (!std::isfinite(v)) continue;
+          const std::size_t o = std::size_t(row + i / factor[0]);
+          if (maximum)
+            out.data[o] = count[o] == 0.0F ? v : std::max(out.data[o], v);
+          else
+            out.data[o] += v;
+          count[o] += 1.0F;
+        }
       }
+    if (!maximum) {
+      const std::size_t plane = std::size_t(c.size[0]) * std::size_t(c.size[1]);
+      for (std::size_t o = plane * std::size_t(kc0); o < plane * std::size_t(kc1); ++o)
+        if (count[o] > 0.0F) out.data[o] /= count[o];
     }
-  if (!maximum)
-    for (std::size_t o = 0; o < out.data.size(); ++o)
-      if (count[o] > 0.0F) out.data[o] /= count[o];
+  });
   return out;
 }
 

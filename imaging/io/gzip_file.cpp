@@ -10,6 +10,10 @@
 #include <vector>
 #include <zlib.h>
 
+#ifdef BS_HAVE_ISAL
+#include <isa-l/igzip_lib.h>
+#endif
+
 namespace brainshift::imaging {
 namespace {
 
@@ -21,9 +25,55 @@ struct Chunk {
   std::string error;
 };
 
+#ifdef BS_HAVE_ISAL
+/// deflate_chunk() by ISA-L's igzip at level min(level, 3) (its highest; run_length has no
+/// counterpart there): the same raw-deflate chunk contract, other (equally valid) bytes.
+void isal_deflate_chunk(const unsigned char* in, std::size_t n, bool last, const GzipOptions& o,
+                        Chunk& c) {
+  const int level = std::min(o.level, 3);
+  std::vector<unsigned char> level_buffer(level == 1   ? ISAL_DEF_LVL1_DEFAULT
+                                          : level == 2 ? ISAL_DEF_LVL2_DEFAULT
+                                                       : ISAL_DEF_LVL3_DEFAULT);
+  isal_zstream z;
+  isal_deflate_init(&z);
+  z.level = static_cast<std::uint32_t>(level);
+  z.level_buf = level_buffer.data();
+  z.level_buf_size = static_cast<std::uint32_t>(level_buffer.size());
+  z.gzip_flag = IGZIP_DEFLATE;
+  z.end_of_stream = last ? 1 : 0;
+  z.flush = last ? NO_FLUSH : SYNC_FLUSH;      // a chunk before the last ends on a byte boundary
+  z.next_in = const_cast<unsigned char*>(in);  // ISA-L's API is not const-correct
+  z.avail_in = static_cast<std::uint32_t>(n);
+  // igzip has no bound function: start at the input size plus 1/8 and grow while it fills the
+  // output (its documented calling pattern: call again while avail_out comes back 0).
+  c.out.resize(n + n / 8 + 65536);
+  std::size_t done = 0;
+  for (;;) {
+    z.next_out = c.out.data() + done;
+    z.avail_out = static_cast<std::uint32_t>(c.out.size() - done);
+    if (isal_deflate(&z) != COMP_OK) {
+      c.error = "isal_deflate failed";
+      return;
+    }
+    done = c.out.size() - z.avail_out;
+    if (z.avail_out != 0) break;
+    c.out.resize(c.out.size() + c.out.size() / 2);
+  }
+  if (z.avail_in != 0 || (last && z.internal_state.state != ZSTATE_END))
+    c.error = "isal_deflate did not finish";
+  c.out.resize(done);
+}
+#endif
+
 void deflate_chunk(const unsigned char* in, std::size_t n, bool last, const GzipOptions& o,
                    Chunk& c) {
   c.crc = crc32_z(crc32_z(0L, Z_NULL, 0), in, n);
+#ifdef BS_HAVE_ISAL
+  if (o.fast && o.level > 0) {
+    isal_deflate_chunk(in, n, last, o, c);
+    return;
+  }
+#endif
   z_stream z{};
   if (deflateInit2(&z, o.level, Z_DEFLATED, -15, 8, o.run_length ? Z_RLE : Z_DEFAULT_STRATEGY) !=
       Z_OK) {
@@ -50,6 +100,14 @@ void put_le32(std::ofstream& f, std::uint32_t v) {
 }
 
 }  // namespace
+
+bool gzip_has_fast_deflate() {
+#ifdef BS_HAVE_ISAL
+  return true;
+#else
+  return false;
+#endif
+}
 
 void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path& target,
                  const GzipOptions& options) {

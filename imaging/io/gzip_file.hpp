@@ -20,7 +20,14 @@ struct GzipOptions {
   int level = 1;
   bool run_length = true;  ///< Z_RLE strategy (otherwise Z_DEFAULT_STRATEGY)
   int threads = 2;         ///< chunks compressed in parallel (≥ 1); more only above 1 MiB each
+  /// Levels ≥ 1 by ISA-L's igzip (at min(level, 3), run_length ignored) when built with it
+  /// (gzip_has_fast_deflate()): about 4x less CPU than zlib on the float volumes of `register`,
+  /// files about 1.5 % larger (docs/BENCHMARKS.md "Speed"). The decompressed bytes are the same.
+  bool fast = true;
 };
+
+/// True when this build has ISA-L's igzip for GzipOptions::fast (found by cmake/deps/isal.cmake).
+bool gzip_has_fast_deflate();
 
 /// Compresses `size` bytes at `data` into a gzip file at `target` (written directly: wrap the
 /// call in write_atomically() for an atomic file).

@@ -19,6 +19,12 @@ std::string vtk_error_message(const char* text) {
   return "VTK error";
 }
 
+/// Serialises the captures of all threads (see the class).
+std::recursive_mutex& capture_mutex() {
+  static std::recursive_mutex m;
+  return m;
+}
+
 }  // namespace
 
 class VtkErrorCapture::Window : public vtkOutputWindow {
@@ -35,7 +41,8 @@ class VtkErrorCapture::Window : public vtkOutputWindow {
 };
 
 VtkErrorCapture::VtkErrorCapture()
-    : m_previous_window(vtkOutputWindow::GetInstance()),
+    : m_lock(capture_mutex()),
+      m_previous_window(vtkOutputWindow::GetInstance()),
       m_previous_cutoff(vtkLogger::GetCurrentVerbosityCutoff()) {
   vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
   m_window = vtkSmartPointer<Window>::New();

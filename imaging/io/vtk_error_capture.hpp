@@ -7,14 +7,17 @@
 #include <vtkOutputWindow.h>
 #include <vtkSmartPointer.h>
 
+#include <mutex>
 #include <string>
 
 namespace brainshift::imaging {
 
 /// While alive, VTK's errors and warnings go nowhere but here; the first error is kept for a
 /// one-line exception. Parser errors come from objects we cannot attach observers to, hence the
-/// process-wide output window and logger settings, restored on destruction. Not for concurrent
-/// VTK use on other threads.
+/// process-wide output window and logger settings, restored on destruction. A capture holds a
+/// process-wide (recursive) lock while alive, so threads whose VTK calls all run inside a capture
+/// take turns (e.g. the result files written on two threads): each sees only its own errors.
+/// VTK used outside a capture on another thread meanwhile is not serialised.
 class VtkErrorCapture {
  public:
   VtkErrorCapture();
@@ -29,6 +32,7 @@ class VtkErrorCapture {
 
  private:
   class Window;
+  std::unique_lock<std::recursive_mutex> m_lock;  ///< first: taken before, released after the rest
   vtkSmartPointer<vtkOutputWindow> m_previous_window;
   vtkSmartPointer<Window> m_window;
   int m_previous_cutoff;

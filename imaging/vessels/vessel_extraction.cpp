@@ -2,6 +2,7 @@
 
 #include "core/logger.hpp"
 #include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/parallel.hpp"
 #include "imaging/vessels/distance_transform.hpp"
 #include "imaging/vessels/thinning.hpp"
 
@@ -194,8 +195,19 @@ VesselExtractionResult extract_vessels(const VolumeF& image,
                                                << image.geometry.voxel_count() << " voxels");
   VesselExtractionResult result;
   if (image.empty()) return empty_result(result, "empty volume (no voxels)");
-  result.non_finite_voxels = std::count_if(image.data.begin(), image.data.end(),
-                                           [](float v) { return !std::isfinite(v); });
+  {  // counted by planes on threads
+    const ImageGeometry& g = image.geometry;
+    const std::size_t plane = std::size_t(g.size[0]) * std::size_t(g.size[1]);
+    std::vector<std::int64_t> per_plane(std::size_t(g.size[2]), 0);
+    filters::parallel_for(g.size[2], [&](int k0, int k1) {
+      for (int k = k0; k < k1; ++k)
+        per_plane[std::size_t(k)] =
+            std::count_if(image.data.begin() + std::ptrdiff_t(plane * std::size_t(k)),
+                          image.data.begin() + std::ptrdiff_t(plane * std::size_t(k + 1)),
+                          [](float v) { return !std::isfinite(v); });
+    });
+    result.non_finite_voxels = std::accumulate(per_plane.begin(), per_plane.end(), std::int64_t(0));
+  }
   if (result.non_finite_voxels > 0)
     logger().warn("vessel extraction: {} non-finite voxels treated as background",
                   result.non_finite_voxels);
@@ -256,14 +268,28 @@ VesselExtractionResult extract_vessels(const VolumeF& image,
   // Foreground and its bounding box.
   const ImageGeometry& g = image.geometry;
   Eigen::Vector3i lo = g.size, hi = Eigen::Vector3i::Constant(-1);
-  for (int k = 0; k < g.size[2]; ++k)
-    for (int j = 0; j < g.size[1]; ++j)
-      for (int i = 0; i < g.size[0]; ++i)
-        if (filtered.at(i, j, k) >= result.threshold) {  // false for NaN
-          ++result.foreground_voxels;
-          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
-          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
-        }
+  {  // planes on threads: per-plane counts and boxes, combined (sums, minima, maxima: exact)
+    std::vector<std::int64_t> count(std::size_t(g.size[2]), 0);
+    std::vector<Eigen::Vector3i> plane_lo(std::size_t(g.size[2]), g.size),
+        plane_hi(std::size_t(g.size[2]), Eigen::Vector3i::Constant(-1));
+    filters::parallel_for(g.size[2], [&](int k0, int k1) {
+      for (int k = k0; k < k1; ++k)
+        for (int j = 0; j < g.size[1]; ++j)
+          for (int i = 0; i < g.size[0]; ++i)
+            if (filtered.at(i, j, k) >= result.threshold) {  // false for NaN
+              ++count[std::size_t(k)];
+              plane_lo[std::size_t(k)] =
+                  plane_lo[std::size_t(k)].cwiseMin(Eigen::Vector3i(i, j, k));
+              plane_hi[std::size_t(k)] =
+                  plane_hi[std::size_t(k)].cwiseMax(Eigen::Vector3i(i, j, k));
+            }
+    });
+    for (std::size_t k = 0; k < count.size(); ++k) {
+      result.foreground_voxels += count[k];
+      lo = lo.cwiseMin(plane_lo[k]);
+      hi = hi.cwiseMax(plane_hi[k]);
+    }
+  }
   if (result.foreground_voxels == 0) {
     std::ostringstream why;
     why << "no voxel at or above the threshold " << result.threshold << " ("

@@ -1,8 +1,10 @@
 #include "imaging/vessels/vessel_threshold.hpp"
 
+#include "core/parallel.hpp"
 #include "imaging/filters/gaussian.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <sstream>
 #include <vector>
@@ -14,6 +16,35 @@ double median_of(std::vector<float>& values) {
   const auto mid = values.begin() + std::ptrdiff_t(values.size() / 2);
   std::nth_element(values.begin(), mid, values.end());
   return *mid;
+}
+
+/// The passes over every voxel below run on this many contiguous ranges, two threads: each
+/// range's results are kept apart and combined in range order, so minima and counts are those
+/// of one pass and gathered values come in one pass's order: the results are the same, to the
+/// bit, as a single-threaded pass.
+constexpr std::size_t ranges = 8;
+
+/// body(begin, end, r) on the ranges r of [0, n).
+template <typename F>
+void for_ranges(std::size_t n, F&& body) {
+  core::parallel_chunks(ranges, /*threads=*/2,
+                        [&](std::size_t r) { body(n * r / ranges, n * (r + 1) / ranges, r); });
+}
+
+/// The values value(v) of the voxels v in [0, n) for which keep(v), gathered by for_ranges().
+template <typename Keep, typename Value>
+std::vector<float> gather(std::size_t n, Keep&& keep, Value&& value) {
+  std::vector<std::vector<float>> part(ranges);
+  for_ranges(n, [&](std::size_t b, std::size_t e, std::size_t r) {
+    for (std::size_t v = b; v < e; ++v)
+      if (keep(v)) part[r].push_back(value(v));
+  });
+  std::size_t total = 0;
+  for (const auto& p : part) total += p.size();
+  std::vector<float> out;
+  out.reserve(total);
+  for (const auto& p : part) out.insert(out.end(), p.begin(), p.end());
+  return out;
 }
 
 }  // namespace
@@ -61,12 +92,27 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
   // Reference voxels: all finite ones, or those above the minimum in a masked image.
   float low = std::numeric_limits<float>::infinity();
   std::int64_t finite = 0, at_low = 0;
-  for (const float v : image.data)
-    if (std::isfinite(v)) {
-      ++finite;
-      low = std::min(low, v);
+  {
+    std::array<float, ranges> low_of;
+    std::array<std::int64_t, ranges> finite_of{}, at_low_of{};
+    low_of.fill(std::numeric_limits<float>::infinity());
+    const std::size_t n = image.data.size();
+    for_ranges(n, [&](std::size_t b, std::size_t e, std::size_t r) {
+      for (std::size_t v = b; v < e; ++v)
+        if (std::isfinite(image.data[v])) {
+          ++finite_of[r];
+          low_of[r] = std::min(low_of[r], image.data[v]);
+        }
+    });
+    for (std::size_t r = 0; r < ranges; ++r) {
+      finite += finite_of[r];
+      low = std::min(low, low_of[r]);
     }
-  for (const float v : image.data) at_low += v == low ? 1 : 0;
+    for_ranges(n, [&](std::size_t b, std::size_t e, std::size_t r) {
+      for (std::size_t v = b; v < e; ++v) at_low_of[r] += image.data[v] == low ? 1 : 0;
+    });
+    for (const std::int64_t a : at_low_of) at_low += a;
+  }
   out.masked_fraction = finite > 0 ? double(at_low) / double(finite) : 0.0;
   const bool masked = out.masked_fraction >= 0.5;
   const auto reference = [&](std::size_t v) {
@@ -97,11 +143,8 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
     if (near[v] == 1 && out.vesselness.data[v] < tubular_level && std::isfinite(mean.data[v]))
       values.push_back(mean.data[v]);
   const bool local = values.size() >= 16;
-  if (!local) {
-    values.clear();
-    for (std::size_t v = 0; v < image.data.size(); ++v)
-      if (reference(v)) values.push_back(filtered.data[v]);
-  }
+  if (!local)
+    values = gather(image.data.size(), reference, [&](std::size_t v) { return filtered.data[v]; });
   double background = values.empty() ? double(low) : median_of(values);
 
   // Noise: 1.4826 × MAD of the differences between reference voxels `lag` apart (≈ 3 mm, beyond
@@ -122,16 +165,21 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
     const int lag = std::max(1, int(std::lround(3.0 / g.spacing[a])));
     if (g.size[a] <= lag) continue;
     const std::int64_t step = a == 0 ? 1 : a == 1 ? g.size[0] : std::int64_t(g.size[0]) * g.size[1];
-    for (int k = 0; k < g.size[2]; k += 2)
-      for (int j = 0; j < g.size[1]; j += 2)
-        for (int i = 0; i < g.size[0]; i += 2) {
-          const int ijk[3] = {i, j, k};
-          if (ijk[a] + lag >= g.size[a]) continue;
-          const auto v = std::size_t(g.linear_index(i, j, k)),
-                     w = std::size_t(std::int64_t(v) + lag * step);
-          if (reference(v) && reference(w) && around(v) && around(w))
-            values.push_back(filtered.data[v] - filtered.data[w]);
-        }
+    const int planes = (g.size[2] + 1) / 2;  // k = 0, 2, 4, …
+    std::vector<std::vector<float>> part(ranges);
+    for_ranges(std::size_t(planes), [&](std::size_t b, std::size_t e, std::size_t r) {
+      for (int k = 2 * int(b); k < 2 * int(e); k += 2)
+        for (int j = 0; j < g.size[1]; j += 2)
+          for (int i = 0; i < g.size[0]; i += 2) {
+            const int ijk[3] = {i, j, k};
+            if (ijk[a] + lag >= g.size[a]) continue;
+            const auto v = std::size_t(g.linear_index(i, j, k)),
+                       w = std::size_t(std::int64_t(v) + lag * step);
+            if (reference(v) && reference(w) && around(v) && around(w))
+              part[r].push_back(filtered.data[v] - filtered.data[w]);
+          }
+    });
+    for (const auto& p : part) values.insert(values.end(), p.begin(), p.end());
   }
   double sigma = 0.0;
   if (!values.empty()) {
@@ -143,16 +191,17 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
   // suppressed, and what is left is the vessels themselves.
   double reference_median = background;
   if (masked) {
-    values.clear();
-    for (std::size_t v = 0; v < image.data.size(); ++v)
-      if (reference(v)) values.push_back(filtered.data[v]);
+    values = gather(image.data.size(), reference, [&](std::size_t v) { return filtered.data[v]; });
     reference_median = values.empty() ? double(low) : median_of(values);
   }
   const double low_filtered = [&] {
-    float m = std::numeric_limits<float>::infinity();
-    for (const float v : filtered.data)
-      if (std::isfinite(v)) m = std::min(m, v);
-    return double(m);
+    std::array<float, ranges> m;
+    m.fill(std::numeric_limits<float>::infinity());
+    for_ranges(filtered.data.size(), [&](std::size_t b, std::size_t e, std::size_t r) {
+      for (std::size_t v = b; v < e; ++v)
+        if (std::isfinite(filtered.data[v])) m[r] = std::min(m[r], filtered.data[v]);
+    });
+    return double(*std::min_element(m.begin(), m.end()));
   }();
   if (masked && reference_median >= 0.5 * (low_filtered + out.vessel_level)) {
     out.background_suppressed = true;

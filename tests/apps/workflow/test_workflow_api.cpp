@@ -7,13 +7,19 @@
 #include "apps/workflow/prepare.hpp"
 #include "apps/workflow/progress.hpp"
 #include "apps/workflow/register.hpp"
+#include "apps/workflow/result_report.hpp"
+#include "apps/workflow/session.hpp"
 #include "data_synth/cases/phantom_case.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <fstream>
+#include <iterator>
 #include <string>
+#include <vector>
+#include <zlib.h>
 
 namespace brainshift {
 namespace {
@@ -83,6 +89,83 @@ TEST(WorkflowApi, PrepareAndRegisterMatchTheCommandLine) {
   // Same answer, so the same TRE (1e-6 mm as above), and a finite, registered one.
   EXPECT_NEAR(tre[0], tre[1], 1e-6);
   EXPECT_TRUE(std::isfinite(tre[0]));
+}
+
+/// A file's bytes; a .gz file's decompressed bytes (the compressed stream may differ).
+std::vector<char> content(const std::filesystem::path& p) {
+  if (p.extension() != ".gz") {
+    std::ifstream f(p, std::ios::binary);
+    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
+  }
+  std::vector<char> out;
+  gzFile f = gzopen(p.string().c_str(), "rb");
+  if (f == nullptr) return out;
+  char buffer[1 << 16];
+  int n = 0;
+  while ((n = gzread(f, buffer, sizeof buffer)) > 0) out.insert(out.end(), buffer, buffer + n);
+  gzclose(f);
+  return out;
+}
+
+/// report.json without what depends on the clock: `timing` and every key naming seconds.
+nlohmann::json without_times(nlohmann::json j) {
+  if (j.is_object()) {
+    nlohmann::json out = nlohmann::json::object();
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (it.key() != "timing" && it.key().find("seconds") == std::string::npos)
+        out[it.key()] = without_times(it.value());
+    return out;
+  }
+  if (j.is_array())
+    for (auto& v : j) v = without_times(v);
+  return j;
+}
+
+TEST(WorkflowApi, OutputsWrittenOnTwoThreadsEqualTheSerialOnes) {
+  // write_result() computes the fields on two threads and writes each file as soon as its field
+  // is there; with threads = 1 everything is done in turn. Every file must be the same (a .gz by
+  // its decompressed bytes), report.json apart from its times, with and without an MRI.
+  const tests::TempFolder dir;
+  const auto ph = dir / "phantom";
+  data_synth::CaseOptions co;
+  co.out = ph;
+  (void)data_synth::generate_case("standard", 1, co);
+  workflow::PrepareOptions po;
+  po.labels = ph / "preop/labels.nii.gz";
+  po.mra = ph / "preop/mra.nii.gz";
+  po.out = dir / "model";
+  (void)workflow::prepare_model(po, workflow::Progress("prepare"));
+  const workflow::Session s = workflow::open_session(po.out);
+  const workflow::IntraopInputs in =
+      workflow::read_intraop(s, ph / "intraop/doppler.nii.gz", std::nullopt);
+  const imaging::VolumeF mri = workflow::read_preop_mri(s, ph / "preop/mri.nii.gz");
+  const constraints::RegistrationResult r =
+      constraints::register_model(*s.model, in.data, s.loaded.scene.options);
+  for (const bool with_mri : {true, false}) {
+    SCOPED_TRACE(with_mri ? "with the MRI" : "without an MRI");
+    const imaging::VolumeF* m = with_mri ? &mri : nullptr;
+    workflow::write_result(dir / "serial", s, r, in, m, {}, /*with_uncertainty=*/true,
+                           /*threads=*/1);
+    workflow::write_result(dir / "parallel", s, r, in, m, {}, /*with_uncertainty=*/true,
+                           /*threads=*/2);
+    std::vector<std::string> names;
+    for (const auto& e : std::filesystem::directory_iterator(dir / "serial"))
+      names.push_back(e.path().filename().string());
+    // report, mesh, 4 volumes, overlay; with the MRI also the warped MRI and a second overlay
+    EXPECT_EQ(names.size(), with_mri ? 9U : 7U);
+    for (const std::string& name : names) {
+      SCOPED_TRACE(name);
+      ASSERT_TRUE(std::filesystem::exists(dir / "parallel" / name));
+      if (name == "report.json") {
+        EXPECT_EQ(without_times(read_json(dir / "serial" / name)),
+                  without_times(read_json(dir / "parallel" / name)));
+        continue;
+      }
+      const std::vector<char> a = content(dir / "serial" / name);
+      EXPECT_FALSE(a.empty());
+      EXPECT_TRUE(a == content(dir / "parallel" / name)) << "contents differ";
+    }
+  }
 }
 
 }  // namespace

@@ -100,6 +100,39 @@ TEST(GaussianFilter, DownsampleMeansAndMaxima) {
   tests::expect_error([&] { downsample(v, {0, 1, 1}); }, {"factors"});
 }
 
+TEST(GaussianFilter, DownsampleOnThreadsEqualsOnePassToTheBit) {
+  // Output planes are accumulated on several threads; each block's float sum must still be
+  // formed in one pass's (k, j, i) order, so means and maxima equal a plain one-pass reference
+  // exactly, on a grid with partial blocks (37 = 3·12 + 1 planes) and NaN voxels left out.
+  const ImageGeometry g = grid({23, 17, 37}, {0.4, 0.4, 0.4});
+  VolumeF v(g);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> u(-50.0F, 300.0F);
+  for (float& x : v.data) x = u(rng);
+  for (std::size_t i = 0; i < v.data.size(); i += 13) v.data[i] = std::nanf("");
+  const Eigen::Vector3i f(2, 3, 3);
+  for (const bool maximum : {false, true}) {
+    SCOPED_TRACE(maximum ? "maxima" : "means");
+    const VolumeF out = downsample(v, f, maximum);
+    std::vector<float> ref(out.data.size(), 0.0F), count(out.data.size(), 0.0F);
+    for (int k = 0; k < g.size[2]; ++k)
+      for (int j = 0; j < g.size[1]; ++j)
+        for (int i = 0; i < g.size[0]; ++i) {
+          const float x = v.at(i, j, k);
+          if (!std::isfinite(x)) continue;
+          const auto o = std::size_t(out.geometry.linear_index(i / f[0], j / f[1], k / f[2]));
+          ref[o] = maximum ? (count[o] == 0.0F ? x : std::max(ref[o], x)) : ref[o] + x;
+          count[o] += 1.0F;
+        }
+    int differing = 0;
+    for (std::size_t o = 0; o < ref.size(); ++o) {
+      const float want = !maximum && count[o] > 0.0F ? ref[o] / count[o] : ref[o];
+      differing += out.data[o] == want ? 0 : 1;
+    }
+    EXPECT_EQ(differing, 0);
+  }
+}
+
 TEST(Vesselness, TubesRespondPlatesAndBlobsDoNot) {
   const ImageGeometry g = grid({60, 60, 60}, {0.5, 0.5, 0.5});
   VolumeF image(g, 1, 0.0F);
