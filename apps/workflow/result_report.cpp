@@ -131,7 +131,7 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                             {"pairing_changed", h.pairing_changed},
                             {"pairing_frozen", h.pairing_frozen},
                             {"trust_radius_mm", h.trust_radius_mm},
-                            {"relaxation", h.relaxation},
+                            {"damping", h.damping},
                             {"seconds", h.seconds},
                             {"stage", constraints::to_string(h.stage)},
                             {"pairing", constraints::to_string(h.pairing)},

@@ -34,9 +34,9 @@
 /// the race, not the data, decided whether the loop converged or ended NOT_SETTLING. A reversal
 /// (cosine ≤ −0.5) with the same pairs that does not contract and is below the radius is the
 /// step's own overshoot (a period-2 oscillation of the corotational iteration, which halving
-/// the radius cannot reach until it binds): the elastic part of the following steps is damped
-/// instead (DAMP: relaxation × 0.6, down to 0.2; undone one step at a time on a creep; the stop
-/// test scales with it). Constants and measurements in registration_stage.hpp.
+/// the radius cannot reach until it binds): the following steps are damped instead (DAMP: each
+/// step scaled by α, α × 0.6 down to 0.2, for the rest of the stage; the stop test scales
+/// with α). Constants and measurements in registration_stage.hpp.
 /// A step that had to be limited never counts as converged; a radius below the increment
 /// tolerance stops the loop with NOT_SETTLING and a diagnosis instead of oscillating.
 ///
@@ -281,7 +281,8 @@ enum class TrustDecision : std::uint8_t {
   DAMP,    ///< the step turned back without contracting, with the same pairs and below the
            ///< radius (a period-2 oscillation of the mechanics' quasi-Newton iteration, which a
            ///< radius does not reach until it binds): the elastic part of the following steps is
-           ///< damped (relaxation × damp_factor, down to min_relaxation), radius unchanged
+           ///< damped (the share of each step taken × damp_factor, down to min_damping), radius
+           ///< unchanged
 };
 std::string to_string(TrustDecision d);
 
@@ -305,7 +306,7 @@ struct IterationRecord {
   double trust_radius_mm = 0.0;  ///< the trust region this iteration's step was limited to
   bool limited = false;          ///< the step was scaled down to the trust region
   TrustDecision trust = TrustDecision::NONE;
-  double relaxation = 1.0;  ///< of this iteration's step (StepOptions::relaxation; DAMP lowers it)
+  double damping = 1.0;  ///< the share of this iteration's step taken (DAMP lowers it)
   double vessel_compliance_ratio = 0.0;  ///< of this iteration's vessel rows
   FilterReport vessel_filter;
   FilterReport footprint_filter;

@@ -77,26 +77,21 @@ void keep_held_pairs(std::vector<Pair>& pairs, const std::vector<Pair>& held,
 }  // namespace
 
 TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, double& radius,
-                           double& relaxation, double max_relaxation) {
+                           double& damping) {
   if (!steps.cosine) return TrustDecision::NONE;
   if (*steps.cosine >= 0.0) {
     radius = std::min(max_radius, 1.5 * radius);
-    // A damped loop that creeps on in one direction without contracting clearly has no
-    // oscillation left to damp; the damping only slows it: undone one DAMP at a time.
-    if (relaxation < max_relaxation && steps.same_relaxation && *steps.cosine >= creep_cosine &&
-        steps.length_ratio >= contraction_bound)
-      relaxation = std::min(max_relaxation, relaxation / damp_factor);
     return TrustDecision::GROW;
   }
   // A turn-back. It is a converging oscillation, which halving would only race, when it is one
   // map's iteration (the same pairs) and clearly shorter than the previous step; a limited
   // step's length is the radius's and says nothing about contraction.
   if (steps.same_pairing && !steps.limited &&
-      (steps.length_ratio <= contraction_bound || !steps.same_relaxation))
+      (steps.length_ratio <= contraction_bound || !steps.same_damping))
     return TrustDecision::HOLD;
   if (steps.same_pairing && !steps.limited && *steps.cosine <= reversal_cosine &&
-      relaxation * damp_factor >= min_relaxation) {
-    relaxation *= damp_factor;
+      damping * damp_factor >= min_damping) {
+    damping *= damp_factor;
     return TrustDecision::DAMP;
   }
   radius *= 0.5;
@@ -126,8 +121,8 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
                                 ? options.step.max_increment
                                 : std::numeric_limits<double>::infinity();
   double radius = max_radius;
-  double relaxation = options.step.relaxation;  // DAMP lowers it, a creep raises it back
-  double previous_relaxation = relaxation;      // the previous step's
+  double damping = 1.0;                      // the share of each step taken; DAMP lowers it
+  double previous_damping = damping;         // the previous step's
   MatrixX3d previous_dx;                     // the last step's increment, for the oscillation test
   double previous_increment = 0.0;           // its max nodal |Δx| (mm)
   std::vector<std::set<PairKey>> pair_sets;  // per iteration of this stage
@@ -204,10 +199,16 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
           f != state.warm.end())
         lambda0[i] = f->second;
     step_options.max_increment = std::isfinite(radius) ? radius : 0.0;
-    step_options.relaxation = relaxation;
-    rec.relaxation = relaxation;
+    rec.damping = damping;
     StepResult step = model.mechanics().step(state.positions, rows, step_options, lambda0);
     if (options.inspect_step) options.inspect_step(step);
+    if (damping < 1.0) {
+      // DAMP: the whole step scaled, so that the fixed points stay the loop's own (damping the
+      // elastic part alone, StepOptions::relaxation, moves them where compliant rows hold a
+      // violation).
+      step.x = state.positions + damping * (step.x - state.positions);
+      step.max_increment *= damping;
+    }
     rec.trust_radius_mm = step_options.max_increment;
     rec.limited = step.limited;
     rec.finite = step.finite && step.x.allFinite() && std::isfinite(step.max_increment);
@@ -271,16 +272,16 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     // 5. Stop test: settled, or trust region update and collapse.
     // A folded step (one solve) applies the previous λ: it is small only when the correction
     // it leaves to the next step is small too.
-    // A damped step (relaxation α below the configured one) moves α of the way: settled only
+    // A damped step moves `damping` of the way: settled only
     // when the undamped step would be small too.
-    const double tolerance = options.increment_tolerance_mm * relaxation / options.step.relaxation;
+    const double tolerance = options.increment_tolerance_mm * damping;
     const bool small =
         !step.limited && rec.max_increment_mm < tolerance && step.pending_increment < tolerance;
     const bool settled =
         small && (stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen);
     SuccessiveSteps steps;
     steps.limited = step.limited;
-    steps.same_relaxation = previous_relaxation == relaxation;
+    steps.same_damping = previous_damping == damping;
     // The pairs of this step and the previous one are the same ones: held, frozen, or fresh and
     // unchanged.
     steps.same_pairing =
@@ -293,24 +294,23 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       steps.length_ratio = previous_increment > 0 ? rec.max_increment_mm / previous_increment
                                                   : std::numeric_limits<double>::infinity();
     }
-    if (!settled)
-      rec.trust = trust_update(steps, max_radius, radius, relaxation, options.step.relaxation);
+    if (!settled) rec.trust = trust_update(steps, max_radius, radius, damping);
     previous_dx = dx;
     previous_increment = rec.max_increment_mm;
-    previous_relaxation = rec.relaxation;  // this step's, before any DAMP
+    previous_damping = rec.damping;  // this step's, before any DAMP
     rec.seconds = seconds_since(t_it);
     state.history.push_back(rec);
     record.iterations = it;
     logger().debug(
         "registration iteration {} ({}): {} vessel + {} footprint pairs ({}), {} dura rows, {} "
         "rows, "
-        "|dx| {:.4f} mm (uncut {:.4g}, relaxation {:.3g}), PGS {} ({} sweeps), trust {:.3g} mm {} "
+        "|dx| {:.4f} mm (uncut {:.4g}, damping {:.3g}), PGS {} ({} sweeps), trust {:.3g} mm {} "
         "(cosine {:.2f}, "
         "|dx| ratio {:.2f}, "
         "{} pairs)",
         state.history.size(), to_string(stage.kind), rec.vessel_pairs, rec.footprint_pairs,
         to_string(rec.pairing), rec.dura_rows, rec.rows, rec.max_increment_mm, step.uncut_increment,
-        rec.relaxation, to_string(rec.pgs_stop), rec.pgs_iterations, rec.trust_radius_mm,
+        rec.damping, to_string(rec.pgs_stop), rec.pgs_iterations, rec.trust_radius_mm,
         to_string(rec.trust), steps.cosine.value_or(std::numeric_limits<double>::quiet_NaN()),
         steps.length_ratio, steps.same_pairing ? "same" : "new");
     if (settled) {

@@ -98,26 +98,23 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
 /// converged.
 inline constexpr double contraction_bound = 0.9;
 
-/// DAMP: the relaxation of the elastic part after a non-contracting turn-back is multiplied by
-/// this, and never goes below min_relaxation (then such a turn-back shrinks the radius as any
-/// other). The loop with relaxation α moves a mode of eigenvalue λ by 1 − α(1 − λ): a period-2
-/// oscillation (λ ≈ −1.05, measured on the ICBM152 phantom with a pre-dura pose) becomes
-/// 1 − 0.6 · 2.05 ≈ −0.23 after one DAMP; three DAMPs (0.6³ ≈ 0.22) reach any λ ≥ −8. Below
-/// 0.2 the steps are so short that a stop on their size would not mean settled (the stop test
-/// asks max_increment < tolerance × α for that reason).
+/// DAMP: the share of each step taken (the damping α, 1 at a stage's start; the whole step is
+/// scaled, like the trust region's limit but relative, so the loop's fixed points do not move)
+/// is multiplied by this after a non-contracting reversal, and never goes below min_damping
+/// (then such a turn-back shrinks the radius as any other). The damped loop moves a mode of
+/// eigenvalue λ by 1 − α(1 − λ): a period-2 oscillation (λ ≈ −1.05, measured on the ICBM152
+/// phantom with a pre-dura pose) becomes 1 − 0.6 · 2.05 ≈ −0.23 after one DAMP; three DAMPs
+/// (0.6³ ≈ 0.22) reach any λ ≥ −8. Below 0.2 the steps are so short that a stop on their size
+/// would not mean settled (the stop test asks max_increment < tolerance × α for that reason).
+/// Damping only the elastic part (StepOptions::relaxation) was tried first: where compliant rows
+/// hold a violation it moves the fixed point by (1 − α) C Hᵀ W⁻¹ δ.
 inline constexpr double damp_factor = 0.6;
-inline constexpr double min_relaxation = 0.2;
+inline constexpr double min_damping = 0.2;
 /// DAMP answers a reversal (cosine at most this), the signature of a period-2 oscillation
 /// (measured −0.9 to −1.0); a weaker turn-back is a change of direction, which damping would
 /// only slow (on the 20k-node model a turn-back at −0.12 was damped, and the loop then crept
 /// at 0.9 a step), so it shrinks the radius as before.
 inline constexpr double reversal_cosine = -0.5;
-/// A damped step that goes on in the previous one's direction (cosine at least this) and is not
-/// clearly shorter (length ratio ≥ contraction_bound) is a creep: the damping is undone by one
-/// step (relaxation / damp_factor, up to the configured one). On the 20k-node model (slivers)
-/// the damped HELD stage crept at 0.91 a step to its cap; undamping let it converge (72
-/// iterations instead of the 80-iteration cap).
-inline constexpr double creep_cosine = 0.9;
 
 /// What the trust region reads of a step, against the step before it in the same stage.
 struct SuccessiveSteps {
@@ -130,11 +127,11 @@ struct SuccessiveSteps {
   /// iterate one map and their length ratio measures its contraction. Across a pairing change
   /// the steps answer different data and their ratio measures nothing of the kind.
   bool same_pairing = true;
-  /// Both steps were made with the same relaxation. Right after a DAMP the previous step is an
+  /// Both steps were made with the same damping. Right after a DAMP the previous step is an
   /// undamped one and the ratio compares two different maps: such a turn-back is held, so that
   /// one oscillation is damped once, not down to the floor in successive steps (on the 20k-node
   /// model that left a slow mode at 0.91 a step and the HELD stage at its cap).
-  bool same_relaxation = true;
+  bool same_damping = true;
 };
 
 /// The trust region's rule, alone (radii in mm).
@@ -142,21 +139,19 @@ struct SuccessiveSteps {
 /// @param[in] max_radius the radius never grows beyond this.
 /// @param[in,out] radius the radius the next step is limited to.
 /// @return NONE without a previous step; GROW (× 1.5, up to `max_radius`) when the step did not
-///   turn back (cosine ≥ 0; it also undoes one DAMP on a creep, see creep_cosine); HOLD (unchanged)
+///   turn back (cosine ≥ 0); HOLD (unchanged)
 ///   when it turned back but contracted: same pairs, not limited and length_ratio ≤
 ///   contraction_bound (a converging oscillation, which halving would race to a NOT_SETTLING stop);
-///   DAMP (relaxation × damp_factor, radius unchanged) when it reversed (cosine ≤ reversal_cosine)
-///   without contracting, same pairs, not limited, and the relaxation is still above
-///   min_relaxation: the oscillation is the step's own overshoot, below the radius; HOLD too for a
-///   turn-back right after a DAMP (same_relaxation false); SHRINK (× 0.5) otherwise: an oscillation
+///   DAMP (damping × damp_factor, radius unchanged) when it reversed (cosine ≤ reversal_cosine)
+///   without contracting, same pairs, not limited, and the damping is still above
+///   min_damping: the oscillation is the step's own overshoot, below the radius; HOLD too for a
+///   turn-back right after a DAMP (same_damping false); SHRINK (× 0.5) otherwise: an oscillation
 ///   that damping did not end, or a turn-back across a pairing change, or a limited step (whose
 ///   length is the radius's and says nothing about contraction). Data the model cannot meet keep
 ///   turning back without contracting, and a radius below the increment tolerance ends the stage
 ///   NOT_SETTLING.
-/// A GROW also undoes one DAMP on a creep (see creep_cosine).
-/// @param[in,out] relaxation the relaxation of the next step's elastic part (StepOptions).
-/// @param[in] max_relaxation the configured relaxation, which undamping never exceeds.
+/// @param[in,out] damping the share of the next step taken, in [min_damping, 1].
 TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, double& radius,
-                           double& relaxation, double max_relaxation = 1.0);
+                           double& damping);
 
 }  // namespace brainshift::constraints
