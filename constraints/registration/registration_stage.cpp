@@ -272,8 +272,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     // 5. Stop test: settled, or trust region update and collapse.
     // A folded step (one solve) applies the previous λ: it is small only when the correction
     // it leaves to the next step is small too.
-    // A damped step moves `damping` of the way: settled only
-    // when the undamped step would be small too.
+    // A damped step moves `damping` of the way: settled only when the undamped one is small too.
     const double tolerance = options.increment_tolerance_mm * damping;
     const bool small =
         !step.limited && rec.max_increment_mm < tolerance && step.pending_increment < tolerance;
@@ -305,9 +304,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
         "registration iteration {} ({}): {} vessel + {} footprint pairs ({}), {} dura rows, {} "
         "rows, "
         "|dx| {:.4f} mm (uncut {:.4g}, damping {:.3g}), PGS {} ({} sweeps), trust {:.3g} mm {} "
-        "(cosine {:.2f}, "
-        "|dx| ratio {:.2f}, "
-        "{} pairs)",
+        "(cosine {:.2f}, |dx| ratio {:.2f}, {} pairs)",
         state.history.size(), to_string(stage.kind), rec.vessel_pairs, rec.footprint_pairs,
         to_string(rec.pairing), rec.dura_rows, rec.rows, rec.max_increment_mm, step.uncut_increment,
         rec.damping, to_string(rec.pgs_stop), rec.pgs_iterations, rec.trust_radius_mm,

@@ -86,8 +86,8 @@ struct StepOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// solver. `keep_system` and `rest` are not options (the registration loop sets it for its noise
-/// model).
+/// solver. `keep_system` and `rest` are not options (the registration loop sets them: the system
+/// for its noise model, the rest for its bulk load).
 template <class V>
 void visit_fields(StepOptions& o, V&& v) {
   v("trust_region_mm", o.max_increment, core::Range{0, 1000},
@@ -120,7 +120,7 @@ struct StepResult {
   PgsResult pgs;
   double max_increment = 0.0;     ///< max nodal |Δx| of this step (after limiting), mm
   bool limited = false;           ///< the increment was scaled down to StepOptions::max_increment
-  double uncut_increment = 0.0;   ///< max nodal |Δx| before limiting (mm); = max_increment if not
+  double uncut_increment = 0.0;   ///< max nodal |Δx| before the limit (mm; the radius's cut)
   index_t inverted_elements = 0;  ///< at the start of the step
   /// False when the increment was not finite (a diverging iteration): the step is then rejected,
   /// x is the input positions unchanged and the caller must stop (never count it as converged).
