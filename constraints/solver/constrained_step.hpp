@@ -48,7 +48,10 @@ struct StepOptions {
   double density = 1040e-9;             ///< kg/mm³
   /// Relaxation α ∈ (0, 1] of the elastic (free-motion) part of the step: dx_free ← α dx_free,
   /// constraints still enforced in full. α < 1 damps the quasi-Newton iteration where the
-  /// warped compliance is a poor tangent (rotations varying strongly across the model).
+  /// warped compliance is a poor tangent (rotations varying strongly across the model). With
+  /// compliant rows holding a violation δ it also moves the iteration's fixed point, by
+  /// (1 − α) C Hᵀ W⁻¹ δ; the registration loop therefore damps whole steps instead
+  /// (TrustDecision::DAMP) and leaves this at 1.
   double relaxation = 1.0;
   /// Trust region: when > 0 and the step would move a node by more than this (mm), the whole
   /// increment is scaled down to it (the constraints are then met over several steps). Large
