@@ -3,6 +3,8 @@
 // CLI prepares is the same size, and the CLI's registration of the library's model gives the same
 // TRE (brainshift evaluate on both result folders). One test: the phantom takes ≈ 10 s.
 
+#include "file_bytes.hpp"
+
 #include "apps/cli_helpers.hpp"
 #include "apps/workflow/prepare.hpp"
 #include "apps/workflow/progress.hpp"
@@ -28,18 +30,25 @@ nlohmann::json read_json(const std::filesystem::path& p) {
   return nlohmann::json::parse(read_all(p));
 }
 
+/// The phantom `standard` (seed 1) written to DIR/phantom, and the options that prepare its model
+/// (labels and MRA) into DIR/MODEL.
+workflow::PrepareOptions standard_phantom(const std::filesystem::path& dir,
+                                          const std::string& model) {
+  data_synth::CaseOptions co;
+  co.out = dir / "phantom";
+  (void)data_synth::generate_case("standard", 1, co);
+  workflow::PrepareOptions po;
+  po.labels = co.out / "preop/labels.nii.gz";
+  po.mra = co.out / "preop/mra.nii.gz";
+  po.out = dir / model;
+  return po;
+}
+
 TEST(WorkflowApi, PrepareAndRegisterMatchTheCommandLine) {
   const tests::TempFolder dir;
   const auto ph = dir / "phantom";
-  data_synth::CaseOptions co;
-  co.out = ph;
-  (void)data_synth::generate_case("standard", 1, co);
-
   // prepare: library and command line on the same inputs.
-  workflow::PrepareOptions po;
-  po.labels = ph / "preop/labels.nii.gz";
-  po.mra = ph / "preop/mra.nii.gz";
-  po.out = dir / "model_api";
+  const workflow::PrepareOptions po = standard_phantom(dir.path(), "model_api");
   const workflow::PrepareResult prepared =
       workflow::prepare_model(po, workflow::Progress("prepare"));
   for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "fixed.csv"})
@@ -92,20 +101,7 @@ TEST(WorkflowApi, PrepareAndRegisterMatchTheCommandLine) {
 }
 
 /// A file's bytes; a .gz file's decompressed bytes (the compressed stream may differ).
-std::vector<char> content(const std::filesystem::path& p) {
-  if (p.extension() != ".gz") {
-    std::ifstream f(p, std::ios::binary);
-    return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-  }
-  std::vector<char> out;
-  gzFile f = gzopen(p.string().c_str(), "rb");
-  if (f == nullptr) return out;
-  char buffer[1 << 16];
-  int n = 0;
-  while ((n = gzread(f, buffer, sizeof buffer)) > 0) out.insert(out.end(), buffer, buffer + n);
-  gzclose(f);
-  return out;
-}
+using tests::content;
 
 /// report.json without what depends on the clock: `timing` and every key naming seconds.
 nlohmann::json without_times(nlohmann::json j) {
@@ -127,13 +123,7 @@ TEST(WorkflowApi, OutputsWrittenOnTwoThreadsEqualTheSerialOnes) {
   // its decompressed bytes), report.json apart from its times, with and without an MRI.
   const tests::TempFolder dir;
   const auto ph = dir / "phantom";
-  data_synth::CaseOptions co;
-  co.out = ph;
-  (void)data_synth::generate_case("standard", 1, co);
-  workflow::PrepareOptions po;
-  po.labels = ph / "preop/labels.nii.gz";
-  po.mra = ph / "preop/mra.nii.gz";
-  po.out = dir / "model";
+  const workflow::PrepareOptions po = standard_phantom(dir.path(), "model");
   (void)workflow::prepare_model(po, workflow::Progress("prepare"));
   const workflow::Session s = workflow::open_session(po.out);
   const workflow::IntraopInputs in =

@@ -165,6 +165,30 @@ TEST(BulkLoad, TheLoadReproducesTheStartsBulkShiftAtTheVesselPoints) {
       << "mean response " << mean.transpose() << " vs shift " << r.shift.shift.transpose();
 }
 
+/// The model's own linear response to a downward body load (a direct solve), scaled to `top_mm`
+/// at the top, at the skeleton points (`truth`), and those points with 0.3 mm Gaussian noise per
+/// axis as the Doppler's (`data`).
+struct LoadSag {
+  MatrixX3d truth;
+  IntraopData data;
+};
+LoadSag load_response_sag(const Scene& s, double top_mm, unsigned seed) {
+  StepOptions linear;
+  linear.mechanics = Mechanics::LINEAR;
+  linear.gravity = Vector3d(0, 0, -9810.0);
+  MatrixX3d u =
+      s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, linear).x - s.mesh.nodes();
+  u *= top_mm / u.col(2).cwiseAbs().maxCoeff();
+  LoadSag out;
+  out.truth = s.model->skeleton_mapping().apply(s.mesh.nodes() + u);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 0.3);
+  out.data.vessel_points = out.truth;
+  for (Eigen::Index i = 0; i < out.truth.rows(); ++i)
+    out.data.vessel_points.row(i) += Vector3d(g(rng), g(rng), g(rng)).transpose();
+  return out;
+}
+
 TEST(BulkLoad, ASagThatIsTheModelsOwnLoadResponseIsMetWithoutTheCompliantRowsLag) {
   // The truth is the model's own linear response to a downward body load (a direct solve),
   // scaled to 10 mm at the top. Compliant vessel rows (ratio 0.2) balance the elastic force of
@@ -172,19 +196,7 @@ TEST(BulkLoad, ASagThatIsTheModelsOwnLoadResponseIsMetWithoutTheCompliantRowsLag
   // the start's bulk shift carried as the load, the elastic rest is the shifted state, which here
   // is the truth up to the shift's amplitude, and only that remainder lags.
   Scene s;
-  StepOptions linear;
-  linear.mechanics = Mechanics::LINEAR;
-  linear.gravity = Vector3d(0, 0, -9810.0);
-  MatrixX3d u =
-      s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, linear).x - s.mesh.nodes();
-  u *= 10.0 / u.col(2).cwiseAbs().maxCoeff();
-  const MatrixX3d truth = s.model->skeleton_mapping().apply(s.mesh.nodes() + u);
-  std::mt19937 rng(5);
-  std::normal_distribution<double> g(0.0, 0.3);
-  IntraopData d;
-  d.vessel_points = truth;
-  for (Eigen::Index i = 0; i < truth.rows(); ++i)
-    d.vessel_points.row(i) += Vector3d(g(rng), g(rng), g(rng)).transpose();
+  const auto [truth, d] = load_response_sag(s, 10.0, 5);
   RegistrationOptions with, without;
   with.start = without.start = RigidStart::IDENTITY;  // the pose is right; the sag is the shift
   with.bulk_as_load = BulkLoad::ON;
@@ -217,19 +229,7 @@ TEST(BulkLoad, ALargeSagUnderItsLoadSettlesFromThePreStrainedRest) {
   // (core::RestShape) the load's equilibrium is stress free and the loop only corrects the
   // remainder: it converges (36 iterations), with no element inverted on the way.
   Scene s;
-  StepOptions linear;
-  linear.mechanics = Mechanics::LINEAR;
-  linear.gravity = Vector3d(0, 0, -9810.0);
-  MatrixX3d u =
-      s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, linear).x - s.mesh.nodes();
-  u *= 12.0 / u.col(2).cwiseAbs().maxCoeff();
-  const MatrixX3d truth = s.model->skeleton_mapping().apply(s.mesh.nodes() + u);
-  std::mt19937 rng(7);
-  std::normal_distribution<double> g(0.0, 0.3);
-  IntraopData d;
-  d.vessel_points = truth;
-  for (Eigen::Index i = 0; i < truth.rows(); ++i)
-    d.vessel_points.row(i) += Vector3d(g(rng), g(rng), g(rng)).transpose();
+  auto [truth, d] = load_response_sag(s, 12.0, 7);
   d.pose = Eigen::Isometry3d::Identity();  // as from a pre-dura sweep: the load is AUTO-on
   RegistrationOptions o;
   index_t inverted = 0;

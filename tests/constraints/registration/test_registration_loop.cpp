@@ -424,8 +424,9 @@ TEST(RegistrationLoop, ContradictoryDataAreDampedToTheirSpringsBalanceAndNotDefo
       ++damps;
     }
     // Damped for the rest of the stage: the damping changes only by a DAMP.
-    if (r.history[i].stage == before.stage && before.trust != TrustDecision::DAMP)
+    if (r.history[i].stage == before.stage && before.trust != TrustDecision::DAMP) {
       EXPECT_EQ(r.history[i].damping, before.damping) << "iteration " << i + 1;
+    }
   }
   EXPECT_GE(halvings, 3);
   EXPECT_GE(damps, 1);

@@ -1,4 +1,5 @@
 #include "expect_error.hpp"
+#include "file_bytes.hpp"
 #include "temp_folder.hpp"
 
 #include "imaging/io/gzip_file.hpp"
@@ -18,24 +19,8 @@
 namespace brainshift::imaging {
 namespace {
 
-std::vector<char> file_bytes(const std::filesystem::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-/// Reads a gzip file with zlib's own reader (what VTK, ITK and Slicer use).
-std::vector<char> gunzip(const std::filesystem::path& p) {
-  gzFile f = gzopen(p.string().c_str(), "rb");
-  EXPECT_NE(f, nullptr) << p;
-  std::vector<char> out;
-  if (!f) return out;
-  char buffer[1 << 16];
-  int n = 0;
-  while ((n = gzread(f, buffer, sizeof buffer)) > 0) out.insert(out.end(), buffer, buffer + n);
-  EXPECT_EQ(n, 0) << "gzread error";
-  EXPECT_EQ(gzclose(f), Z_OK);  // Z_OK also means the CRC-32 and length in the trailer matched
-  return out;
-}
+using tests::file_bytes;
+using tests::gunzip;
 
 /// Float noise (as incompressible as a displacement field) with runs of zeros (as an image
 /// background).

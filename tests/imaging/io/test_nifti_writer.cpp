@@ -1,6 +1,7 @@
 // write_volume()'s NIfTI files against vtkNIFTIImageWriter's (imaging/io/image_io.cpp builds the
 // header itself instead of having VTK write the whole volume and reading it back).
 
+#include "file_bytes.hpp"
 #include "temp_folder.hpp"
 
 #include "imaging/io/image_io.hpp"
@@ -26,21 +27,8 @@
 namespace brainshift::imaging {
 namespace {
 
-std::vector<char> file_bytes(const std::filesystem::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>()};
-}
-
-std::vector<char> gunzip(const std::filesystem::path& p) {
-  std::vector<char> out;
-  gzFile f = gzopen(p.string().c_str(), "rb");
-  if (f == nullptr) return out;
-  char buffer[1 << 16];
-  int n = 0;
-  while ((n = gzread(f, buffer, sizeof buffer)) > 0) out.insert(out.end(), buffer, buffer + n);
-  gzclose(f);
-  return out;
-}
+using tests::file_bytes;
+using tests::gunzip;
 
 /// What write_volume() wrote before it built the header itself: VTK's writer with the volume's
 /// voxels (packed components), no image origin, the world matrix as qform and sform.
