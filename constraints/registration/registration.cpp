@@ -401,6 +401,20 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
       res.stop_reason = "insufficient data: " + why + " (" + res.stop_reason + ")";
     }
   }
+  // Too few points to trust a deformation are too few to trust the bulk shift fitted to them
+  // as well: a cold start returns the rigid pose alone, fitted without the bulk response (the
+  // rigid-only start; the given pose with a pre-dura sweep), the model at rest in it.
+  const bool rigid_fallback =
+      res.stop == RegistrationStop::INSUFFICIENT_DATA && !initial && in.vessels;
+  if (rigid_fallback) {
+    if (!data.pose) detail::rigid_only_start(model, data, options, res);
+    res.shift.accepted = false;
+    res.shift.message = "not applied (insufficient data)";
+    res.bulk_gravity.setZero();
+    in = loop_inputs(model, data, options, res, {});
+    in.bulk_gravity.setZero();
+    in.bulk_rest = {};
+  }
   // A stop that cannot be trusted returns the start's state, never a half-deformed one.
   if (res.stop == RegistrationStop::DIVERGED || res.stop == RegistrationStop::INSUFFICIENT_DATA) {
     state.positions = start_positions(model, in, res, options, initial);
@@ -410,8 +424,11 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     res.data_rows = data_rows_at(in, state);
     res.lambda.clear();
     res.start_returned = true;
-    res.stop_reason += initial ? "; the warm start's positions are returned"
-                               : "; the start's rigid + bulk state is returned (no deformation)";
+    res.stop_reason += initial          ? "; the warm start's positions are returned"
+                       : rigid_fallback ? "; the rigid pose alone is returned (no bulk shift, no "
+                                          "deformation)"
+                                        : "; the start's rigid + bulk state is returned (no "
+                                          "deformation)";
   }
   res.seconds.total = seconds_since(t_start);
 

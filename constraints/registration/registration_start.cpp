@@ -87,6 +87,16 @@ RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& d
 
 namespace detail {
 
+void rigid_only_start(const RegistrationModel& model, const IntraopData& data,
+                      const RegistrationOptions& options, RegistrationResult& res) {
+  res.start = pre_dura_pose(model, data.vessel_points, options);
+  res.rigid = as_rigid(res.start);
+}
+
+}  // namespace detail
+
+namespace detail {
+
 /// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
 /// options, the warm start (`initial`, may be null) and whether vessels are used; outputs:
 /// res.rigid, res.shift, res.seconds.rigid and the per-point basis of the bulk shift.

@@ -41,6 +41,11 @@ MatrixX3d start_positions(const RegistrationModel& model, const LoopInputs& in,
 
 /// The body acceleration (mm/s²) of amplitude `a` (bulk_amplitude()) at the scene's density.
 Vector3d bulk_gravity(const Vector3d& amplitude, const RegistrationOptions& options);
+
+/// The rigid-only start (pre_dura_pose(): no bulk response) as res.start and res.rigid.
+void rigid_only_start(const RegistrationModel& model, const IntraopData& data,
+                      const RegistrationOptions& options, RegistrationResult& res);
+
 /// The elastic rest of the bulk load `gravity` (bulk_gravity()'s units): the rest nodes plus its
 /// linear response (the load responses scaled back to amplitudes). Null when there is no load.
 std::shared_ptr<const core::RestShape> bulk_rest(const RegistrationModel& model,

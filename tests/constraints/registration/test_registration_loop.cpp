@@ -534,13 +534,18 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   EXPECT_EQ(r.stop, RegistrationStop::INSUFFICIENT_DATA) << r.stop_reason;
   EXPECT_FALSE(r.converged);
   EXPECT_TRUE(r.positions.allFinite());
-  // Not the deformation fitted to nine points: the start's state (rest, or its bulk response).
+  // Not the deformation fitted to nine points, nor the bulk shift fitted to them: the model at
+  // rest in the rigid-only pose, exactly what the rigid-only start gives on the same points.
   EXPECT_TRUE(r.start_returned);
-  if (!r.shift.accepted) {
-    EXPECT_EQ(r.positions, s.mesh.nodes());
-  }
+  EXPECT_FALSE(r.shift.accepted);
+  EXPECT_EQ(r.positions, s.mesh.nodes());
+  const RigidInitResult rigid = rigid_start(*s.model, d, options());
+  EXPECT_TRUE(r.rigid.transform.isApprox(rigid.transform, 1e-12))
+      << r.rigid.transform.matrix() << "\n"
+      << rigid.transform.matrix();
   EXPECT_TRUE(r.lambda.empty());
   EXPECT_NE(r.stop_reason.find("vessel points paired"), std::string::npos) << r.stop_reason;
+  EXPECT_NE(r.stop_reason.find("rigid pose alone"), std::string::npos) << r.stop_reason;
 }
 
 }  // namespace
