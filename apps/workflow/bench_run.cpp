@@ -205,6 +205,12 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
     row.tre_far_mean =
         row.landmarks_far ? far / static_cast<double>(row.landmarks_far) : std::nan("");
   }
+  if (c.dense.pre.rows() > 0) {
+    const core::BarycentricMapping dense_map(model.mesh(), c.dense.pre, mo);
+    const auto e = imaging::error_stats(
+        imaging::landmark_errors(to_intraop_frame(r, dense_map.apply(r.positions)), c.dense.intra));
+    row.dense_error_mean = e.mean;
+  }
   if (!r.data_rows.empty() && row.method != "prescribed_displacement")
     score_uncertainty(row, model, r, c, data, predicted);
   if (row.corrected_pct) *row.corrected_pct += 0.0;  // no "-0.0" in the tables

@@ -59,6 +59,10 @@ struct BenchRow {
   double tre_near_mean = 0.0, tre_far_mean = 0.0;
   index_t landmarks_near = 0, landmarks_far = 0;
   std::optional<double> corrected_pct;
+  /// Mean error over the case's dense truth points (bench_dense.hpp: 500 points drawn uniformly
+  /// in the brain, their truth from the phantom's truth field), for every method: the whole
+  /// brain, where landmarks near the probe cannot look. Unset without a dense truth.
+  std::optional<double> dense_error_mean;
   double max_displacement_mm = 0.0;
   bool ok = false;  ///< finite answer, no exception
   std::string error;

@@ -92,6 +92,8 @@ nlohmann::json row_json(const BenchRow& r) {
       {"landmarks_far", r.landmarks_far},
       {"shift_corrected_pct",
        r.corrected_pct ? nlohmann::json(*r.corrected_pct) : nlohmann::json(nullptr)},
+      {"dense_error_mean_mm",
+       r.dense_error_mean ? nlohmann::json(*r.dense_error_mean) : nlohmann::json(nullptr)},
       {"max_displacement_mm", r.max_displacement_mm},
       {"ok", r.ok},
       {"error", r.error},
