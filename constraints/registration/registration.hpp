@@ -21,8 +21,9 @@
 /// craniotomy; landmarks are points), take one constrained static step (constrained_step.hpp);
 /// a stage settles when the largest nodal increment is below a tolerance (and, except HELD, the
 /// pairing set is stable). A step whose increment is not finite ends the registration DIVERGED;
-/// it never counts as converged. A DIVERGED or INSUFFICIENT_DATA stop returns the start's state
-/// (rigid pose plus the bulk response to the start's bulk shift), never a half-deformed one.
+/// it never counts as converged. A DIVERGED stop returns the start's state (rigid pose plus the
+/// bulk response to the start's bulk shift), an INSUFFICIENT_DATA one the rigid pose alone (the
+/// rigid-only start: too few points for a bulk shift too); never a half-deformed one.
 ///
 /// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
 /// that grows by 1.5× while the steps go on in the same direction. When a step turns back on the
@@ -322,7 +323,8 @@ enum class RegistrationStop {
                       ///< iteration's reach); positions are the last finite iterate
   DIVERGED,           ///< a step's increment was not finite; positions are the start's state
   INSUFFICIENT_DATA,  ///< settled, but on too few or too scattered vessel points to be trusted;
-                      ///< positions are the start's state (RegistrationResult::start_returned)
+                      ///< positions are the model at rest in the rigid-only pose (cold) or the
+                      ///< warm start's (RegistrationResult::start_returned)
 };
 std::string to_string(RegistrationStop stop);
 
@@ -362,7 +364,9 @@ struct RegistrationResult {
   bool cold_retry = false;          ///< a warm start did not converge and this is the cold answer
   /// The loop stopped DIVERGED or INSUFFICIENT_DATA, so its deformed state is not returned:
   /// positions are the start's state instead — the model at rest plus the global start's bulk
-  /// response (the rigid transform is in `rigid`), or a warm start's positions — and `lambda` is
+  /// response (DIVERGED), the model at rest in the rigid-only pose (INSUFFICIENT_DATA; the given
+  /// pose with a pre-dura sweep), the rigid transform in `rigid`; or a warm start's positions — and
+  /// `lambda` is
   /// empty. The stop and its reason are kept (exit 2); `history` still records what was tried.
   bool start_returned = false;
   std::array<index_t, num_constraint_sets> rows_by_set{};  ///< of the last iteration
@@ -406,8 +410,9 @@ GlobalStartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX
 /// @param[in] initial warm start: a previous result (its positions, rigid transform and λ are
 /// reused; the rigid fit is then skipped) or nullptr for the rest shape. A warm start that does
 /// not converge is retried cold (options.cold_retry).
-/// A stop that cannot be trusted (DIVERGED, INSUFFICIENT_DATA) returns the start's state
-/// (rigid + bulk response), never a half-deformed one (RegistrationResult::start_returned).
+/// A stop that cannot be trusted returns the start's state (DIVERGED: rigid + bulk response;
+/// INSUFFICIENT_DATA: the rigid-only pose), never a half-deformed one
+/// (RegistrationResult::start_returned).
 /// \throws brainshift::Error on invalid options or non-finite / mis-sized inputs. A registration
 /// that does not converge is a status (stop, stop_reason), never an exception; positions are
 /// always finite.
