@@ -33,6 +33,16 @@ The target (issue 14 item 3) is a recorded gap of 0 on every case; it is positiv
 The 0.1 mm is about four times the largest run-to-run spread measured on our mean TRE (0.023 mm);
 rigid-only does not use the mesh and does not vary.
 
+The same over the whole brain (bench's dense_error_mean_mm: 500 points drawn uniformly in the
+brain, their truth from the phantom's truth field): the test allows max(0, recorded
+dense_gap_to_rigid_mm) + dense_rigid_gap_mm (0.3 mm). Over the brain ours is better than rigid
+alone or level with it on 11 of 12 cases at seed 1 (by 0.0-2.2 mm; noisy_doppler is 1.40 mm
+behind, recorded) and on 11 of 12 at seed 2 (2026-12-02 evening, docs/BENCHMARKS.md). Margin: two
+runs of seed 1 on one machine gave identical figures, so the spread to cover is the meshing noise
+between machines, measured at up to 0.023 mm on the landmark TRE (above); the dense mean moves
+with the whole pose (9-15 mm lever arms against the landmarks' 5-40 mm), so 0.3 mm: about 10x
+that TRE spread and about 3 % of the whole-brain error (8-15 mm).
+
 The default loop is the fixed vessel ratio again (2026-12-02). The block-CV noise model
 (`bench` variant block_cv) was bimodal with the mesh: deep_tumour_one_side_vessels 1.92 or
 3.13 mm and tracking_error 3.08 or 3.42 mm from the same seed, because its CV curve has two nearly
@@ -69,6 +79,8 @@ for path in args.results:
     build_types.add(runs["machine"]["build_type"])
     rigid = {(r["case"], r["seed"]): r["tre_mean_mm"] for r in rows
              if r["suite"] == "cases" and r["method"] == "rigid_only" and r["ok"]}
+    rigid_dense = {(r["case"], r["seed"]): r.get("dense_error_mean_mm") for r in rows
+                   if r["suite"] == "cases" and r["method"] == "rigid_only" and r["ok"]}
     for r in rows:
         if r["suite"] != "cases" or r["method"] != "constraint_icp":
             continue
@@ -81,6 +93,9 @@ for path in args.results:
             "pct": r["shift_corrected_pct"] or 0.0,
             "before": r["tre_before_mean_mm"],
             "gap": max(0.0, r["tre_mean_mm"] - rigid[(r["case"], r["seed"])]),
+            "dense_gap": (max(0.0, r["dense_error_mean_mm"] - rigid_dense[(r["case"], r["seed"])])
+                          if r.get("dense_error_mean_mm") is not None
+                          and rigid_dense.get((r["case"], r["seed"])) is not None else None),
             "stop": r["stop"],
             "file": path,
         })
@@ -115,6 +130,9 @@ for case, by_seed in samples.items():
         "tre_before_mean_mm": befores[0],
         "rigid_gap_mm": max(s["gap"] for s in at),
     }
+    dense = [s["dense_gap"] for s in at if s["dense_gap"] is not None]
+    if dense:
+        cases[case]["dense_gap_to_rigid_mm"] = max(dense)
     spread[case] = max(max(s["tre"] for s in v) - min(s["tre"] for s in v) for v in by_seed.values())
     worst_by_seed = [max(s["tre"] for s in v) for v in by_seed.values()]
     seed_range[case] = (min(worst_by_seed), max(worst_by_seed))
@@ -137,6 +155,8 @@ for c in cases.values():
         # better), for the reader: the test allows max(0, this) + margin.rigid_gap_mm.
         "gap_to_rigid_mm": round(c.pop("rigid_gap_mm"), 3),
     })
+    if "dense_gap_to_rigid_mm" in c:
+        c["dense_gap_to_rigid_mm"] = round(c["dense_gap_to_rigid_mm"], 3)
 skipped -= set(cases)
 if skipped:
     kept = json.load(open(args.keep))["cases"] if args.keep else {}
@@ -149,7 +169,8 @@ if skipped:
 out = {
     "_comment": "Recorded by tests/regression/record_thresholds.py from `brainshift bench --suite cases` "
     f"({runs['machine']['date']}, {runs['machine']['build_type']}, seed {runs['seed']}); see that script for the margin.",
-    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0, "rigid_gap_mm": 0.1},
+    "margin": {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0, "rigid_gap_mm": 0.1,
+               "dense_rigid_gap_mm": 0.3},
     "cases": cases,
 }
 # The margin must dwarf the measured same-seed spread, or the test would flake: the allowance of the

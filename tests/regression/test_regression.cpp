@@ -5,8 +5,10 @@
 // stated margin; every run must give a finite answer with a stop reason, ours must converge, the
 // "before" error must be the recorded one (the phantom did not change), and ours must not be
 // further behind the rigid-only baseline on the same data than recorded (gap to rigid ≤ max(0,
-// recorded gap) + a stated noise margin). Issue 14's target is a gap of 0 on every case; it is
-// not reached yet (docs/BENCHMARKS.md), so the recorded shortfall is what the suite holds.
+// recorded gap) + a stated noise margin), at the landmarks and over the whole brain (the dense
+// truth points). Issue 14's target is a gap of 0 on every case; at the landmarks it is not
+// reached yet (docs/BENCHMARKS.md), so the recorded shortfall is what the suite holds; over the
+// whole brain the gap is ≤ 0 on 11 of 12 cases (noisy_doppler recorded).
 
 #include "tests/config.hpp"
 
@@ -101,6 +103,19 @@ TEST_P(PhantomCase, RegistersWithinTheRecordedFiguresAndGapToRigid) {
       << name << ": mean TRE " << tre << " mm, rigid only " << rigid_tre << " mm (gap to rigid "
       << tre - rigid_tre << " mm, recorded " << recorded_gap << " mm, margin " << rigid_margin_mm()
       << " mm)";
+  // The same over the whole brain (the 500 dense truth points: bench_dense.hpp), where the 9–17
+  // landmarks near the craniotomy cannot look and where the mechanics must carry the answer: not
+  // further behind rigid alone than recorded (0 where ours was better), beyond the stated margin.
+  const auto& dense_icp = (*icp)["dense_error_mean_mm"];
+  const auto& dense_rigid = (*rigid)["dense_error_mean_mm"];
+  ASSERT_TRUE(dense_icp.is_number() && dense_rigid.is_number()) << name << ": no dense truth";
+  const double dense_gap = dense_icp.get<double>() - dense_rigid.get<double>();
+  const double recorded_dense_gap = rec.contains("dense_gap_to_rigid_mm")
+                                        ? std::max(0.0, rec["dense_gap_to_rigid_mm"].get<double>())
+                                        : 0.0;
+  EXPECT_LE(dense_gap, recorded_dense_gap + margin["dense_rigid_gap_mm"].get<double>())
+      << name << ": whole-brain mean error " << dense_icp << " mm, rigid only " << dense_rigid
+      << " mm (recorded gap " << recorded_dense_gap << " mm)";
 }
 
 INSTANTIATE_TEST_SUITE_P(Cases, PhantomCase,
