@@ -23,7 +23,8 @@
 /// pairing set is stable). A step whose increment is not finite ends the registration DIVERGED;
 /// it never counts as converged. A DIVERGED stop returns the start's state (rigid pose plus the
 /// bulk response to the start's bulk shift), an INSUFFICIENT_DATA one the rigid pose alone (the
-/// rigid-only start: too few points for a bulk shift too); never a half-deformed one.
+/// rigid-only start: too few points for a bulk shift too; with a given pose, the pose plus the
+/// bulk response); never a half-deformed one.
 ///
 /// Trust region: each step is limited to a radius (StepOptions::max_increment, 5 mm by default)
 /// that grows by 1.5× while the steps go on in the same direction. When a step turns back on the
@@ -323,8 +324,9 @@ enum class RegistrationStop {
                       ///< iteration's reach); positions are the last finite iterate
   DIVERGED,           ///< a step's increment was not finite; positions are the start's state
   INSUFFICIENT_DATA,  ///< settled, but on too few or too scattered vessel points to be trusted;
-                      ///< positions are the model at rest in the rigid-only pose (cold) or the
-                      ///< warm start's (RegistrationResult::start_returned)
+                      ///< positions are the model at rest in the rigid-only pose (cold; the
+                      ///< given pose plus the bulk response with a pre-dura sweep) or the warm
+                      ///< start's (RegistrationResult::start_returned)
 };
 std::string to_string(RegistrationStop stop);
 
@@ -364,8 +366,9 @@ struct RegistrationResult {
   bool cold_retry = false;          ///< a warm start did not converge and this is the cold answer
   /// The loop stopped DIVERGED or INSUFFICIENT_DATA, so its deformed state is not returned:
   /// positions are the start's state instead — the model at rest plus the global start's bulk
-  /// response (DIVERGED), the model at rest in the rigid-only pose (INSUFFICIENT_DATA; the given
-  /// pose with a pre-dura sweep), the rigid transform in `rigid`; or a warm start's positions — and
+  /// response (DIVERGED, and INSUFFICIENT_DATA with a given pose), the model at rest in the
+  /// rigid-only pose (INSUFFICIENT_DATA), the rigid transform in `rigid`; or a warm start's
+  /// positions — and
   /// `lambda` is
   /// empty. The stop and its reason are kept (exit 2); `history` still records what was tried.
   bool start_returned = false;

@@ -546,6 +546,15 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   EXPECT_TRUE(r.lambda.empty());
   EXPECT_NE(r.stop_reason.find("vessel points paired"), std::string::npos) << r.stop_reason;
   EXPECT_NE(r.stop_reason.find("rigid pose alone"), std::string::npos) << r.stop_reason;
+  // With a given pose (a pre-dura sweep) the bulk shift is all that was fitted to these points
+  // and all that corrects the sag: the pose is kept, with the start's bulk state.
+  IntraopData posed = d;
+  posed.pose = Eigen::Isometry3d(Eigen::Translation3d(0.5, -0.5, 0.0));
+  const RegistrationResult p = register_model(*s.model, posed, options());
+  EXPECT_EQ(p.stop, RegistrationStop::INSUFFICIENT_DATA) << p.stop_reason;
+  EXPECT_TRUE(p.start_returned);
+  EXPECT_TRUE(p.rigid.transform.isApprox(*posed.pose, 1e-12)) << p.rigid.transform.matrix();
+  EXPECT_EQ(p.stop_reason.find("rigid pose alone"), std::string::npos) << p.stop_reason;
 }
 
 }  // namespace
