@@ -414,9 +414,7 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     res.shift.accepted = false;
     res.shift.message = "not applied (insufficient data)";
     res.bulk_gravity.setZero();
-    in = loop_inputs(model, data, options, res, {});
-    in.bulk_gravity.setZero();
-    in.bulk_rest = {};
+    in = loop_inputs(model, data, options, res, {});  // no bulk load, no bulk rest
   }
   // A stop that cannot be trusted returns the start's state, never a half-deformed one.
   if (res.stop == RegistrationStop::DIVERGED || res.stop == RegistrationStop::INSUFFICIENT_DATA) {

@@ -368,9 +368,8 @@ struct RegistrationResult {
   /// positions are the start's state instead — the model at rest plus the global start's bulk
   /// response (DIVERGED, and INSUFFICIENT_DATA with a given pose), the model at rest in the
   /// rigid-only pose (INSUFFICIENT_DATA), the rigid transform in `rigid`; or a warm start's
-  /// positions — and
-  /// `lambda` is
-  /// empty. The stop and its reason are kept (exit 2); `history` still records what was tried.
+  /// positions — and `lambda` is empty. The stop and its reason are kept (exit 2); `history`
+  /// still records what was tried.
   bool start_returned = false;
   std::array<index_t, num_constraint_sets> rows_by_set{};  ///< of the last iteration
   StageTimes seconds;
