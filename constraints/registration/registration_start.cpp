@@ -93,10 +93,6 @@ void rigid_only_start(const RegistrationModel& model, const IntraopData& data,
   res.rigid = as_rigid(res.start);
 }
 
-}  // namespace detail
-
-namespace detail {
-
 /// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
 /// options, the warm start (`initial`, may be null) and whether vessels are used; outputs:
 /// res.rigid, res.shift, res.seconds.rigid and the per-point basis of the bulk shift.
