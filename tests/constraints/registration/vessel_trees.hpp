@@ -112,7 +112,7 @@ inline MatrixX3d sample(const core::Skeleton& s, double step, double sigma, unsi
 /// translation of `mm` along a skew direction): intra-operative points are O·p_model, so the
 /// start must return O⁻¹.
 inline Eigen::Isometry3d offset(double mm, double angle_deg, const Vector3d& pivot,
-                         const Vector3d& dir = {0.5, 0.8, -0.33}) {
+                                const Vector3d& dir = {0.5, 0.8, -0.33}) {
   Eigen::Isometry3d O = Eigen::Isometry3d::Identity();
   O.translate(pivot);
   O.rotate(Eigen::AngleAxisd(angle_deg * deg, Vector3d(1.0, -2.0, 0.5).normalized()));
@@ -127,7 +127,7 @@ inline MatrixX3d apply(const Eigen::Isometry3d& T, const MatrixX3d& p) {
 
 /// Largest distance between where the estimate and the truth put the model points (mm).
 inline double max_error(const Eigen::Isometry3d& est, const Eigen::Isometry3d& truth,
-                 const MatrixX3d& intra) {
+                        const MatrixX3d& intra) {
   return (apply(est, intra) - apply(truth, intra)).rowwise().norm().maxCoeff();
 }
 
