@@ -13,6 +13,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <sstream>
 
 namespace brainshift::imaging {
@@ -309,6 +310,12 @@ void write_overlay_png(const std::filesystem::path& path, const OverlayInput& in
     std::vector<unsigned char> bytes;
     bool encoded = false;
     try {
+      // One encoding at a time in the process: ThreadSanitizer reports a data race inside
+      // OpenCV's imgcodecs (a heap string written by one cv::imencode and read by another) and
+      // a lock-order inversion in the GDAL mutexes it takes, when `register` writes its two
+      // overlays on two threads. The encoding is a few tens of ms; serialising it costs little.
+      static std::mutex encoder;
+      const std::lock_guard<std::mutex> lock(encoder);
       encoded = cv::imencode(".png", image, bytes);
     } catch (const cv::Exception& e) {
       BS_THROW("cannot write overlay " << path.string() << ": PNG encoding failed (" << e.err
