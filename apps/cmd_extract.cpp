@@ -5,12 +5,12 @@
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/skeleton_io.hpp"
+#include "imaging/overlay/png_encode.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -84,7 +84,7 @@ std::string mip_png(const imaging::VolumeF& image, const imaging::VesselGraph& g
     cv::polylines(shown, line, false, cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
   }
   std::vector<unsigned char> bytes;
-  BS_VERIFY(cv::imencode(".png", shown, bytes),
+  BS_VERIFY(imaging::encode_png(shown, bytes),
             "cannot encode the maximum-intensity projection as PNG");
   return {bytes.begin(), bytes.end()};
 }

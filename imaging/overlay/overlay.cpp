@@ -2,10 +2,10 @@
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/overlay/png_encode.hpp"
 #include "imaging/warping/warp_image.hpp"
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -13,7 +13,6 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <mutex>
 #include <sstream>
 
 namespace brainshift::imaging {
@@ -310,13 +309,7 @@ void write_overlay_png(const std::filesystem::path& path, const OverlayInput& in
     std::vector<unsigned char> bytes;
     bool encoded = false;
     try {
-      // One encoding at a time in the process: ThreadSanitizer reports a data race inside
-      // OpenCV's imgcodecs (a heap string written by one cv::imencode and read by another) and
-      // a lock-order inversion in the GDAL mutexes it takes, when `register` writes its two
-      // overlays on two threads. The encoding is a few tens of ms; serialising it costs little.
-      static std::mutex encoder;
-      const std::lock_guard<std::mutex> lock(encoder);
-      encoded = cv::imencode(".png", image, bytes);
+      encoded = encode_png(image, bytes);  // one encoding at a time (png_encode.hpp)
     } catch (const cv::Exception& e) {
       BS_THROW("cannot write overlay " << path.string() << ": PNG encoding failed (" << e.err
                                        << ")");
