@@ -94,40 +94,49 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
           constraints::IntraopData data;
           data.vessel_points = doppler_points(s, c, 2.5);
           const RegistrationOptions o = product_options(s);
-          // Variants of our loop (full runs only; --quick keeps the three methods):
-          // block_cv — the vessel compliance chosen by leave-one-branch-out cross-validation in a
-          // SMOOTH stage, from a rigid-only global start (off by default: bimodal with the mesh);
+          // Variants of our loop. In every run: old_loop — the loop before 2026-12-03 (the vessel
+          // ratio fixed at 0.2, no noise model, the start's bulk shift unbounded);
+          // bulk_start_only — the global start's rigid + bulk state, no loop. Full runs only:
+          // fixed_compliance — the default without the noise model (the ratio fixed at 0.2);
+          // unbounded_start — the default with the start's bulk shift free to point out of the
+          // brain (GlobalStartOptions::bulk_sinks off);
+          // block_cv — the vessel compliance chosen by leave-one-branch-out cross-validation at
+          // its minimum, from a rigid-only global start (ε → ∞ the rigid answer);
           // block_cv_1se / block_cv_paired / block_cv_paired_smooth — the same with the
-          // one-standard-error rule, with the paired test against ε → ∞ (deform only if the
-          // held-out gain exceeds its standard error), and with the paired test on the CV curve
-          // smoothed over ±3 neighbouring ratios (issue 14 item 3, a stable choice);
-          // gcv_compliance — the same stage at the compliance chosen by generalised
+          // one-standard-error rule, with the paired test at z = 1 against ε → ∞, and with the
+          // paired test on the CV curve smoothed over ±3 neighbouring ratios (issue 14 item 3);
+          // block_cv_1se_bulk — the one-SE rule from the start's rigid + bulk state;
+          // gcv_compliance — the SMOOTH stage at the compliance chosen by generalised
           // cross-validation; dura_sliding / dura_unilateral — dura contact
           // outside the craniotomy on (the default is none): what the boundary conditions do off
           // the vessels (far-landmark TRE).
           std::map<std::string, RegistrationOptions> variants;
           variants["constraint_icp"] = o;
-          std::vector<std::string> methods = {"constraint_icp"};
+          variants["old_loop"] = o;
+          variants["old_loop"].noise.enabled = false;
+          variants["old_loop"].global_start.bulk_sinks = false;
+          std::vector<std::string> methods = {"constraint_icp", "old_loop"};
           if (!args.quick) {
-            variants["block_cv"] = o;
-            variants["block_cv"].noise.enabled = true;
-            variants["block_cv"].global_start.bulk_response = false;
-            variants["block_cv_1se"] = variants["block_cv"];
+            variants["fixed_compliance"] = o;
+            variants["fixed_compliance"].noise.enabled = false;
+            variants["unbounded_start"] = o;
+            variants["unbounded_start"].global_start.bulk_sinks = false;
+            RegistrationOptions cv = o;  // the SMOOTH stage from a rigid-only start
+            cv.global_start.bulk_response = false;
+            cv.noise.start_is_bulk_state = false;
+            cv.noise.paired_test = false;
+            cv.noise.paired_test_z = 1.0;
+            variants["block_cv"] = cv;
+            variants["block_cv_1se"] = cv;
             variants["block_cv_1se"].noise.one_standard_error = true;
-            variants["block_cv_paired"] = variants["block_cv"];
+            variants["block_cv_paired"] = cv;
             variants["block_cv_paired"].noise.paired_test = true;
-            // block_cv_1se_bulk: the one-SE rule from the global start with the bulk response,
-            // ε → ∞ meaning the start's rigid + bulk state (issue 14 item 3, v4).
-            variants["block_cv_1se_bulk"] = o;
-            variants["block_cv_1se_bulk"].noise.enabled = true;
-            variants["block_cv_1se_bulk"].noise.one_standard_error = true;
-            variants["block_cv_1se_bulk"].noise.start_is_bulk_state = true;
-            variants["block_cv_1se_bulk"].global_start.bulk_response = true;
             variants["block_cv_paired_smooth"] = variants["block_cv_paired"];
             variants["block_cv_paired_smooth"].noise.smooth_neighbours = 3;
-            variants["gcv_compliance"] = o;
-            variants["gcv_compliance"].noise.enabled = true;
-            variants["gcv_compliance"].global_start.bulk_response = false;
+            variants["block_cv_1se_bulk"] = o;
+            variants["block_cv_1se_bulk"].noise.paired_test = false;
+            variants["block_cv_1se_bulk"].noise.one_standard_error = true;
+            variants["gcv_compliance"] = cv;
             variants["gcv_compliance"].noise.criterion = constraints::NoiseCriterion::GCV;
             variants["dura_sliding"] = o;
             variants["dura_sliding"].dura.mode = constraints::DuraOptions::Mode::SLIDING;
@@ -138,10 +147,11 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["identity_start"] = o;
             variants["identity_start"].start = constraints::RigidStart::IDENTITY;
             methods.insert(methods.end(),
-                           {"block_cv", "block_cv_1se", "block_cv_1se_bulk", "block_cv_paired",
-                            "block_cv_paired_smooth", "gcv_compliance", "dura_sliding",
-                            "dura_unilateral", "bulk_start_only", "identity_start"});
+                           {"fixed_compliance", "unbounded_start", "block_cv", "block_cv_1se",
+                            "block_cv_1se_bulk", "block_cv_paired", "block_cv_paired_smooth",
+                            "gcv_compliance", "dura_sliding", "dura_unilateral", "identity_start"});
           }
+          methods.push_back("bulk_start_only");
           // pre_dura — the pose measured on the sweep made before the dura was opened
           // (`register --pre-dura`), the loop otherwise the default; in --quick runs too.
           constraints::IntraopData data_pre = data;

@@ -83,6 +83,9 @@ struct Search {
   MatrixX3d coarse, fine;       // points − c
   std::vector<Matrix3d> basis;  // per fine point, or empty
   const detail::DistanceGrid* grid = nullptr;
+  /// The bulk shift is refined in the frame [n e1 e2] (basis columns rotated to it), its first
+  /// component (along the outward direction n) bounded above by 0: the brain sinks.
+  bool sinks = false;
 
   [[nodiscard]] Vector3d place(const Matrix3d& R, const Pose& p, Eigen::Index i) const {
     Vector3d x = R * fine.row(i).transpose() + c + p.t;
@@ -276,6 +279,7 @@ Pose refine(const Search& S, Pose p, bool bulk, int& rounds, index_t& pairs) {
           nullptr, p.s.data());
     else
       problem.SetParameterBlockConstant(p.s.data());
+    if (bulk && !S.basis.empty() && S.sinks) problem.SetParameterUpperBound(p.s.data(), 0, 0.0);
     const Pose old = p;
     ceres::Solver::Options so;
     so.linear_solver_type = ceres::DENSE_QR;
@@ -305,11 +309,12 @@ std::string fmt(const Vector3d& v, int precision = 2) {
 }  // namespace
 
 GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
-                               const BasisAt& basis_at, const GlobalStartOptions& o) {
+                               const BasisAt& basis_at, const GlobalStartOptions& o,
+                               const Vector3d& outward) {
   const auto t0 = Clock::now();
   const std::string invalid = o.validate();
   BS_VERIFY(invalid.empty(), invalid);
-  BS_VERIFY(points.allFinite() && skeleton.points.allFinite(),
+  BS_VERIFY(points.allFinite() && skeleton.points.allFinite() && outward.allFinite(),
             "global start: inputs contain NaN or infinity");
   GlobalStartResult res;
   if (points.rows() < o.min_points || skeleton.segments.empty()) {
@@ -374,6 +379,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   t1 = Clock::now();
   Pose best = identity;
   best.score = res.score_identity;
+  Matrix3d Q = Matrix3d::Identity();  // the frame the bulk shift is refined in
   if (!cands.empty()) {
     const bool bulk = o.bulk_response && basis_at;
     if (bulk) {
@@ -382,6 +388,16 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
           (S.fine * R.transpose()).rowwise() + (S.c + cands.front().t).transpose();
       S.basis = basis_at(placed);
       if (static_cast<Eigen::Index>(S.basis.size()) != S.fine.rows()) S.basis.clear();
+      // The brain sinks: s is refined as Q σ with Q = [n e1 e2] orthonormal, n outward, and
+      // σ₀ = n·s ≤ 0 (a bound of the trust-region solver); the basis columns are rotated to Q.
+      if (o.bulk_sinks && outward.norm() > 0 && !S.basis.empty()) {
+        const Vector3d n = outward.normalized();
+        const Vector3d a = std::abs(n.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+        const Vector3d e1 = n.cross(a).normalized();
+        Q << n, e1, n.cross(e1);
+        for (Matrix3d& b : S.basis) b = b * Q;
+        S.sinks = true;
+      }
     }
     const double top = cands.front().score;
     for (std::size_t k = 0; k < cands.size() && k < 3 && cands[k].score >= 0.9 * top; ++k) {
@@ -423,6 +439,7 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
     res.transform.translation() = S.c + best.t - R * S.c;
     res.translation_mm = best.t.norm();
     res.rotation_deg = best.w.norm() / kDeg;
+    best.s = Q * best.s;  // back to the model frame
     res.bulk_accepted = !S.basis.empty() && best.s.norm() >= o.bulk_min_mm;
     if (res.bulk_accepted)
       res.bulk_shift = best.s;

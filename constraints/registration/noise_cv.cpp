@@ -223,7 +223,7 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     std::snprintf(buf, sizeof buf,
                   "noise model (block CV, %lld vessel rows in %lld branches): no deformation "
                   "(held-out error %.2f mm "
-                  "per row, best compliance %.2f, within one standard error); scatter %.2f mm",
+                  "per row, best compliance %.2f, not significantly better); scatter %.2f mm",
                   static_cast<long long>(m), static_cast<long long>(est.blocks),
                   est.cv_start_rms_mm, est.cv_best_rms_mm, est.sigma_mm);
   else

@@ -95,8 +95,8 @@ StepOptions RegistrationOptions::default_step() {
 
 GlobalStartOptions RegistrationOptions::default_global_start() {
   GlobalStartOptions g;
-  // With the block CV (noise.enabled) the start must be rigid only, so that "no deformation" is
-  // the rigid answer; the default loop (fixed vessel ratio) keeps the bulk response.
+  // Rigid plus the model's bulk response, the bulk shift bounded to a sag (bulk_sinks); the
+  // noise model's "no deformation" is that state (NoiseOptions::start_is_bulk_state).
   g.bulk_response = true;
   return g;
 }
@@ -265,8 +265,8 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     in.bulk_gravity = bulk_gravity(bulk_amplitude(model, in, res, options), options);
   res.bulk_gravity = in.bulk_gravity;
   if (!in.bulk_gravity.isZero()) in.bulk_rest = detail::bulk_rest(model, in.bulk_gravity, options);
-  if (options.noise.enabled && options.noise.start_is_bulk_state && !initial && in.vessels)
-    in.start_state = start_positions(model, in, res, options, nullptr);
+  if (options.noise.enabled && options.noise.start_is_bulk_state && in.vessels)
+    in.start_state = start_positions(model, in, res, options, initial);
   LoopState state;
   state.positions = res.positions;
   if (initial)

@@ -93,6 +93,15 @@ void rigid_only_start(const RegistrationModel& model, const IntraopData& data,
   res.rigid = as_rigid(res.start);
 }
 
+/// The direction out of the brain at the craniotomy (model frame, unit): from the rest mesh's
+/// centroid to the craniotomy's centre. Zero when the scene gives no craniotomy.
+Vector3d outward_at_craniotomy(const core::TetMesh& mesh, const RegistrationOptions& options) {
+  const Vector3d c = options.dura.craniotomy_centre;
+  if (options.dura.craniotomy_radius_mm <= 0 && c.isZero()) return Vector3d::Zero();
+  const Vector3d d = c - mesh.nodes().colwise().mean().transpose();
+  return d.norm() > 0 ? Vector3d(d.normalized()) : Vector3d::Zero();
+}
+
 /// The start: the rigid start and the bulk-shift search. Inputs: the model, the data, the
 /// options, the warm start (`initial`, may be null) and whether vessels are used; outputs:
 /// res.rigid, res.shift, res.seconds.rigid and the per-point basis of the bulk shift.
@@ -129,7 +138,8 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
     BasisAt basis_at;
     if (options.shift_load_basis)
       basis_at = [&](ConstRef<MatrixX3d> x) { return load_basis(mesh, model.load_response(), x); };
-    res.start = global_start(model.skeleton(), data.vessel_points, basis_at, options.global_start);
+    res.start = global_start(model.skeleton(), data.vessel_points, basis_at, options.global_start,
+                             outward_at_craniotomy(mesh, options));
     res.rigid = as_rigid(res.start);
     res.shift = as_shift(res.start);
     if (res.shift.accepted && options.shift_load_basis)

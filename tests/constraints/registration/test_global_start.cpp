@@ -105,38 +105,75 @@ TEST(GlobalStart, ThirtyPercentOutliersDoNotBreakIt) {
   EXPECT_LT(max_error(r.transform, O.inverse(), apply(O, pts)), tol_mm) << r.message;
 }
 
+/// The rest tree seen through a shift s that grows with height (basis α(z) I, α from 0.4 at the
+/// deepest point to 1.6 at the highest, mean 1): a smooth deformation, not a pose.
+struct DepthGraded {
+  core::Skeleton tree = cortical_tree(1);
+  MatrixX3d pts, intra;
+  BasisAt basis;
+  explicit DepthGraded(const Vector3d& s) : pts(sample(tree, 1.0, 0.3, 9)) {
+    const double z0 = pts.col(2).minCoeff(), z1 = pts.col(2).maxCoeff();
+    auto alpha = [z0, z1](double z) { return 0.4 + 1.2 * (z - z0) / (z1 - z0); };
+    double mean = 0;
+    for (Eigen::Index i = 0; i < pts.rows(); ++i)
+      mean += alpha(pts(i, 2)) / static_cast<double>(pts.rows());
+    intra = pts;
+    for (Eigen::Index i = 0; i < pts.rows(); ++i)
+      intra.row(i) += alpha(pts(i, 2)) / mean * s.transpose();
+    basis = [alpha, mean](ConstRef<MatrixX3d> x) {
+      std::vector<Matrix3d> b(static_cast<std::size_t>(x.rows()));
+      for (Eigen::Index i = 0; i < x.rows(); ++i)
+        b[static_cast<std::size_t>(i)] = alpha(x(i, 2)) / mean * Matrix3d::Identity();
+      return b;
+    };
+  }
+  /// Largest distance of the intra-operative points taken back to the rest by r (mm).
+  [[nodiscard]] double back_to_rest_mm(const GlobalStartResult& r) const {
+    MatrixX3d rest = apply(r.transform, intra);
+    const std::vector<Matrix3d> b = basis(rest);
+    for (Eigen::Index i = 0; i < rest.rows(); ++i)
+      rest.row(i) -= (b[static_cast<std::size_t>(i)] * r.bulk_shift).transpose();
+    return (rest - pts).rowwise().norm().maxCoeff();
+  }
+};
+
 TEST(GlobalStart, TellsADepthGradedBulkShiftFromATranslation) {
-  // The rest tree seen through a shift s that grows with height (basis α(z) I, α from 0.4 at
-  // the deepest point to 1.6 at the highest, mean 1): a smooth deformation, not a pose. With the
-  // basis the start recovers s and no rigid motion; without, a rigid pose can only average it.
-  const core::Skeleton tree = cortical_tree(1);
-  const MatrixX3d pts = sample(tree, 1.0, 0.3, 9);
-  const double z0 = pts.col(2).minCoeff(), z1 = pts.col(2).maxCoeff();
-  auto alpha = [&](double z) { return 0.4 + 1.2 * (z - z0) / (z1 - z0); };
-  double mean = 0;
-  for (Eigen::Index i = 0; i < pts.rows(); ++i)
-    mean += alpha(pts(i, 2)) / static_cast<double>(pts.rows());
+  // With the basis the start recovers s and no rigid motion; without, a rigid pose can only
+  // average it.
   const Vector3d s(8.0, -4.0, 0.0);  // horizontal: α(z) is the same at the rest and moved points
-  MatrixX3d intra = pts;
-  for (Eigen::Index i = 0; i < pts.rows(); ++i)
-    intra.row(i) += alpha(pts(i, 2)) / mean * s.transpose();
-  const BasisAt basis = [&](ConstRef<MatrixX3d> x) {
-    std::vector<Matrix3d> b(static_cast<std::size_t>(x.rows()));
-    for (Eigen::Index i = 0; i < x.rows(); ++i)
-      b[static_cast<std::size_t>(i)] = alpha(x(i, 2)) / mean * Matrix3d::Identity();
-    return b;
-  };
-  const GlobalStartResult r = global_start(tree, intra, basis, GlobalStartOptions{});
+  const DepthGraded c(s);
+  const GlobalStartResult r = global_start(c.tree, c.intra, c.basis, GlobalStartOptions{});
   ASSERT_TRUE(r.accepted && r.bulk_accepted) << r.message;
   // 1.5 mm: the weak prior (bulk_prior_mm) shrinks s, and a tilt of the rigid part trades
   // against the depth gradient; a start that ignores the gradient is off by ≥ 3 mm at the
   // deepest and highest points (0.6 × |s| ≈ 5.4 mm).
   EXPECT_LT((r.bulk_shift - s).norm(), 1.5) << r.message;
-  MatrixX3d rest = apply(r.transform, intra);
-  const std::vector<Matrix3d> b = basis(rest);
-  for (Eigen::Index i = 0; i < rest.rows(); ++i)
-    rest.row(i) -= (b[static_cast<std::size_t>(i)] * r.bulk_shift).transpose();
-  EXPECT_LT((rest - pts).rowwise().norm().maxCoeff(), 1.5) << r.message;
+  EXPECT_LT(c.back_to_rest_mm(r), 1.5) << r.message;
+}
+
+TEST(GlobalStart, TheBulkShiftSinksAwayFromTheCraniotomy) {
+  // The same shift seen with a craniotomy whose outward direction it points away from (a sag):
+  // the bound is inactive and the result is the unbounded one (same 1.5 mm tolerances). Seen
+  // with the craniotomy on the side it points to (a bulge), the bulk shift keeps n·s ≤ 0 and
+  // the rigid part takes the motion; with bulk_sinks off the bulge is found as before.
+  const Vector3d s(8.0, -4.0, 0.0);
+  const DepthGraded c(s);
+  const Vector3d sag_outward(-0.6, 0.5, 0.8);  // n·s = −6.8 mm
+  const GlobalStartResult r = global_start(c.tree, c.intra, c.basis, {}, sag_outward);
+  ASSERT_TRUE(r.accepted && r.bulk_accepted) << r.message;
+  EXPECT_LT((r.bulk_shift - s).norm(), 1.5) << r.message;
+  EXPECT_LT(c.back_to_rest_mm(r), 1.5) << r.message;
+
+  const Vector3d bulge_outward = s.normalized();
+  const GlobalStartResult b = global_start(c.tree, c.intra, c.basis, {}, bulge_outward);
+  ASSERT_TRUE(b.accepted) << b.message;
+  // 1e-6 mm: the bound is exact in the rotated frame, up to the rotation back (round-off).
+  EXPECT_LE(b.bulk_shift.dot(bulge_outward), 1e-6) << b.message;
+  GlobalStartOptions off;
+  off.bulk_sinks = false;
+  const GlobalStartResult u = global_start(c.tree, c.intra, c.basis, off, bulge_outward);
+  ASSERT_TRUE(u.accepted && u.bulk_accepted) << u.message;
+  EXPECT_LT((u.bulk_shift - s).norm(), 1.5) << u.message;
 }
 
 TEST(GlobalStart, EmptyOrTooFewPointsGiveTheIdentityAndSaySo) {

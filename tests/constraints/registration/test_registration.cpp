@@ -18,9 +18,14 @@
 namespace brainshift::constraints {
 namespace {
 
+/// The loop itself: the noise model's choice between the loop's deformation and the start
+/// (NoiseOptions::enabled, on by default) is off here. On this scene's six long branches of white
+/// 0.3 mm noise the held-out branches cannot show the deformation's gain and the default keeps
+/// the start (TheDefaultKeepsTheStartWhereHeldOutBranchesCannotShowTheGain below).
 RegistrationOptions options() {
   RegistrationOptions o;
   o.max_iterations = 60;
+  o.noise.enabled = false;
   return o;
 }
 
@@ -48,6 +53,29 @@ TEST(Registration, RecoversASmoothSagFromNoisyVesselPoints) {
   EXPECT_TRUE(r.converged) << r.stop_reason;
   EXPECT_GT(before.first, 3.0);  // the case has a real shift
   EXPECT_LE(after.first, 0.5);   // issue 4: landmark error ≤ 0.5 mm
+}
+
+TEST(Registration, TheDefaultKeepsTheStartWhereHeldOutBranchesCannotShowTheGain) {
+  // The same data with the default options: the paired test (z = 2) on the six held-out
+  // branches does not find the loop's deformation significantly better than the start's rigid +
+  // bulk state, so the answer is that state, bit for bit (start_only), and it still removes most of
+  // the shift. The loop alone reaches ≤ 0.5 mm here (above): this is the default's known cost where
+  // the vessels are few and long (docs/BENCHMARKS.md, "Never worse than rigid, v7").
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o;
+  o.max_iterations = 60;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  ASSERT_TRUE(r.noise.valid && r.noise.keep_start) << r.noise.message;
+  EXPECT_EQ(r.noise.blocks, 6) << r.noise.message;
+  const RegistrationResult start = start_only(*s.model, d, o);
+  EXPECT_EQ((r.positions - start.positions).cwiseAbs().maxCoeff(), 0.0);
+  const auto before = s.landmark_error(s.mesh.nodes());
+  const auto after = s.landmark_error(r.positions);
+  // Less than a third of the shift is left (measured 1.17 of 4.09 mm).
+  EXPECT_LT(after.first, before.first / 3) << r.noise.message;
 }
 
 TEST(Registration, ThirtyPercentOutliersAreFiltered) {

@@ -103,6 +103,7 @@ TEST(RegistrationLoop, ANonFiniteStepInTheSmoothingStageEndsDiverged) {
   o.global_start.bulk_response = false;
   o.noise.change_factor = 1.0;     // always smooth at the chosen compliance
   o.noise.consider_start = false;  // a SMOOTH stage with iterations, not the start kept
+  o.noise.paired_test = false;     // (the paired test needs the start as a candidate)
   const RegistrationResult clean = register_model(*s.model, d, o);
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
   ASSERT_EQ(clean.stages.size(), 2u);
