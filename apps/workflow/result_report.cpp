@@ -146,9 +146,17 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                            {"first_iteration", st.first_iteration},
                            {"iterations", st.iterations},
                            {"vessel_compliance_ratio", st.vessel_compliance_ratio}});
-  j["noise"] = {{"valid", r.noise.valid},         {"vessel_compliance_ratio", r.noise.ratio},
-                {"scatter_mm", r.noise.sigma_mm}, {"effective_dof", r.noise.effective_dof},
-                {"rows", r.noise.rows},           {"message", r.noise.message}};
+  j["noise"] = {{"valid", r.noise.valid},
+                {"vessel_compliance_ratio", r.noise.ratio},
+                {"scatter_mm", r.noise.sigma_mm},
+                {"effective_dof", r.noise.effective_dof},
+                {"rows", r.noise.rows},
+                {"criterion", to_string(r.noise.criterion)},
+                {"start_kept", r.noise.keep_start},
+                {"heldout_blocks", r.noise.blocks},
+                {"paired_gain_mm2", r.noise.paired_gain_mm2},
+                {"paired_se_mm2", r.noise.paired_se_mm2},
+                {"message", r.noise.message}};
   j["cold_retry"] = r.cold_retry;
   j["max_displacement_mm"] =
       r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
