@@ -89,8 +89,8 @@ struct NoiseOptions {
   /// d_B = ‖e_B(∞)‖² − ‖e_B(ε*)‖² (paired over the blocks, as the one-SE rule); otherwise keep
   /// the start. Unlike the one-SE rule it does not move a kept deformation to a smoother ratio.
   /// Needs consider_start. On by default at z = 2, a one-sided test at ≈ 2.5 % for the 15–25
-  /// branches a sweep pairs (z = 1 kept noise on 4 of 12 cases at seed 1, up to +0.24 mm behind
-  /// rigid alone; docs/BENCHMARKS.md, "Never worse than rigid, v7").
+  /// branches a sweep pairs (z = 1 deformed on 8 of 12 cases at seed 1, 6 of them then behind
+  /// rigid alone, by up to 0.24 mm; docs/BENCHMARKS.md, "Never worse than rigid, v7").
   bool paired_test = true;
   double paired_test_z = 2.0;  ///< standard errors the gain must exceed (≥ 0)
   /// BLOCK_CV: each finite candidate's per-block scores averaged over this many grid neighbours
