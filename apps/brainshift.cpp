@@ -58,6 +58,7 @@
 #include "cmd_replay.hpp"
 #include "cmd_simulate.hpp"
 
+#include "core/blas_threads.hpp"
 #include "core/error.hpp"
 #include "core/process_memory.hpp"
 
@@ -110,8 +111,12 @@ int main(int argc, char** argv) {
   // The intra-operative commands allocate and free volumes of tens of MB and end soon after:
   // reuse freed memory instead of faulting in fresh pages for each (core/process_memory.hpp).
   // Not for the long or heavy ones (bench, prepare), whose peak heap would be kept.
-  if (reg->parsed() || replay->parsed() || extract_vessels->parsed() || extract_footprint->parsed())
+  // They also run their own two threads on small models: one BLAS thread (core/blas_threads.hpp).
+  if (reg->parsed() || replay->parsed() || extract_vessels->parsed() ||
+      extract_footprint->parsed()) {
     (void)brainshift::core::keep_freed_memory_for_reuse();
+    (void)brainshift::core::one_blas_thread_unless_set();
+  }
   try {
     if (simulate->parsed()) return apps::run_simulate(simulate_args, std::cout);
     if (demo->parsed()) return apps::run_demo(demo_args, std::cout);

@@ -20,6 +20,7 @@
 
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/result_fields.hpp"
+#include "core/blas_threads.hpp"
 #include "core/error.hpp"
 #include "core/process_memory.hpp"
 #include "core/timing.hpp"
@@ -183,6 +184,7 @@ int main(int argc, char** argv) {
   // Allocates and frees volumes of tens of MB and ends soon after: reuse freed memory instead of
   // faulting in fresh pages for each (core/process_memory.hpp).
   (void)brainshift::core::keep_freed_memory_for_reuse();
+  (void)brainshift::core::one_blas_thread_unless_set();  // core/blas_threads.hpp
   return slicer::run_module(argc, argv, "BrainshiftRegister", slicer::register_module(),
                             slicer::register_body);
 }

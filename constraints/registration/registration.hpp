@@ -187,7 +187,8 @@ struct RegistrationOptions {
   /// The predicted error of the answer (uncertainty.hpp: predict_uncertainty()); not used by
   /// the loop itself.
   UncertaintyOptions uncertainty;
-  /// Fault injection for tests: called with every step's result before the loop looks at it.
+  /// Fault injection for tests: called with every step's result as it will be taken (after a
+  /// DAMP's scaling), before the loop looks at it.
   std::function<void(StepResult&)> inspect_step;
   /// Empty when valid, else what is wrong.
   [[nodiscard]] std::string validate() const;

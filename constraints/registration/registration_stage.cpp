@@ -201,7 +201,6 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     step_options.max_increment = std::isfinite(radius) ? radius : 0.0;
     rec.damping = damping;
     StepResult step = model.mechanics().step(state.positions, rows, step_options, lambda0);
-    if (options.inspect_step) options.inspect_step(step);
     if (damping < 1.0) {
       // DAMP: the whole step scaled, so that the fixed points stay the loop's own (damping the
       // elastic part alone, StepOptions::relaxation, moves them where compliant rows hold a
@@ -209,6 +208,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       step.x = state.positions + damping * (step.x - state.positions);
       step.max_increment *= damping;
     }
+    if (options.inspect_step) options.inspect_step(step);
     rec.trust_radius_mm = step_options.max_increment;
     rec.limited = step.limited;
     rec.finite = step.finite && step.x.allFinite() && std::isfinite(step.max_increment);

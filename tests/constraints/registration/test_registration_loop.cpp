@@ -405,10 +405,14 @@ TEST(RegistrationLoop, APairingThatCyclesIsFrozen) {
 TEST(RegistrationLoop, ContradictoryDataAreDampedToTheirSpringsBalanceAndNotDeformed) {
   // Points midway between two vessels pull the model both ways. Across pairing flips each
   // turn-back halves the radius; once the pairs freeze, the compliant rows' balance is a fixed
-  // point, and the oscillation about it that does not contract (the step's own overshoot) is
+  // point, and an oscillation about it that does not contract (the step's own overshoot) is
   // damped instead of raced to a NOT_SETTLING stop (the rule before DAMP; it stopped after 9
-  // halvings). The noise model (informative here: RegistrationOptions::noise is off) then finds
-  // that no deformation predicts held-out vessels best.
+  // halvings). Whether such an oscillation appears here depends on the last bits of the solves:
+  // with ATLAS one DAMP at iteration 24, with OpenBLAS the pairs freeze earlier and every
+  // turn-back contracts (held). So every DAMP that happens is checked, and DAMP itself by the
+  // injected growing oscillation below. The noise model (informative here:
+  // RegistrationOptions::noise is off) then finds that no deformation predicts held-out vessels
+  // best.
   const RegistrationResult r = register_between_parallel_vessels();
   ASSERT_TRUE(r.positions.allFinite());
   int halvings = 0, damps = 0;
@@ -430,7 +434,8 @@ TEST(RegistrationLoop, ContradictoryDataAreDampedToTheirSpringsBalanceAndNotDefo
     }
   }
   EXPECT_GE(halvings, 3);
-  EXPECT_GE(damps, 1);
+  std::cout << "[ loop ] " << halvings << " halvings, " << damps << " damped; " << r.stop_reason
+            << "\n";
   EXPECT_EQ(r.history.back().pairing, PairingMode::FROZEN);
   EXPECT_EQ(r.stop, RegistrationStop::CONVERGED) << r.stop_reason;
   ASSERT_TRUE(r.noise.valid);
@@ -495,6 +500,60 @@ TEST(RegistrationLoop, AContractingOscillationKeepsItsRadiusAndConverges) {
   // And the answer is the clean one. Stopped at a step below 0.01 mm that contracts by 0.7, the
   // push left is at most 0.01 · 0.7 / (1 − 0.7) ≈ 0.023 mm from the fixed point; 0.05 mm leaves
   // room for the clean run's own stop (also below 0.01 mm a step).
+  EXPECT_LT(off_clean, 0.05);
+}
+
+TEST(RegistrationLoop, AGrowingOscillationBelowTheRadiusIsDampedAndConverges) {
+  // issue 14 item 4 (the ICBM152 pre-dura case): an iteration whose map has an eigenvalue of
+  // −1.05 turns back every step by a little more than the step before, below the trust radius,
+  // which halving cannot reach until it binds. Fault injection: the free node farthest from the
+  // vessels overshoots every step it takes by β = 1.05 of it, so about its equilibrium e the
+  // node's error maps as (x − e) ← (1 − α (1 + β)) (x − e): −1.05 undamped (α = 1), −0.23 once
+  // damped (α = 0.6). The step taken is zero at the fixed point, so the clean answer stays it.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o = options();
+  o.shift_search.enabled = false;  // the start is the rest shape, one FREE stage
+  o.noise.enabled = false;
+  const RegistrationResult clean = register_model(*s.model, d, o);
+  ASSERT_TRUE(clean.converged) << clean.stop_reason;
+
+  const MatrixX3d& rest = s.mesh.nodes();
+  index_t node = -1;
+  double farthest = 0.0;
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i) {
+    if (rest(i, 2) < -22) continue;  // fixed
+    const double dist = (s.skeleton.points.rowwise() - rest.row(i)).rowwise().norm().minCoeff();
+    if (dist > farthest) {
+      farthest = dist;
+      node = i;
+    }
+  }
+  ASSERT_GE(node, 0);
+  const double beta = 1.05;
+  MatrixX3d x_before = rest;  // the positions each step starts from
+  o.inspect_step = [&](StepResult& step) {
+    const Eigen::RowVector3d taken = step.x.row(node) - x_before.row(node);
+    step.x.row(node) += beta * taken;
+    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
+    x_before = step.x;
+  };
+  const RegistrationResult r = register_model(*s.model, d, o);
+  int damps = 0;
+  for (const IterationRecord& h : r.history) damps += h.trust == TrustDecision::DAMP;
+  const double off_clean = (r.positions - clean.positions).rowwise().norm().maxCoeff();
+  std::cout << "[ loop ] node " << node << " (" << farthest
+            << " mm from the vessels): " << r.iterations << " iterations (clean "
+            << clean.iterations << "), " << damps << " damped, final damping "
+            << r.history.back().damping << "; max |x - x_clean| " << off_clean << " mm; "
+            << r.stop_reason << "\n";
+  EXPECT_EQ(r.stop, RegistrationStop::CONVERGED) << r.stop_reason;
+  EXPECT_GE(damps, 1);
+  EXPECT_LT(r.history.back().damping, 1.0);
+  // The answer is the clean one: stopped at a step below 0.01 mm × α that contracts by 0.23 (or
+  // faster, after a second DAMP), the node is ≈ 0.003 mm from e; 0.05 mm leaves room for the
+  // clean run's own stop, as above.
   EXPECT_LT(off_clean, 0.05);
 }
 
