@@ -1,7 +1,6 @@
 #include "core/blas_threads.hpp"
 
 #include <cstdlib>
-
 #include <dlfcn.h>
 
 #if defined(BRAINSHIFT_HAVE_OPENBLAS)

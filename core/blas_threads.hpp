@@ -1,6 +1,7 @@
 #pragma once
 /// @file
-/// @brief Which BLAS serves the process, and its thread count (OpenBLAS; see cmake/deps/blas.cmake).
+/// @brief Which BLAS serves the process, and its thread count (OpenBLAS; see
+/// cmake/deps/blas.cmake).
 
 #include <string>
 
