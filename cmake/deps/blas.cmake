@@ -4,10 +4,10 @@
 # Why it is linked explicitly: Debian's Ceres config lists ATLAS's libf77blas and libatlas by full
 # path, and the first library in the executable's dependencies that defines dgemm_ serves every
 # library of the process, CHOLMOD included. That was ATLAS's libf77blas, whatever the system's
-# libblas.so.3 alternative said (so swapping the alternative or LD_LIBRARY_PATH measured nothing:
-# docs/BENCHMARKS.md, "BLAS under CHOLMOD, idle"). With OpenBLAS it replaces those two in Ceres'
+# libblas.so.3 alternative said (so swapping the alternative or LD_LIBRARY_PATH changed only
+# dpotrf_: docs/BENCHMARKS.md, "BLAS under CHOLMOD, idle"). With OpenBLAS it replaces those two in Ceres'
 # link interface and comes first in CHOLMOD's, so it serves BLAS and LAPACK to the whole process.
-# Measured on the 2-core VM: the 58k-DOF factorisation 5.3 s (ATLAS) → 2.1-2.4 s (OpenBLAS, one
+# Measured on the 2-core VM: the 58k-DOF factorisation 5.3 s (ATLAS) → 1.9-2.4 s (OpenBLAS, one
 # thread), `prepare --refine 2.6` 27 → 18-20 s. BS_BLAS=system keeps the libraries Ceres lists.
 set(BS_BLAS "auto" CACHE STRING "BLAS under CHOLMOD: auto (OpenBLAS if found), openblas, system")
 set_property(CACHE BS_BLAS PROPERTY STRINGS auto openblas system)
