@@ -19,6 +19,14 @@
 namespace brainshift::constraints {
 namespace {
 
+/// The loop tests' options (test_registration_loop.cpp, test_registration_trust.cpp): the
+/// defaults, at most 60 iterations.
+inline RegistrationOptions loop_options() {
+  RegistrationOptions o;
+  o.max_iterations = 60;
+  return o;
+}
+
 /// Truth displacement (mm): a sag that grows towards the top of the ellipsoid (10 mm at the
 /// top, 0 below z = −30) and bends sideways.
 Vector3d truth(const Vector3d& X) {

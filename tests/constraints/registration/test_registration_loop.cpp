@@ -14,12 +14,6 @@
 namespace brainshift::constraints {
 namespace {
 
-RegistrationOptions options() {
-  RegistrationOptions o;
-  o.max_iterations = 60;
-  return o;
-}
-
 /// The history agrees with the stage records: contiguous, in order, each iteration tagged.
 void expect_consistent_stages(const RegistrationResult& r) {
   int next = 1;
@@ -36,7 +30,7 @@ TEST(RegistrationLoop, FreeThenSmoothStagesEachRecordedInTheHistory) {
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   o.shift_search.enabled = false;  // no bulk-shift stage: FREE, then the noise model's SMOOTH
   o.noise.enabled = true;
   o.noise.criterion = NoiseCriterion::GCV;  // this test is about GCV's SMOOTH stage
@@ -73,7 +67,7 @@ TEST(RegistrationLoop, BlockCrossValidationChoosesTheCompliancePerBranch) {
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   o.shift_search.enabled = false;
   o.noise.enabled = true;
   o.global_start.bulk_response = false;
@@ -97,7 +91,7 @@ TEST(RegistrationLoop, ANonFiniteStepInTheSmoothingStageEndsDiverged) {
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   o.shift_search.enabled = false;
   o.noise.enabled = true;  // the block-CV SMOOTH stage (off by default), from a rigid-only start
   o.global_start.bulk_response = false;
@@ -129,7 +123,7 @@ TEST(RegistrationLoop, WithoutTheSmoothingStageOnlyTheFreeStageRunsAndTheScatter
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   o.shift_search.enabled = false;
   o.noise.enabled = false;
   const RegistrationResult r = register_model(*s.model, d, o);
@@ -148,7 +142,7 @@ TEST(RegistrationLoop, ABulkShiftIsFollowedByHeldPairsThenFreePairing) {
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 3);
   d.vessel_points.rowwise() += Eigen::RowVector3d(0.0, 0.0, -6.0);
-  const RegistrationResult r = register_model(*s.model, d, options());
+  const RegistrationResult r = register_model(*s.model, d, loop_options());
   ASSERT_TRUE(r.positions.allFinite());
   if (!r.shift.accepted)
     GTEST_SKIP() << "the shift search did not accept a bulk shift here: " << r.shift.message;
@@ -176,7 +170,7 @@ TEST(RegistrationLoop, ANonFiniteStepEndsDivergedWithTheStartsState) {
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   o.shift_search.enabled = false;  // the start is the rest shape: no bulk shift
   int calls = 0;
   o.inspect_step = [&](StepResult& step) {
@@ -204,10 +198,10 @@ TEST(RegistrationLoop, ADivergedStopAfterABulkShiftReturnsTheBulkResponse) {
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 3);
   d.vessel_points.rowwise() += Eigen::RowVector3d(0.0, 0.0, -6.0);
-  const RegistrationResult clean = register_model(*s.model, d, options());
+  const RegistrationResult clean = register_model(*s.model, d, loop_options());
   if (!clean.shift.accepted || clean.stages.empty() || clean.stages[0].kind != StageKind::HELD)
     GTEST_SKIP() << "the shift search did not accept a bulk shift here: " << clean.shift.message;
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   int calls = 0;
   o.inspect_step = [&](StepResult& step) {
     if (++calls == clean.stages[0].iterations + 2)
@@ -240,7 +234,7 @@ TEST(RegistrationLoop, TheStartOnlyIsTheBulkResponseToTheStartsShift) {
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 3);
   d.vessel_points.rowwise() += Eigen::RowVector3d(0.0, 0.0, -6.0);
-  const RegistrationResult start = start_only(*s.model, d, options());
+  const RegistrationResult start = start_only(*s.model, d, loop_options());
   ASSERT_EQ(start.stop, RegistrationStop::CONVERGED) << start.stop_reason;
   ASSERT_TRUE(start.positions.allFinite());
   if (!start.shift.accepted) GTEST_SKIP() << "no bulk shift accepted: " << start.shift.message;
@@ -275,15 +269,15 @@ TEST(RegistrationLoop, AWarmStartSettlesWhereAColdStartConverges) {
   IntraopData frame1, frame2;
   frame1.vessel_points = sample_deformed(s.skeleton, 0.3, 4, 0.6);
   frame2.vessel_points = sample_deformed(s.skeleton, 0.3, 5, 1.0);
-  const RegistrationResult first = register_model(*s.model, frame1, options());
+  const RegistrationResult first = register_model(*s.model, frame1, loop_options());
   ASSERT_TRUE(first.converged) << first.stop_reason;
-  const RegistrationResult cold = register_model(*s.model, frame2, options());
+  const RegistrationResult cold = register_model(*s.model, frame2, loop_options());
   ASSERT_TRUE(cold.converged) << cold.stop_reason;
-  const RegistrationResult warm = register_model(*s.model, frame2, options(), &first);
+  const RegistrationResult warm = register_model(*s.model, frame2, loop_options(), &first);
   EXPECT_TRUE(warm.converged) << warm.stop_reason;
   EXPECT_NE(warm.stop, RegistrationStop::NOT_SETTLING);
 
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   int calls = 0;
   o.inspect_step = [&](StepResult& step) {
     if (++calls == 1) step.x(0, 0) = std::numeric_limits<double>::quiet_NaN();
@@ -301,7 +295,7 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   IntraopData d;
   const MatrixX3d all = sample_deformed(s.skeleton, 0.3, 1);
   d.vessel_points = all.topRows(9);
-  const RegistrationResult r = register_model(*s.model, d, options());
+  const RegistrationResult r = register_model(*s.model, d, loop_options());
   EXPECT_EQ(r.stop, RegistrationStop::INSUFFICIENT_DATA) << r.stop_reason;
   EXPECT_FALSE(r.converged);
   EXPECT_TRUE(r.positions.allFinite());
@@ -310,7 +304,7 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   EXPECT_TRUE(r.start_returned);
   EXPECT_FALSE(r.shift.accepted);
   EXPECT_EQ(r.positions, s.mesh.nodes());
-  const RigidInitResult rigid = rigid_start(*s.model, d, options());
+  const RigidInitResult rigid = rigid_start(*s.model, d, loop_options());
   EXPECT_TRUE(r.rigid.transform.isApprox(rigid.transform, 1e-12))
       << r.rigid.transform.matrix() << "\n"
       << rigid.transform.matrix();
@@ -321,7 +315,7 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   // and all that corrects the sag: the pose is kept, with the start's bulk state.
   IntraopData posed = d;
   posed.pose = Eigen::Isometry3d(Eigen::Translation3d(0.5, -0.5, 0.0));
-  const RegistrationResult p = register_model(*s.model, posed, options());
+  const RegistrationResult p = register_model(*s.model, posed, loop_options());
   EXPECT_EQ(p.stop, RegistrationStop::INSUFFICIENT_DATA) << p.stop_reason;
   EXPECT_TRUE(p.start_returned);
   EXPECT_TRUE(p.rigid.transform.isApprox(*posed.pose, 1e-12)) << p.rigid.transform.matrix();

@@ -10,16 +10,11 @@
 
 #include <cmath>
 #include <iostream>
+#include <tuple>
 #include <utility>
 
 namespace brainshift::constraints {
 namespace {
-
-RegistrationOptions options() {
-  RegistrationOptions o;
-  o.max_iterations = 60;
-  return o;
-}
 
 /// The free node farthest from the vessels (the pairing does not feel it) and its distance (mm);
 /// node −1 when every node is fixed.
@@ -37,6 +32,25 @@ std::pair<index_t, double> farthest_free_node(const Scene& s) {
   }
   return {node, farthest};
 }
+
+/// The scene for fault injection at one node: the sagged vessels sampled with 0.3 mm noise, one
+/// FREE stage from the rest shape (no shift search, no noise model), the clean run's answer and
+/// the free node farthest from the vessels (the pairing does not feel it).
+struct FarNodeInjection {
+  Scene s;
+  IntraopData d;
+  RegistrationOptions o = loop_options();
+  RegistrationResult clean;
+  index_t node = -1;
+  double farthest = 0.0;
+  FarNodeInjection() {
+    d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+    o.shift_search.enabled = false;  // the start is the rest shape, one FREE stage
+    o.noise.enabled = false;
+    clean = register_model(*s.model, d, o);
+    std::tie(node, farthest) = farthest_free_node(s);
+  }
+};
 
 TEST(RegistrationLoop, TrustRegionHalvesOnATurnBackAndGrowsOtherwise) {
   double radius = 4.0, damping = 1.0;
@@ -144,7 +158,7 @@ RegistrationResult register_between_parallel_vessels(double vessel_compliance_ra
   d.vessel_points.resize(n, 3);
   for (int k = 0; k < n; ++k)
     d.vessel_points.row(k) << -12.5 + 1.25 * k, (k % 2 ? 0.05 : -0.05), 10.0;
-  RegistrationOptions o = options();
+  RegistrationOptions o = loop_options();
   o.shift_search.enabled = false;
   o.vessel_filter.max_angle_deg = 90.0;
   o.vessel_filter.one_per_feature = false;
@@ -222,18 +236,11 @@ TEST(RegistrationLoop, AContractingOscillationKeepsItsRadiusAndConverges) {
   // p_k = a (-q)^k along z after step k. Each static step removes the last push (the node has no
   // data to hold it), so that node's increment is p_k - p_{k-1}: alternating in sign, 0.7 times
   // the previous one (between the old rule's 0.5 and contraction_bound's 0.9), from 3.4 mm.
-  Scene s;
-  IntraopData d;
-  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
-  o.shift_search.enabled = false;  // the start is the rest shape, one FREE stage
-  o.noise.enabled = false;
-  const RegistrationResult clean = register_model(*s.model, d, o);
+  FarNodeInjection c;
+  auto& [s, d, o, clean, node, farthest] = c;
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
-
-  const MatrixX3d& rest = s.mesh.nodes();
-  const auto [node, farthest] = farthest_free_node(s);
   ASSERT_GE(node, 0);
+  const MatrixX3d& rest = s.mesh.nodes();
   const double a = 2.0, q = 0.7;
   MatrixX3d x_before = rest;  // the positions each step starts from
   int k = 0;
@@ -271,18 +278,11 @@ TEST(RegistrationLoop, AGrowingOscillationBelowTheRadiusIsDampedAndConverges) {
   // vessels overshoots every step it takes by β = 1.05 of it, so about its equilibrium e the
   // node's error maps as (x − e) ← (1 − α (1 + β)) (x − e): −1.05 undamped (α = 1), −0.23 once
   // damped (α = 0.6). The step taken is zero at the fixed point, so the clean answer stays it.
-  Scene s;
-  IntraopData d;
-  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = options();
-  o.shift_search.enabled = false;  // the start is the rest shape, one FREE stage
-  o.noise.enabled = false;
-  const RegistrationResult clean = register_model(*s.model, d, o);
+  FarNodeInjection c;
+  auto& [s, d, o, clean, node, farthest] = c;
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
-
-  const MatrixX3d& rest = s.mesh.nodes();
-  const auto [node, farthest] = farthest_free_node(s);
   ASSERT_GE(node, 0);
+  const MatrixX3d& rest = s.mesh.nodes();
   const double beta = 1.05;
   MatrixX3d x_before = rest;  // the positions each step starts from
   o.inspect_step = [&](StepResult& step) {
