@@ -34,6 +34,9 @@
 //                                [--report REPORT.json]
 //       The probe footprint of one B-mode volume (points, normals into the tissue), to check an
 //       input before registering; the beam is estimated from the swept region unless given.
+//   brainshift options [--markdown]
+//       Every scene key, one a line: path, default, accepted values, what it does (the Markdown
+//       form is docs/OPTIONS.md).
 //   brainshift simulate --mesh brain.vtu --fixed fixed.csv --displace displace.csv
 //                       [--gravity 0,0,-9810] [--linear] [--max-iterations 200]
 //                       [--tolerance 1e-6] [--write-unconverged] --out result.vtu
@@ -52,6 +55,7 @@
 #include "cmd_evaluate.hpp"
 #include "cmd_extract.hpp"
 #include "cmd_extract_footprint.hpp"
+#include "cmd_options.hpp"
 #include "cmd_phantom.hpp"
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
@@ -86,6 +90,8 @@ int main(int argc, char** argv) {
   const CLI::App* replay = apps::add_replay_command(app, replay_args);
   apps::EvaluateArgs evaluate_args;
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
+  apps::OptionsArgs options_args;
+  const CLI::App* options = apps::add_options_command(app, options_args);
   apps::BenchArgs bench_args;
   const CLI::App* bench = apps::add_bench_command(app, bench_args);
   // `extract` and its subcommands, one file each (cmd_extract*.cpp).
@@ -126,6 +132,7 @@ int main(int argc, char** argv) {
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
+    if (options->parsed()) return apps::run_options(options_args, std::cout);
     if (extract_vessels->parsed())
       return apps::run_extract_vessels(extract_vessels_args, std::cout);
     if (extract_footprint->parsed())

@@ -1,9 +1,9 @@
 #pragma once
 /// @file
 /// @brief `brainshift bench`: speed against error on the phantom cases (issue 8); argument
-/// parsing over run_benchmark() (apps/workflow/bench.hpp, which describes the suites and outputs).
+/// parsing over run_benchmark() (apps/bench/bench.hpp, which describes the suites and outputs).
 
-#include "apps/workflow/bench.hpp"
+#include "apps/bench/bench.hpp"
 
 #include <iosfwd>
 

@@ -16,7 +16,6 @@
 
 #include "constraints/registration/global_start.hpp"
 #include "constraints/registration/registration.hpp"
-#include "constraints/registration/rigid_init.hpp"
 #include "constraints/registration/shift_search.hpp"
 #include "constraints/rows/constraint_rows.hpp"
 #include "constraints/solver/compliance_operator.hpp"
@@ -460,24 +459,6 @@ void BM_GlobalStart(benchmark::State& state) {
   state.counters["nodes"] = static_cast<double>(m.mesh().num_nodes());
 }
 
-/// The start it replaces: robust Ceres ICP (rigid_init), then the bulk-shift search in its frame
-/// and from the identity (the old register_model's rigid start + shift search).
-void BM_OldRigidStartAndShiftSearch(benchmark::State& state) {
-  StartScene& s = start_scene();
-  constraints::RegistrationModel& m = *s.model;
-  for (auto _ : state) {
-    const constraints::RigidInitResult rigid =
-        constraints::rigid_init(m.skeleton(), s.points, nullptr, nullptr, {});
-    const MatrixX3d moved = (s.points * rigid.transform.linear().transpose()).rowwise() +
-                            rigid.transform.translation().transpose();
-    for (const MatrixX3d* p : {&moved, static_cast<const MatrixX3d*>(&s.points)}) {
-      const std::vector<Matrix3d> basis = constraints::load_basis(m.mesh(), m.load_response(), *p);
-      benchmark::DoNotOptimize(constraints::search_shift(m.skeleton(), *p, basis, {}));
-    }
-  }
-  state.counters["nodes"] = static_cast<double>(m.mesh().num_nodes());
-}
-
 // Meshes: 12 cells → 2,197 nodes, 26 → 19,683. Rows: 100, 300, 1,000, 3,000, plus 600 on the
 // 2k mesh (seed-002 scale, the 10 ms target).
 void SmallMesh(benchmark::internal::Benchmark* b) {
@@ -500,7 +481,6 @@ BENCHMARK(BM_W_SparseLowerSolveOnly)->Apply(SmallMesh);
 BENCHMARK(BM_PGS)->Apply(SmallMesh)->Apply(LargeMesh);
 BENCHMARK(BM_Step)->Apply(SmallMesh)->Apply(LargeMesh);
 BENCHMARK(BM_GlobalStart)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_OldRigidStartAndShiftSearch)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_StepSmooth)
     ->ArgNames({"cells", "rows"})
     ->Args({12, 600})

@@ -58,12 +58,19 @@ Skeleton vessel_tree() {
   return s;
 }
 
+/// The loop from the tracked frame (the scene's offset is searched only by the RIGID variant).
+RegistrationOptions identity_start() {
+  RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;
+  return o;
+}
+
 struct Scene {
   core::TetMesh mesh = hemisphere_mesh(12);
   Skeleton skeleton = vessel_tree();
   std::unique_ptr<RegistrationModel> model;
   IntraopData data;
-  RegistrationOptions options;
+  RegistrationOptions options = identity_start();
   Eigen::Isometry3d offset = Eigen::Isometry3d::Identity();
 
   Scene() {

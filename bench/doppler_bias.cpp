@@ -16,8 +16,8 @@
 /// Usage: doppler_bias CASE SEED WORK_DIR [REAL_DATA]  (cases without a tracking error only).
 /// Prints a plain-text report. Not shipped: a measurement tool.
 
-#include "apps/workflow/baselines.hpp"
-#include "apps/workflow/bench_run.hpp"
+#include "apps/bench/baselines.hpp"
+#include "apps/bench/bench_run.hpp"
 #include "apps/workflow/intraop_frame.hpp"
 #include "apps/workflow/session.hpp"
 #include "core/mapping/barycentric_mapping.hpp"

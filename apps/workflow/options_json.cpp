@@ -160,6 +160,90 @@ std::set<std::string> keys_under(const std::vector<OptionField>& fields,
   return keys;
 }
 
+/// Keys earlier versions read that are no longer scene keys, and why. `rigid.enabled` (old
+/// scenes, which `prepare` wrote with it) is the old spelling of `start` and still read.
+struct RetiredKey {
+  std::string_view path;
+  std::string_view why;
+};
+constexpr std::string_view kRemoved = "was removed with the code it set";
+constexpr std::string_view kInternal =
+    "is not a scene key (a constant of the method; `brainshift options` lists the scene keys)";
+constexpr RetiredKey kRetired[] = {
+    {"rigid.loss",
+     "was removed with the Ceres ICP start it set (the global start refines the pose)"},
+    {"rigid.loss_scale_mm", "was removed with the Ceres ICP start it set"},
+    {"rigid.max_icp_iterations", "was removed with the Ceres ICP start it set"},
+    {"rigid.max_pair_distance_mm", "was removed with the Ceres ICP start it set"},
+    {"rigid.footprint_weight", "was removed with the Ceres ICP start it set"},
+    {"rigid.convergence_mm", "was removed with the Ceres ICP start it set"},
+    {"rigid.max_solver_iterations", "was removed with the Ceres ICP start it set"},
+    {"rigid.weak_dof_ratio", "was removed with the Ceres ICP start it set"},
+    {"solver.relaxation", kRemoved},
+    {"solver.fold_correction", kRemoved},
+    {"noise.smooth_neighbours", kRemoved},
+    {"global_start.coarse_step_mm", kInternal},
+    {"global_start.coarse_kernel_mm", kInternal},
+    {"global_start.fine_kernel_mm", kInternal},
+    {"global_start.voxel_mm", kInternal},
+    {"global_start.coarse_points", kInternal},
+    {"global_start.max_points", kInternal},
+    {"global_start.candidates", kInternal},
+    {"global_start.min_gain", kInternal},
+    {"global_start.refine_distance_mm", kInternal},
+    {"global_start.loss_scale_mm", kInternal},
+    {"global_start.refine_iterations", kInternal},
+    {"global_start.solver_iterations", kInternal},
+    {"global_start.convergence_mm", kInternal},
+    {"global_start.bulk_min_mm", kInternal},
+    {"shift_search.coarse_step_mm", kInternal},
+    {"shift_search.coarse_kernel_mm", kInternal},
+    {"shift_search.fine_kernel_mm", kInternal},
+    {"shift_search.voxel_mm", kInternal},
+    {"shift_search.max_points", kInternal},
+    {"shift_search.min_gain", kInternal},
+    {"shift_search.stage_iterations", kInternal},
+    {"shift_search.load_basis", kInternal},
+    {"shift_search.as_load", kInternal},
+    {"noise.criterion", kInternal},
+    {"noise.consider_start", kInternal},
+    {"noise.start_is_bulk_state", kInternal},
+    {"noise.one_standard_error", kInternal},
+    {"noise.paired_test", kInternal},
+    {"noise.change_factor", kInternal},
+    {"noise.max_rows", kInternal},
+    {"solver.plausible_violation_mm", kInternal},
+    {"solver.pgs_lambda_max_mn", kInternal},
+    {"solver.pgs_stall_window", kInternal},
+    {"solver.pgs_null_row_tolerance", kInternal},
+    {"solver.pgs_active_set_max_changes", kInternal},
+    {"solver.compliance_precompute", kInternal},
+    {"solver.compliance_precompute_chunk", kInternal},
+    {"uncertainty.scale_confidence", kInternal},
+    {"uncertainty.rigid_term", kInternal},
+    {"uncertainty.pose_confounded", kInternal},
+};
+
+/// `rigid.enabled`, the old spelling of `start` (true: rigid, false: identity); true when `path`
+/// was it and has been read.
+bool read_old_start(const json& value, const std::string& file, const std::string& path,
+                    const std::vector<OptionField>& fields) {
+  if (path != "rigid.enabled") return false;
+  BS_VERIFY(value.is_boolean(), file << ": '" << path << "' must be true or false");
+  const auto start = std::find_if(fields.begin(), fields.end(),
+                                  [](const OptionField& f) { return f.path == "start"; });
+  BS_VERIFY(start != fields.end(), file << ": '" << path << "' has no 'start' to set");
+  start->set(json(value.get<bool>() ? "rigid" : "identity"), file);
+  return true;
+}
+
+/// Whether `path` or an object above it is retired (old spellings of a group: "rigid").
+bool retired_group(const std::string& path) {
+  for (const RetiredKey& r : kRetired)
+    if (r.path.starts_with(path + ".")) return true;
+  return false;
+}
+
 std::string joined(const std::set<std::string>& keys) {
   std::string list;
   for (const auto& k : keys) list += (list.empty() ? "" : ", ") + k;
@@ -181,7 +265,10 @@ void read_object(const json& j, const std::string& file, const std::string& pref
       field->set(value, file);
       continue;
     }
-    if (known.count(key)) {  // an object of fields
+    if (read_old_start(value, file, path, fields)) continue;
+    for (const RetiredKey& r : kRetired)
+      BS_VERIFY(r.path != path, file << ": '" << path << "' " << r.why);
+    if (known.count(key) || retired_group(path)) {  // an object of fields
       BS_VERIFY(value.is_object(), file << ": '" << path << "' must be an object (keys: "
                                         << joined(keys_under(fields, path + ".")) << ")");
       read_object(value, file, path + ".", fields, other_keys);

@@ -274,19 +274,16 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   const imaging::SkeletonFit fit = mra_vessels(o.mra, mra, mesh, progress, warn);
   const imaging::VesselGraph& skeleton = fit.graph;
 
-  // Default scene, then the user's options merged over it (RFC 7386 merge patch).
+  // Default scene: what prepare measured (its files, the craniotomy); every option at the
+  // library's default (`brainshift options`). The user's options merged over it (RFC 7386).
   const nlohmann::json default_fixed = {{"nodes", "fixed.csv"}};
   const nlohmann::json default_craniotomy = {{"centre_mm", vector_json(craniotomy.centre)},
                                              {"radius_mm", craniotomy.radius_mm}};
-  nlohmann::json scene = {
-      {"version", 1},
-      {"mesh", "mesh.vtu"},
-      {"fixed", default_fixed},
-      {"collision_surface", "surface.vtp"},
-      {"craniotomy", default_craniotomy},
-      {"constraints",
-       {{"vessels", true}, {"footprint", true}, {"dura", "none"}, {"landmarks", false}}},
-      {"rigid", {{"enabled", true}}}};
+  nlohmann::json scene = {{"version", 1},
+                          {"mesh", "mesh.vtu"},
+                          {"fixed", default_fixed},
+                          {"collision_surface", "surface.vtp"},
+                          {"craniotomy", default_craniotomy}};
   if (!skeleton.branches.empty()) scene["vessels"] = "vessels.vtp";
   if (o.scene_options) {
     std::ifstream in(*o.scene_options);

@@ -1,18 +1,15 @@
 #pragma once
 /// @file
-/// @brief The registration scene (issue 4 item 1): a JSON file naming the model's files and
-/// which constraint sets exist, with the solver settings. Only what the scene names is built.
-/// Paths inside are relative to the scene file's folder (or absolute). Units: mm, kPa; world
-/// RAS frame. Every key is optional except `mesh`; unknown keys are errors (a typo must not
-/// silently fall back to a default), and so is the old spelling `center` (it says `centre`).
+/// @brief The registration scene: a JSON file naming the model's files (what `prepare` made and
+/// measured) and, optionally, registration options. Paths inside are relative to the scene
+/// file's folder (or absolute). Units: mm, kPa; world RAS frame. Every key is optional except
+/// `mesh`; unknown keys are errors (a typo must not silently fall back to a default), and so is
+/// the old spelling `center` (it says `centre`); keys of earlier versions that are no longer
+/// options say so (options_json.cpp), and `rigid.enabled` is still read as `start`.
 ///
-/// Every registration option can be set: the keys, their ranges and defaults are the tables
-/// next to the Options structs (`visit_fields`, core/option_fields.hpp), read and written by
-/// options_json.hpp. The groups: constraints, craniotomy (DuraOptions), rigid (RigidInitOptions
-/// and `enabled`), global_start, shift_search, pairing, filter.vessels / filter.footprint
-/// (FilterOptions), solver (StepOptions, PgsOptions as pgs_*, ComplianceOptions as compliance_*,
-/// the iteration caps), noise (NoiseOptions), acceptance, uncertainty (UncertaintyOptions: the
-/// predicted error's, e.g. the stated tracking accuracy). `options_to_json()` lists them all.
+/// The option keys, their ranges and defaults are the tables next to the Options structs
+/// (`visit_fields`, core/option_fields.hpp), read and written by options_json.hpp; a key left
+/// out is the library's default. `brainshift options` lists them (docs/OPTIONS.md).
 ///
 /// ```json
 /// {
@@ -23,24 +20,9 @@
 ///   "collision_surface": "surface.vtp",
 ///   "vessels": "vessels.vtp",
 ///   "craniotomy": {"centre_mm": [0, 0, 50], "radius_mm": 30},
-///   "constraints": {"vessels": true, "footprint": true, "dura": "none|sliding|unilateral",
-///                   "landmarks": true},
-///   "rigid": {"enabled": true, "loss": "huber|cauchy|none", "loss_scale_mm": 2.0,
-///             "max_pair_distance_mm": 20.0},
-///   "global_start": {"max_translation_mm": 25, "max_rotation_deg": 5, "bulk_response": true},
-///   "shift_search": {"enabled": true, "radius_mm": 20, "stage_iterations": 40},
-///   "pairing": {"max_distance_mm": 15.0, "direction_radius_mm": 5.0, "refine_distance_mm": 2},
-///   "filter": {"vessels": {"one_per_feature": true, "median_threshold_mm": 5.0,
-///                          "min_distance_mm": 0.0, "max_angle_deg": 45.0, "max_per_tet": 2},
-///              "footprint": {...same keys...}},
-///   "solver": {"max_iterations": 80, "increment_tolerance_mm": 0.01, "trust_region_mm": 5.0,
-///              "pgs_tolerance": 1e-4, "pgs_max_iterations": 500,
-///              "constraint_solver": "auto|active_set|gauss_seidel",
-///              "mechanics": "warped|unwarped|linear|exact",
-///              "compliance": {"vessels": 0.2, "footprint": 0.0, "dura": 0.2, "landmarks": 0.0},
-///              "compliance_budget_mib": 512},
-///   "noise": {"enabled": false, "criterion": "block_cv|gcv"},
-///   "acceptance": {"min_vessel_pairs": 20, "max_scatter_mm": 3.0},
+///   "start": "rigid|identity",
+///   "constraints": {"vessels": true, "footprint": true, "dura": "none|sliding|unilateral"},
+///   "solver": {"max_iterations": 80, "pgs_tolerance": 1e-4, "compliance": {"vessels": 0.2}},
 ///   "uncertainty": {"tracking_translation_mm": 0, "tracking_rotation_deg": 0}
 /// }
 /// ```

@@ -94,42 +94,20 @@ struct GlobalStartOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// global_start.
+/// global_start. The search grids, kernels and refinement settings are not scene keys:
+/// constants of the method (library callers and the bench may set them).
 template <class V>
 void visit_fields(GlobalStartOptions& o, V&& v) {
   v("max_translation_mm", o.max_translation_mm, core::Range{0, 200},
     "translations searched, per axis (mm)");
   v("max_rotation_deg", o.max_rotation_deg, core::Range{0, 30},
     "rotations searched, per axis (degrees)");
-  v("coarse_step_mm", o.coarse_step_mm, core::Range{1e-3, 100},
-    "coarse translation grid (mm); <= coarse_kernel_mm");
-  v("coarse_kernel_mm", o.coarse_kernel_mm, core::Range{1e-3, 100},
-    "kernel width of the coarse search (mm)");
-  v("fine_kernel_mm", o.fine_kernel_mm, core::Range{1e-3, 100},
-    "kernel width of the fine rescoring and the final score (mm); <= coarse_kernel_mm");
-  v("voxel_mm", o.voxel_mm, core::Range{1e-3, 100}, "distance table spacing (mm)");
-  v("coarse_points", o.coarse_points, core::Range{1, 1e6}, "points scored by the coarse search");
-  v("max_points", o.max_points, core::Range{1, 1e7},
-    "points scored by the fine stage and the refinement");
-  v("candidates", o.candidates, core::Range{1, 1000}, "coarse local maxima rescored finely");
   v("min_points", o.min_points, core::Range{3, 1e6},
     "fewer vessel points: the identity, not accepted");
-  v("min_gain", o.min_gain, core::Range{1, 1e6},
-    "keep the pose when its score beats the identity's by this factor");
-  v("refine_distance_mm", o.refine_distance_mm, core::Range{1e-3, 100},
-    "refinement pairs within this distance (mm); <= coarse_kernel_mm");
-  v("loss_scale_mm", o.loss_scale_mm, core::Range{1e-6, 1000},
-    "Cauchy loss scale of the refinement (mm)");
-  v("refine_iterations", o.refine_iterations, core::Range{0, 1000}, "ICP rounds of the refinement");
-  v("solver_iterations", o.solver_iterations, core::Range{1, 1000},
-    "Levenberg-Marquardt iterations per round");
-  v("convergence_mm", o.convergence_mm, core::Range{1e-12, 100},
-    "stop the rounds when the pose moves less than this (mm)");
   v("bulk_response", o.bulk_response, "refine the bulk shift of the model's load response too");
   v("bulk_prior_mm", o.bulk_prior_mm, core::Range{1e-6, 1e6},
-    "bulk shift that costs as much as loss_scale_mm at every pair (mm)");
-  v("bulk_min_mm", o.bulk_min_mm, core::Range{0, 1000},
-    "a bulk shift below this is not accepted (mm)");
+    "prior scale of the bulk shift: a shift this large costs as much as the robust loss's scale "
+    "at every pair (mm)");
   v("bulk_sinks", o.bulk_sinks,
     "the bulk shift points into the brain at the craniotomy (the brain sinks; no bulge)");
 }

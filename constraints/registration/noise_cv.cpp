@@ -118,20 +118,6 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     eps_of.push_back(eps);
     scores.push_back(std::move(s));
   }
-  if (options.smooth_neighbours > 0) {
-    // The CV curve smoothed over neighbouring ratios, per block (ε → ∞ is added after this).
-    const auto h = static_cast<std::ptrdiff_t>(options.smooth_neighbours);
-    const auto n = static_cast<std::ptrdiff_t>(scores.size());
-    std::vector<std::vector<double>> smoothed(scores.size(), std::vector<double>(nb, 0.0));
-    for (std::ptrdiff_t k = 0; k < n; ++k) {
-      const std::ptrdiff_t lo = std::max<std::ptrdiff_t>(0, k - h), hi = std::min(n - 1, k + h);
-      for (std::ptrdiff_t j = lo; j <= hi; ++j)
-        for (std::size_t b = 0; b < nb; ++b)
-          smoothed[static_cast<std::size_t>(k)][b] +=
-              scores[static_cast<std::size_t>(j)][b] / static_cast<double>(hi - lo + 1);
-    }
-    scores = std::move(smoothed);
-  }
   const std::size_t finite_candidates = scores.size();
   // ε → ∞: the rows' gaps at the start's state (delta_start) or at the free motion (y).
   Eigen::VectorXd y_start = y;
@@ -244,9 +230,6 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
                   est.paired_gain_mm2, est.paired_se_mm2, options.paired_test_z);
     est.message += buf;
   }
-  if (options.smooth_neighbours > 0)
-    est.message +=
-        "; CV curve smoothed over ±" + std::to_string(options.smooth_neighbours) + " ratios";
   return est;
 }
 

@@ -18,7 +18,6 @@ std::string NoiseOptions::validate() const {
   if (max_rows < 8) return "noise model: max_rows must be ≥ 8";
   if (!(paired_test_z >= 0)) return "noise model: paired_test_z must be ≥ 0";
   if (paired_test && !consider_start) return "noise model: the paired test needs consider_start";
-  if (smooth_neighbours < 0) return "noise model: smooth_neighbours must be ≥ 0";
   return {};
 }
 

@@ -93,10 +93,6 @@ struct NoiseOptions {
   /// rigid alone, by up to 0.24 mm; docs/BENCHMARKS.md, "Never worse than rigid, v7").
   bool paired_test = true;
   double paired_test_z = 2.0;  ///< standard errors the gain must exceed (≥ 0)
-  /// BLOCK_CV: each finite candidate's per-block scores averaged over this many grid neighbours
-  /// on each side (log-spaced ratios; 0: none) before the choice, so that one narrow dip of the
-  /// CV curve does not decide. ε → ∞ is not smoothed.
-  int smooth_neighbours = 0;
   /// Search range of the ratio ε / median(diag W) (dimensionless, as
   /// StepOptions::compliance_ratio).
   double min_ratio = 0.02;
@@ -112,33 +108,21 @@ struct NoiseOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// noise.
+/// noise. The criterion, the candidates for "no deformation" and the decision rules are not
+/// scene keys: the product's rule is the default; the bench compares the alternatives.
 template <class V>
 void visit_fields(NoiseOptions& o, V&& v) {
   v("enabled", o.enabled, "choose the vessel rows' compliance from the data (SMOOTH stage)");
-  v("criterion", o.criterion, "block cross-validation or generalised cross-validation");
   v("block_length_mm", o.block_length_mm, core::Range{0, 1e6},
     "blocks: whole branches (0) or pieces of at most this arc length (mm)");
-  v("consider_start", o.consider_start, "no deformation beyond the start is a candidate");
-  v("start_is_bulk_state", o.start_is_bulk_state,
-    "no deformation means the start's rigid + bulk state (else the rest shape)");
-  v("one_standard_error", o.one_standard_error,
-    "the smoothest candidate within one standard error of the minimum");
-  v("paired_test", o.paired_test,
-    "deform only if the best ratio beats no deformation on held-out blocks by paired_test_z "
-    "standard errors");
   v("paired_test_z", o.paired_test_z, core::Range{0, 100},
-    "standard errors the held-out gain must exceed (paired_test)");
-  v("smooth_neighbours", o.smooth_neighbours, core::Range{0, 1000},
-    "average the CV curve over this many neighbouring ratios on each side before choosing");
+    "deform only when the deformation predicts held-out vessel blocks better than none by this "
+    "many standard errors");
   v("min_ratio", o.min_ratio, core::Range{1e-12, 1e9}, "smallest compliance ratio searched");
   v("max_ratio", o.max_ratio, core::Range{1e-12, 1e9}, "largest compliance ratio searched");
   v("grid", o.grid, core::Range{2, 10000}, "log-spaced candidates between the two");
-  v("change_factor", o.change_factor, core::Range{1, 1e6},
-    "a smoothing stage runs when the ratio changes by more than this factor");
   v("max_iterations", o.max_iterations, core::Range{1, 100000},
     "iteration cap of the smoothing stage");
-  v("max_rows", o.max_rows, core::Range{8, 1e6}, "largest Delassus block decomposed (rows)");
 }
 
 /// What the noise model found.

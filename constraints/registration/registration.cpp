@@ -76,8 +76,6 @@ std::string RegistrationOptions::validate() const {
   if (min_vessel_pairs < 0) return "min_vessel_pairs must be ≥ 0";
   if (!(max_scatter_mm > 0)) return "max_scatter_mm must be > 0";
   if (auto e = uncertainty.validate(); !e.empty()) return e;
-  if (start == RigidStart::RIGID)
-    if (auto e = rigid.validate(); !e.empty()) return "rigid: " + e;
   for (double r : step.compliance_ratio)
     if (!(r >= 0)) return "compliance ratios must be ≥ 0";
   return {};

@@ -58,7 +58,7 @@
 #include "constraints/registration/global_start.hpp"
 #include "constraints/registration/noise_model.hpp"
 #include "constraints/registration/registration_model.hpp"
-#include "constraints/registration/rigid_init.hpp"
+#include "constraints/registration/rigid_start_result.hpp"
 #include "constraints/registration/shift_search.hpp"
 #include "constraints/registration/uncertainty_options.hpp"
 #include "constraints/solver/constrained_step.hpp"
@@ -100,7 +100,7 @@ struct IntraopData {
 /// How the loop starts: IDENTITY (the tracked frame is the model frame; only the bulk shift is
 /// searched, by shift_search) or RIGID (the global start: rigid pose plus bulk response).
 enum class RigidStart { IDENTITY, RIGID };
-/// Names of RigidStart in reports and the command line (the scene spells it rigid.enabled).
+/// Names of RigidStart in the scene (`start`), reports and the command line (`--init`).
 constexpr std::array<core::EnumName<RigidStart>, 2> enum_names(RigidStart /*tag*/) {
   return {{{RigidStart::IDENTITY, "identity"}, {RigidStart::RIGID, "rigid"}}};
 }
@@ -111,20 +111,19 @@ constexpr std::array<core::EnumName<BulkLoad>, 3> enum_names(BulkLoad /*tag*/) {
   return {{{BulkLoad::AUTO, "auto"}, {BulkLoad::ON, "on"}, {BulkLoad::OFF, "off"}}};
 }
 
+/// The registration's options. The scene keys (visit_fields below; `brainshift options` lists
+/// them with their defaults, docs/OPTIONS.md) are the product's settings; the members that are not
+/// scene keys are constants of the method (search grids, kernel widths, solver safeguards) and the
+/// alternatives `brainshift bench` compares against the default (its ablation variants). The
+/// defaults here are the product's: a library caller and the command line run the same algorithm.
 struct RegistrationOptions {
-  RigidStart start = RigidStart::IDENTITY;
+  /// RIGID: the global start (rigid pose plus the model's bulk response, global_start.hpp).
+  /// IDENTITY: the tracked frame taken as the model frame; only the bulk shift is searched.
+  RigidStart start = RigidStart::RIGID;
   /// The global start (start = RIGID): search ranges, kernels, refinement; see global_start.hpp.
-  /// It is kept only when it matches the vessels better than the identity (data score, no
-  /// motion cap); its bulk shift (with shift_load_basis) seeds the first stage's held pairs.
-  /// Default: rigid only (no bulk response), so the deformable stages start from the best rigid
-  /// pose and the noise model's ε → ∞ candidate is exactly the rigid-only answer. With the bulk
-  /// response the rigid part is not the best rigid fit (the bulk shift absorbs part of it) and
-  /// the deformation has to make up for it: on the phantoms 0.1-0.25 mm worse mean TRE than
-  /// rigid alone (docs/BENCHMARKS.md, "Never worse than rigid").
+  /// Its pose is kept only when it matches the vessels better than the identity; its bulk shift
+  /// (the model's bounded load response, default_global_start()) seeds the first stage's pairs.
   GlobalStartOptions global_start = default_global_start();
-  /// Ceres ICP options of rigid_init() (read from the scene's "rigid" group; rigid_init() itself
-  /// is no longer on the registration path: the global start refines with its own options).
-  RigidInitOptions rigid;
   /// Global search for the bulk shift of the vessel points (shift_search.hpp) when start is
   /// IDENTITY (with RIGID the global start gives the bulk shift). When accepted, the first pairs
   /// are made at the shifted points (pᵢ − shift) and held (each point keeps its feature) until the
@@ -204,23 +203,16 @@ struct RegistrationOptions {
   static GlobalStartOptions default_global_start();
 };
 
-/// The options' names, ranges and documentation (core/option_fields.hpp): the scene's groups
-/// constraints, craniotomy, rigid, global_start, shift_search, pairing, filter, solver, noise,
-/// acceptance and uncertainty. `inspect_step` is not an option (tests' fault injection).
+/// The scene keys' names, ranges and documentation (core/option_fields.hpp): `start` and the
+/// groups global_start, shift_search, constraints, craniotomy, pairing, filter, solver, noise,
+/// acceptance and uncertainty. Members not named here are not scene keys (see the struct's doc).
 template <class V>
 void visit_fields(RegistrationOptions& o, V&& v) {
-  v("rigid.enabled", core::EnumFlag<RigidStart>{o.start, RigidStart::RIGID, RigidStart::IDENTITY},
-    "start from the global search of the rigid pose (else the identity and the shift search)");
-  v.nest("rigid.", o.rigid);
+  v("start", o.start,
+    "rigid: the global search of the pose and the bulk shift; identity: the tracked frame is "
+    "taken as right, only the bulk shift is searched");
   v.nest("global_start.", o.global_start);
   v.nest("shift_search.", o.shift_search);
-  v("shift_search.stage_iterations", o.shift_stage_iterations, core::Range{0, 100000},
-    "iteration cap of the stage holding the pairs made at the shifted points");
-  v("shift_search.load_basis", o.shift_load_basis,
-    "the shift is the model's response to a uniform load (else a translation)");
-  v("shift_search.as_load", o.bulk_as_load,
-    "the accepted bulk shift stays in the model as its load, so the elastic rest is the shifted "
-    "state: auto (with a given pose), on or off");
   v("constraints.vessels", o.use_vessels, "register on the vessel points");
   v("constraints.footprint", o.use_footprint, "register on the probe footprint");
   v("constraints.landmarks", o.use_landmarks, "register on landmarks");
@@ -352,7 +344,7 @@ struct StageRecord {
 struct RegistrationResult {
   MatrixX3d positions;     ///< final nodal positions #N×3, model frame, mm
   MatrixX3d displacement;  ///< positions − rest, mm
-  RigidInitResult rigid;   ///< the rigid start's transform (identity when options.start is IDENTITY
+  RigidStartResult rigid;  ///< the rigid start's transform (identity when options.start is IDENTITY
                            ///< or the global start was not accepted); a warm start's own
   ShiftSearchResult
       shift;  ///< the first stage's bulk shift (not accepted when none or warm-started)
@@ -388,10 +380,10 @@ struct RegistrationResult {
 };
 
 /// The start's rigid part alone (options.start is ignored): the global start without the bulk
-/// response, as a RigidInitResult (identity with the reason in stop_reason when not accepted).
+/// response, as a RigidStartResult (identity with the reason in stop_reason when not accepted).
 /// The "rigid only" baseline of the benchmark.
-RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
-                            const RegistrationOptions& options);
+RigidStartResult rigid_start(const RegistrationModel& model, const IntraopData& data,
+                             const RegistrationOptions& options);
 
 /// The start alone: the global start (rigid, and the bulk response when
 /// options.global_start.bulk_response) and its state — the rest nodes plus the bulk response to

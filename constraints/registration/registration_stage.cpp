@@ -270,12 +270,9 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     pair_sets.push_back(std::move(keys));
 
     // 5. Stop test: settled, or trust region update and collapse.
-    // A folded step (one solve) applies the previous λ: it is small only when the correction
-    // it leaves to the next step is small too.
     // A damped step moves `damping` of the way: settled only when the undamped one is small too.
     const double tolerance = options.increment_tolerance_mm * damping;
-    const bool small =
-        !step.limited && rec.max_increment_mm < tolerance && step.pending_increment < tolerance;
+    const bool small = !step.limited && rec.max_increment_mm < tolerance;
     const bool settled =
         small && (stage.kind == StageKind::HELD || !rec.pairing_changed || rec.pairing_frozen);
     SuccessiveSteps steps;

@@ -48,8 +48,8 @@ core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points
 namespace {
 
 /// The start's result as the loop's rigid start (`RegistrationResult::rigid`).
-RigidInitResult as_rigid(const GlobalStartResult& g) {
-  RigidInitResult r;
+RigidStartResult as_rigid(const GlobalStartResult& g) {
+  RigidStartResult r;
   r.transform = g.transform;
   r.converged = g.accepted;
   r.iterations = g.refine_iterations;
@@ -80,8 +80,8 @@ GlobalStartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX
   return global_start(model.skeleton(), vessel_points, {}, o);
 }
 
-RigidInitResult rigid_start(const RegistrationModel& model, const IntraopData& data,
-                            const RegistrationOptions& options) {
+RigidStartResult rigid_start(const RegistrationModel& model, const IntraopData& data,
+                             const RegistrationOptions& options) {
   return as_rigid(pre_dura_pose(model, data.vessel_points, options));  // the same rigid-only start
 }
 

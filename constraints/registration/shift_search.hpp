@@ -48,20 +48,11 @@ struct ShiftSearchOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// shift_search.
+/// shift_search. The grid and kernel settings are not scene keys (constants of the method).
 template <class V>
 void visit_fields(ShiftSearchOptions& o, V&& v) {
   v("enabled", o.enabled, "search the bulk shift when the start is the identity");
   v("radius_mm", o.radius_mm, core::Range{0, 200}, "largest shift searched, per axis (mm)");
-  v("coarse_step_mm", o.coarse_step_mm, core::Range{1e-3, 100}, "grid of candidate shifts (mm)");
-  v("coarse_kernel_mm", o.coarse_kernel_mm, core::Range{1e-3, 100},
-    "kernel width of the coarse search (mm); >= fine_kernel_mm");
-  v("fine_kernel_mm", o.fine_kernel_mm, core::Range{1e-3, 100},
-    "kernel width of the refinement (mm)");
-  v("voxel_mm", o.voxel_mm, core::Range{1e-3, 100}, "distance table spacing (mm)");
-  v("max_points", o.max_points, core::Range{1, 1e7}, "points scored (an even subsample)");
-  v("min_gain", o.min_gain, core::Range{1, 1e6},
-    "keep the shift when its score beats zero shift's by this factor");
 }
 
 struct ShiftSearchResult {

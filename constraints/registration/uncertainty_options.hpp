@@ -65,25 +65,18 @@ struct UncertaintyOptions {
   [[nodiscard]] std::string validate() const;
 };
 
-/// The options' names, ranges and documentation: the scene's group `uncertainty`.
+/// The options' names, ranges and documentation: the scene's group `uncertainty`. The scale
+/// estimator's confidence and the two pose terms' switches are constants of the method.
 template <class V>
 void visit_fields(UncertaintyOptions& o, V&& v) {
   v("coarse_spacing_mm", o.coarse_spacing_mm, core::Range{0, 1000},
     "cell size of the grid of nodes whose prior variance is solved exactly (mm; 0: every node)");
   v("calibration", o.calibration, core::Range{1e-6, 1e6},
     "multiplies the estimated prior scale s² (dimensionless)");
-  v("scale_confidence", o.scale_confidence, core::Range{0, 0.999},
-    "s² at this one-sided upper confidence bound from χ² with the vessel blocks as the rows (0: "
-    "the point estimate)");
-  v("rigid_term", o.rigid_term,
-    "the pose of the rigid start is an unknown of the model (adds the rigid term)");
   v("tracking_translation_mm", o.tracking_translation_mm, core::Range{0, 100},
     "stated tracking accuracy: RMS translation error of the data's frame (mm; 0: not included)");
   v("tracking_rotation_deg", o.tracking_rotation_deg, core::Range{0, 45},
     "stated tracking accuracy: RMS rotation error of the data's frame about its centroid (deg)");
-  v("pose_confounded", o.pose_confounded,
-    "a pose searched on the registered sweep itself adds its own motion as a rigid uncertainty "
-    "(it cannot be told from the sag)");
 }
 
 }  // namespace brainshift::constraints

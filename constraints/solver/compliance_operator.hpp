@@ -87,17 +87,13 @@ struct ComplianceOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// solver, prefixed compliance_. `precomputed` is not an option (the model folder's cache).
+/// solver, prefixed compliance_. `precomputed` is not an option (the model folder's cache);
+/// the precompute method and chunk are constants.
 template <class V>
 void visit_fields(ComplianceOptions& o, V&& v) {
   v("strategy", o.strategy, "dense compliance block, sparse solves, or auto (by the budget)");
   v("budget_mib", core::MebiBytes{o.memory_budget_bytes}, core::Range{0, 1 << 20},
     "memory for the dense compliance block (MiB)");
-  v("precompute", o.precompute,
-    "how the block is computed: partial_factorisation (block DOFs ordered last), unit_solves, or "
-    "auto (the partial factorisation when the block is at most a quarter of the free DOFs)");
-  v("precompute_chunk", o.precompute_chunk, core::Range{1, 100000},
-    "right-hand sides per CHOLMOD solve when precomputing the block");
   v("precompute_threads", o.precompute_threads, core::Range{1, 256},
     "threads precomputing the block (the block is the same bit for bit)");
 }

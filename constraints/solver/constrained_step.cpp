@@ -90,21 +90,7 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
   Eigen::VectorXd f = -f_int;
   if (!options.gravity.isZero()) f += m_model.gravity_force(options.gravity, options.density);
   const SparseMatrix H = rows.empty() ? SparseMatrix() : rows.jacobian(n);
-  // Folded correction (StepOptions::fold_correction): the free motion and C Hᵀλ⁰ in one solve.
-  res.folded = options.fold_correction && !exact && !rows.empty() && C.covers(H);
-  Eigen::VectorXd lambda0 = Eigen::VectorXd::Zero(rows.size());
-  if (res.folded && warm_start.size() == rows.size()) lambda0 = warm_start;
-  Eigen::VectorXd dx_free, dx_lagged;
-  if (res.folded && !lambda0.isZero()) {
-    Eigen::MatrixXd V(f.size(), 2);
-    V.col(0) = f;
-    V.col(1) = H.transpose() * lambda0;
-    const Eigen::MatrixXd U = C.apply_columns(V, rotations);
-    dx_free = options.relaxation * U.col(0);
-    dx_lagged = U.col(1);
-  } else {
-    dx_free = options.relaxation * C.apply(f, rotations);
-  }
+  const Eigen::VectorXd dx_free = C.apply(f, rotations);
   res.seconds_free_motion = seconds_since(t0);
 
   std::string diag;
@@ -127,20 +113,7 @@ StepResult ConstrainedModel::step(ConstRef<MatrixX3d> x, const ConstraintRows& r
     res.seconds_pgs = seconds_since(t0);
 
     t0 = Clock::now();
-    if (res.folded) {
-      // The correction of λ⁰ (solved above with the free motion); what λ − λ⁰ would add is
-      // applied by the next step (its λ⁰ is this λ). Its size on the block nodes, from the
-      // block without a solve, tells the caller whether the constraints have settled too.
-      if (dx_lagged.size() > 0) dx += dx_lagged;
-      if (res.lambda.size() == lambda0.size()) {
-        const Eigen::VectorXd pending =
-            C.apply_block(H.transpose() * (res.lambda - lambda0), rotations);
-        res.pending_increment =
-            Eigen::Map<const MatrixX3d>(pending.data(), n, 3).rowwise().norm().maxCoeff();
-      }
-    } else {
-      dx += C.apply(H.transpose() * res.lambda, rotations);
-    }
+    dx += C.apply(H.transpose() * res.lambda, rotations);
     res.seconds_correction = seconds_since(t0);
   } else {
     res.pgs.message = "no constraint rows";

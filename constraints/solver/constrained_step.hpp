@@ -46,13 +46,6 @@ struct StepOptions {
   Mechanics mechanics = Mechanics::WARPED;
   Vector3d gravity = Vector3d::Zero();  ///< body acceleration, mm/s²
   double density = 1040e-9;             ///< kg/mm³
-  /// Relaxation α ∈ (0, 1] of the elastic (free-motion) part of the step: dx_free ← α dx_free,
-  /// constraints still enforced in full. α < 1 damps the quasi-Newton iteration where the
-  /// warped compliance is a poor tangent (rotations varying strongly across the model). With
-  /// compliant rows holding a violation δ it also moves the iteration's fixed point, by
-  /// (1 − α) C Hᵀ W⁻¹ δ; the registration loop therefore damps whole steps instead
-  /// (TrustDecision::DAMP) and leaves this at 1.
-  double relaxation = 1.0;
   /// Trust region: when > 0 and the step would move a node by more than this (mm), the whole
   /// increment is scaled down to it (the constraints are then met over several steps). Large
   /// rotations reached in one linearised step overshoot the corotational quasi-Newton iteration;
@@ -67,21 +60,11 @@ struct StepOptions {
   /// while a smooth shift is still met (its compliance is far below a point load's Wᵢᵢ).
   std::array<double, num_constraint_sets> compliance_ratio{};
   /// Violations beyond this (mm) are flagged in StepResult::diagnosis (mis-pairing, wrong frame).
+  /// Not a scene key.
   double plausible_violation = 100.0;
   /// Keep the Delassus operator (without the row compliance) and δ_free in the result, for the
   /// registration's noise model (noise_model.hpp).
   bool keep_system = false;
-  /// One solve per step instead of two (for iterations; off for a single exact step): the
-  /// correction is folded into the next step. With the warm start λ⁰ (the previous step's λ,
-  /// by row) the step solves [Rᵀf, RᵀHᵀλ⁰] as one two-column right-hand side and moves by
-  /// dx = C (f + Hᵀλ⁰); the λ it solves for is applied by the next step. Every node moves with
-  /// the same λ⁰, so the configuration stays smooth (applying the new λ on the constrained
-  /// nodes alone distorts the elements around them and the corotational iteration oscillates).
-  /// The fixed point — equilibrium with λ = λ⁰ — is the one of the two-solve step;
-  /// StepResult::pending_increment says how far the next step would still move the constrained
-  /// nodes for λ − λ⁰. Used only when the dense block covers the rows and the mechanics is not
-  /// EXACT; otherwise the step makes its two solves.
-  bool fold_correction = false;
   /// The elastic rest of the step's forces and rotations (core::RestShape, a pre-strained
   /// state); null: the mesh's rest. Not an option: the registration sets it for its bulk load
   /// (RegistrationOptions::bulk_as_load). LINEAR measures u from its nodes too.
@@ -90,7 +73,7 @@ struct StepOptions {
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
 /// solver. `keep_system` and `rest` are not options (the registration loop sets them: the system
-/// for its noise model, the rest for its bulk load).
+/// for its noise model, the rest for its bulk load); `plausible_violation` is a constant.
 template <class V>
 void visit_fields(StepOptions& o, V&& v) {
   v("trust_region_mm", o.max_increment, core::Range{0, 1000},
@@ -106,14 +89,8 @@ void visit_fields(StepOptions& o, V&& v) {
     "compliance of the dura rows / median diag W; 0: hard");
   v("compliance.landmarks", ratio[static_cast<std::size_t>(ConstraintSet::LANDMARK)],
     core::Range{0, 1000}, "compliance of the landmark rows / median diag W; 0: hard");
-  v("relaxation", o.relaxation, core::Range{1e-6, 1},
-    "relaxation of the elastic part of the step, in (0, 1]");
   v("gravity_mm_s2", o.gravity, "body acceleration (mm/s^2, world RAS)");
   v("density_kg_mm3", o.density, core::Range{0, 1}, "tissue density (kg/mm^3)");
-  v("plausible_violation_mm", o.plausible_violation, core::Range{1e-6, 1e6},
-    "violations beyond this are flagged in the step's diagnosis (mm)");
-  v("fold_correction", o.fold_correction,
-    "one solve per step: the previous forces' correction folded into the free motion");
   v.nest("pgs_", o.pgs);
 }
 
@@ -129,10 +106,6 @@ struct StepResult {
   /// x is the input positions unchanged and the caller must stop (never count it as converged).
   bool finite = true;
   bool delassus_fallback = false;  ///< W needed sparse solves (rows outside the compliance block)
-  bool folded = false;  ///< the step made one solve (StepOptions::fold_correction applied)
-  /// Folded steps: max nodal |C Hᵀ(λ − λ⁰)| over the block nodes (mm), the part of the
-  /// correction left to the next step; 0 otherwise.
-  double pending_increment = 0.0;
   Eigen::MatrixXd delassus;    ///< W = H C Hᵀ without row compliance (StepOptions::keep_system)
   Eigen::VectorXd delta_free;  ///< δ + H dx_free (StepOptions::keep_system)
   double compliance_scale = 0.0;  ///< median diag W: the unit of StepOptions::compliance_ratio

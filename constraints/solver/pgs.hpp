@@ -36,18 +36,11 @@ struct PgsOptions {
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
-/// solver, prefixed pgs_.
+/// solver, prefixed pgs_. The bound, stall window and null-row tolerance are constants.
 template <class V>
 void visit_fields(PgsOptions& o, V&& v) {
   v("max_iterations", o.max_iterations, core::Range{1, 1e6}, "Gauss-Seidel sweeps per step");
   v("tolerance", o.tolerance, core::Range{1e-14, 1}, "relative natural-map residual to stop at");
-  v("lambda_max_mn", o.lambda_max, core::Range{0, 1e12}, "bound on |lambda| (mN); 0: unbounded");
-  v("stall_window", o.stall_window, core::Range{2, 1e6},
-    "sweeps without a 1 % residual decrease before STALLED");
-  v("null_row_tolerance", o.null_row_tolerance, core::Range{0, 1},
-    "rows with W_ii below this times max W_jj are ignored");
-  v("active_set_max_changes", o.active_set_max_changes, core::Range{1, 1e6},
-    "active-set changes of the direct solve before it gives up to Gauss-Seidel");
 }
 
 enum class PgsStop {

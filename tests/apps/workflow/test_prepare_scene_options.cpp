@@ -54,7 +54,7 @@ TEST(PrepareSceneOptions, AGoodFileIsMergedIntoTheScene) {
   const auto out = in.dir / "model";
   const CliRun r = in.prepare(
       R"({"solver": {"max_iterations": 33, "pgs_tolerance": 1e-5},
-          "shift_search": {"radius_mm": 25}, "noise": {"criterion": "gcv"}})",
+          "shift_search": {"radius_mm": 25}, "noise": {"paired_test_z": 3}})",
       out);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   std::ifstream scene_file(out / "scene.json");
@@ -63,7 +63,7 @@ TEST(PrepareSceneOptions, AGoodFileIsMergedIntoTheScene) {
   EXPECT_EQ(scene["solver"]["max_iterations"], 33);
   EXPECT_EQ(scene["solver"]["pgs_tolerance"], 1e-5);
   EXPECT_EQ(scene["shift_search"]["radius_mm"], 25);
-  EXPECT_EQ(scene["noise"]["criterion"], "gcv");
+  EXPECT_EQ(scene["noise"]["paired_test_z"], 3);
   EXPECT_EQ(scene["mesh"], "mesh.vtu");
   EXPECT_TRUE(scene["craniotomy"].contains("centre_mm"));
 }

@@ -52,7 +52,7 @@ TEST(SceneIo, ReadsEveryPartAndSetting) {
     "fixed": {"below": {"direction": [0, 0, -1], "height_mm": 1}},
     "craniotomy": {"centre_mm": [0, 0, 20], "radius_mm": 12},
     "constraints": {"vessels": true, "footprint": false, "dura": "unilateral"},
-    "rigid": {"enabled": true, "loss": "cauchy", "loss_scale_mm": 1.5},
+    "start": "identity",
     "pairing": {"max_distance_mm": 9},
     "filter": {"vessels": {"max_per_tet": 3, "max_angle_deg": 30}},
     "solver": {"max_iterations": 12, "trust_region_mm": 2.5, "constraint_solver": "gauss_seidel",
@@ -69,8 +69,7 @@ TEST(SceneIo, ReadsEveryPartAndSetting) {
   EXPECT_FALSE(o.use_footprint);
   EXPECT_EQ(o.dura.mode, constraints::DuraOptions::Mode::UNILATERAL);
   EXPECT_EQ(o.dura.craniotomy_radius_mm, 12.0);
-  EXPECT_EQ(o.start, constraints::RigidStart::RIGID);
-  EXPECT_EQ(o.rigid.loss, constraints::RigidInitOptions::Loss::CAUCHY);
+  EXPECT_EQ(o.start, constraints::RigidStart::IDENTITY);
   EXPECT_EQ(o.pair_max_distance_mm, 9.0);
   EXPECT_EQ(o.vessel_filter.max_per_tet, 3);
   EXPECT_EQ(o.vessel_filter.max_angle_deg, 30.0);
@@ -133,25 +132,24 @@ TEST(SceneIo, EveryOptionIsSettableFromTheSceneAndTheOldSpellingIsRejected) {
   // Options that only a recompilation could change before the tables (issue 17).
   const Scene s = read_scene(f.scene(R"({
     "mesh": "mesh.vtu",
-    "shift_search": {"radius_mm": 30, "stage_iterations": 12, "load_basis": false},
+    "shift_search": {"radius_mm": 30, "enabled": false},
     "pairing": {"refine_distance_mm": 1.5},
     "global_start": {"max_translation_mm": 40, "bulk_response": false},
-    "noise": {"enabled": true, "criterion": "gcv"},
+    "noise": {"enabled": true, "paired_test_z": 3},
     "acceptance": {"min_vessel_pairs": 7},
-    "solver": {"pgs_stall_window": 50, "compliance_strategy": "sparse_solve", "cold_retry": false},
+    "solver": {"pgs_max_iterations": 50, "compliance_strategy": "sparse_solve", "cold_retry": false},
     "craniotomy": {"centre_mm": [1, 2, 3]}
   })"));
   const auto& o = s.options;
   EXPECT_EQ(o.shift_search.radius_mm, 30.0);
-  EXPECT_EQ(o.shift_stage_iterations, 12);
-  EXPECT_FALSE(o.shift_load_basis);
+  EXPECT_FALSE(o.shift_search.enabled);
   EXPECT_EQ(o.refine_pair_distance_mm, 1.5);
   EXPECT_EQ(o.global_start.max_translation_mm, 40.0);
   EXPECT_FALSE(o.global_start.bulk_response);
   EXPECT_TRUE(o.noise.enabled);
-  EXPECT_EQ(o.noise.criterion, constraints::NoiseCriterion::GCV);
+  EXPECT_EQ(o.noise.paired_test_z, 3.0);
   EXPECT_EQ(o.min_vessel_pairs, 7);
-  EXPECT_EQ(o.step.pgs.stall_window, 50);
+  EXPECT_EQ(o.step.pgs.max_iterations, 50);
   EXPECT_EQ(s.compliance.strategy, constraints::ComplianceStrategy::SPARSE_SOLVE);
   EXPECT_FALSE(o.cold_retry);
   EXPECT_EQ(o.dura.craniotomy_centre, Vector3d(1, 2, 3));

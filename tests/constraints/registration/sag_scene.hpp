@@ -23,6 +23,7 @@ namespace {
 /// defaults, at most 60 iterations.
 inline RegistrationOptions loop_options() {
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   o.max_iterations = 60;
   return o;
 }

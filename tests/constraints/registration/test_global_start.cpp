@@ -8,7 +8,6 @@
 #include "tests/constraints/registration/vessel_trees.hpp"
 
 #include "constraints/registration/global_start.hpp"
-#include "constraints/registration/rigid_init.hpp"
 #include "core/error.hpp"
 #include "data_synth/geometry/structured_mesh.hpp"
 
@@ -65,12 +64,6 @@ TEST(GlobalStart, ADenseTreeOfParallelVesselsDoesNotFoolIt) {
   const GlobalStartResult r = global_start(tree, intra, {}, GlobalStartOptions{});
   ASSERT_TRUE(r.accepted) << r.message;
   EXPECT_LT(max_error(r.transform, O.inverse(), intra), tol_mm) << r.message;
-  // The control: robust ICP from the identity settles on other vessels (why the search exists).
-  RigidInitOptions ro;
-  ro.loss = RigidInitOptions::Loss::CAUCHY;
-  const RigidInitResult icp = rigid_init(tree, intra, nullptr, nullptr, ro);
-  EXPECT_GT(max_error(icp.transform, O.inverse(), intra), 2.0)
-      << "the scene should fool ICP: " << icp.stop_reason;
 }
 
 TEST(GlobalStart, NoOffsetMeansNoMotion) {

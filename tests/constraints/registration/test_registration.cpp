@@ -24,6 +24,7 @@ namespace {
 /// the start (TheDefaultKeepsTheStartWhereHeldOutBranchesCannotShowTheGain below).
 RegistrationOptions options() {
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   o.max_iterations = 60;
   o.noise.enabled = false;
   return o;
@@ -65,6 +66,7 @@ TEST(Registration, TheDefaultKeepsTheStartWhereHeldOutBranchesCannotShowTheGain)
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   o.max_iterations = 60;
   const RegistrationResult r = register_model(*s.model, d, o);
   ASSERT_TRUE(r.converged) << r.stop_reason;

@@ -256,7 +256,8 @@ TEST(RegistrationLoop, AStepThatCannotBeComputedIsRejectedNotZeroed) {
   // zeroed silently, which the loop then read as a converged increment of 0 mm).
   Scene s;
   StepOptions o = RegistrationOptions::default_step();
-  o.relaxation = std::numeric_limits<double>::quiet_NaN();  // a free motion that cannot be computed
+  o.gravity = Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());  // a free motion that
+                                                                             // cannot be computed
   const StepResult step = s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, o);
   EXPECT_FALSE(step.finite);
   EXPECT_EQ(step.x, s.mesh.nodes());
@@ -304,7 +305,7 @@ TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {
   EXPECT_TRUE(r.start_returned);
   EXPECT_FALSE(r.shift.accepted);
   EXPECT_EQ(r.positions, s.mesh.nodes());
-  const RigidInitResult rigid = rigid_start(*s.model, d, loop_options());
+  const RigidStartResult rigid = rigid_start(*s.model, d, loop_options());
   EXPECT_TRUE(r.rigid.transform.isApprox(rigid.transform, 1e-12))
       << r.rigid.transform.matrix() << "\n"
       << rigid.transform.matrix();

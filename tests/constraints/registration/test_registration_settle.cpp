@@ -12,6 +12,7 @@ namespace {
 
 RegistrationOptions options() {
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   o.max_iterations = 60;
   o.shift_search.enabled = false;  // one FREE stage (no held-pairs stage before it)
   return o;

@@ -174,6 +174,7 @@ TEST(Uncertainty, CoarsePriorIsCloseToTheExactOne) {
 TEST(Uncertainty, AHandfulOfVesselPointsPredictsALargerErrorThanTheFullSet) {
   const Scene scene;
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   IntraopData all;
   all.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
   IntraopData few;
@@ -363,6 +364,7 @@ TEST(Uncertainty, HeldOutAndRestrictedScalesMatchDenseRefits) {
 TEST(Uncertainty, AStatedTrackingAccuracyAddsItsClosedForm) {
   const Scene scene;
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   IntraopData data;
   data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
   const RegistrationResult r = register_model(*scene.model, data, o);
@@ -426,6 +428,7 @@ TEST(Uncertainty, ChiSquareQuantilesMatchTheTables) {
 TEST(Uncertainty, TheScaleBoundIsThePointEstimateTimesItsChiSquareFactor) {
   const Scene scene;
   RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   IntraopData data;
   data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
   const RegistrationResult r = register_model(*scene.model, data, o);

@@ -1,6 +1,5 @@
-// One solve per constrained step (issue 14 item 6): the operator's pieces (several right-hand
-// sides at once, the correction read from the dense block) and the folded step against the
-// two-solve step it replaces.
+// The compliance operator's pieces: several right-hand sides at once and the correction read
+// from the dense block, against one apply() per column.
 #include "random_rotation.hpp"
 #include "tolerance.hpp"
 
@@ -84,45 +83,6 @@ TEST(ComplianceOperator, SeveralColumnsAtOnceAndTheBlockCorrectionMatchApply) {
   ConstraintRows low;
   low.add_bilateral_point(tests::node_stencil(below), x, Vector3d::Zero(), ConstraintSet::LANDMARK);
   EXPECT_FALSE(C.covers(low.jacobian(mesh.num_nodes())));
-}
-
-TEST(ConstrainedStep, AFoldedStepAppliesTheWarmStartLambdaAndReportsThePendingCorrection) {
-  const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {3, 3, 6});
-  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), tests::nodes_above(mesh, 20));
-  // A bent start, so the warped compliance has rotations to use.
-  MatrixX3d x = mesh.nodes();
-  for (index_t n = 0; n < mesh.num_nodes(); ++n) x(n, 0) += 0.004 * x(n, 2) * x(n, 2);
-  const ConstraintRows rows = top_rows(mesh, x, 9);
-  StepOptions two;
-  two.solver = ConstraintSolver::ACTIVE_SET;
-  StepOptions one = two;
-  one.fold_correction = true;
-  const StepResult ref = model.step(x, rows, two);
-  ASSERT_TRUE(ref.finite);
-  ASSERT_FALSE(ref.folded);
-  ASSERT_GT(ref.max_increment, 0.5);  // a real step, so the comparisons below mean something
-
-  // Cold (λ⁰ = 0): the step is the free motion alone; the correction C Hᵀλ is left to the next
-  // step and reported as pending (its size on the block nodes).
-  const StepResult cold = model.step(x, rows, one);
-  ASSERT_TRUE(cold.folded);
-  EXPECT_LT((cold.lambda - ref.lambda).norm(), 1e-9 * ref.lambda.norm());  // same λ (same W, δ)
-  double block_gap = 0;
-  for (index_t b : tests::nodes_above(mesh, 20))
-    block_gap = std::max(block_gap, (ref.x.row(b) - cold.x.row(b)).norm());
-  ASSERT_GT(block_gap, 0.1);  // mm: the correction is real
-  // The pending correction is C Hᵀλ on the block nodes, from the block: to rounding (mm).
-  EXPECT_NEAR(cold.pending_increment, block_gap, 1e-9);
-
-  // Warm with the settled λ (λ⁰ = λ): one solve moves every node as the two-solve step does,
-  // and nothing is pending.
-  const StepResult warm = model.step(x, rows, one, ref.lambda);
-  ASSERT_TRUE(warm.folded);
-  EXPECT_LT(max_node_difference(warm.x, ref.x), 1e-9);  // mm, rounding only
-  EXPECT_LT(warm.pending_increment, 1e-9);              // mm
-  // EXACT mechanics or rows off the block: the step keeps its two solves.
-  one.mechanics = Mechanics::EXACT;
-  EXPECT_FALSE(model.step(x, rows, one).folded);
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "apps/workflow/bench_dense.hpp"
+#include "apps/bench/bench_dense.hpp"
 
 #include "apps/workflow/intraop_frame.hpp"
 #include "core/error.hpp"

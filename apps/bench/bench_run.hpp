@@ -4,7 +4,7 @@
 /// on, the memory and machine it records, and how a result is scored against the case's
 /// landmarks (TRE in mm, intra-operative frame, world RAS).
 
-#include "apps/workflow/bench_dense.hpp"
+#include "apps/bench/bench_dense.hpp"
 #include "apps/workflow/progress.hpp"
 #include "apps/workflow/session.hpp"
 #include "constraints/registration/registration.hpp"
@@ -35,7 +35,7 @@ struct BenchRow {
                        ///< constraint_sets
   std::string value;   ///< the swept setting
   std::string method;  ///< constraint_icp | rigid_only | prescribed_displacement; full runs also
-                       ///< block_cv | block_cv_1se | block_cv_paired | block_cv_paired_smooth |
+                       ///< block_cv | block_cv_1se | block_cv_paired |
                        ///< gcv_compliance | dura_sliding | dura_unilateral
                        ///< (variants of ours)
   index_t nodes = 0, tets = 0, surface_vertices = 0, skeleton_points = 0, vessel_points = 0,

@@ -1,4 +1,4 @@
-#include "apps/workflow/bench_table.hpp"
+#include "apps/bench/bench_table.hpp"
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"

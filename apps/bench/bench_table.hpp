@@ -3,7 +3,7 @@
 /// @brief The benchmark's outputs (bench.hpp): results.csv, results.md, the Pareto plot
 /// (pareto.png through gnuplot, with its script and data), the rows as JSON and the growth fits.
 
-#include "apps/workflow/bench_run.hpp"
+#include "apps/bench/bench_run.hpp"
 
 #include <nlohmann/json.hpp>
 

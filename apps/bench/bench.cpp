@@ -1,7 +1,7 @@
-#include "apps/workflow/bench.hpp"
+#include "apps/bench/bench.hpp"
 
-#include "apps/workflow/baselines.hpp"
-#include "apps/workflow/bench_table.hpp"
+#include "apps/bench/baselines.hpp"
+#include "apps/bench/bench_table.hpp"
 #include "apps/workflow/intraop_footprint.hpp"
 #include "apps/workflow/model_folder.hpp"
 #include "core/error.hpp"
@@ -102,9 +102,8 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
           // brain (GlobalStartOptions::bulk_sinks off);
           // block_cv — the vessel compliance chosen by leave-one-branch-out cross-validation at
           // its minimum, from a rigid-only global start (ε → ∞ the rigid answer);
-          // block_cv_1se / block_cv_paired / block_cv_paired_smooth — the same with the
-          // one-standard-error rule, with the paired test at z = 1 against ε → ∞, and with the
-          // paired test on the CV curve smoothed over ±3 neighbouring ratios (issue 14 item 3);
+          // block_cv_1se / block_cv_paired — the same with the one-standard-error rule, and with
+          // the paired test at z = 1 against ε → ∞;
           // block_cv_1se_bulk — the one-SE rule from the start's rigid + bulk state;
           // gcv_compliance — the SMOOTH stage at the compliance chosen by generalised
           // cross-validation; dura_sliding / dura_unilateral — dura contact
@@ -131,8 +130,6 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["block_cv_1se"].noise.one_standard_error = true;
             variants["block_cv_paired"] = cv;
             variants["block_cv_paired"].noise.paired_test = true;
-            variants["block_cv_paired_smooth"] = variants["block_cv_paired"];
-            variants["block_cv_paired_smooth"].noise.smooth_neighbours = 3;
             variants["block_cv_1se_bulk"] = o;
             variants["block_cv_1se_bulk"].noise.paired_test = false;
             variants["block_cv_1se_bulk"].noise.one_standard_error = true;
@@ -148,7 +145,7 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["identity_start"].start = constraints::RigidStart::IDENTITY;
             methods.insert(methods.end(),
                            {"fixed_compliance", "unbounded_start", "block_cv", "block_cv_1se",
-                            "block_cv_1se_bulk", "block_cv_paired", "block_cv_paired_smooth",
+                            "block_cv_1se_bulk", "block_cv_paired",
                             "gcv_compliance", "dura_sliding", "dura_unilateral", "identity_start"});
           }
           methods.push_back("bulk_start_only");

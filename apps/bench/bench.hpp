@@ -19,7 +19,7 @@
 /// growth exponents), DIR/results.md, DIR/pareto.png (gnuplot; its script and data are kept).
 /// The phantoms and models are built under DIR/work and removed unless --keep-work.
 
-#include "apps/workflow/bench_run.hpp"
+#include "apps/bench/bench_run.hpp"
 #include "apps/workflow/progress.hpp"
 
 #include <nlohmann/json.hpp>

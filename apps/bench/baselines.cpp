@@ -1,4 +1,4 @@
-#include "apps/workflow/baselines.hpp"
+#include "apps/bench/baselines.hpp"
 
 #include "core/timing.hpp"
 
@@ -44,9 +44,9 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
                                            const constraints::IntraopData& data,
                                            const RegistrationOptions& options) {
   const auto t0 = Clock::now();
-  const constraints::RigidInitResult rigid = options.start == constraints::RigidStart::RIGID
+  const constraints::RigidStartResult rigid = options.start == constraints::RigidStart::RIGID
                                                  ? constraints::rigid_start(model, data, options)
-                                                 : constraints::RigidInitResult{};
+                                                 : constraints::RigidStartResult{};
   const double t_rigid = seconds_since(t0);
   const MatrixX3d& S = model.skeleton().points;
   std::map<index_t, std::pair<Vector3d, int>> sum;  // skeleton point → (Σ targets, count)

@@ -1,4 +1,4 @@
-#include "apps/workflow/bench_run.hpp"
+#include "apps/bench/bench_run.hpp"
 
 #include "apps/workflow/intraop_frame.hpp"
 #include "apps/workflow/model_folder.hpp"
