@@ -45,8 +45,8 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
                                            const RegistrationOptions& options) {
   const auto t0 = Clock::now();
   const constraints::RigidStartResult rigid = options.start == constraints::RigidStart::RIGID
-                                                 ? constraints::rigid_start(model, data, options)
-                                                 : constraints::RigidStartResult{};
+                                                  ? constraints::rigid_start(model, data, options)
+                                                  : constraints::RigidStartResult{};
   const double t_rigid = seconds_since(t0);
   const MatrixX3d& S = model.skeleton().points;
   std::map<index_t, std::pair<Vector3d, int>> sum;  // skeleton point → (Σ targets, count)

@@ -145,8 +145,8 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["identity_start"].start = constraints::RigidStart::IDENTITY;
             methods.insert(methods.end(),
                            {"fixed_compliance", "unbounded_start", "block_cv", "block_cv_1se",
-                            "block_cv_1se_bulk", "block_cv_paired",
-                            "gcv_compliance", "dura_sliding", "dura_unilateral", "identity_start"});
+                            "block_cv_1se_bulk", "block_cv_paired", "gcv_compliance",
+                            "dura_sliding", "dura_unilateral", "identity_start"});
           }
           methods.push_back("bulk_start_only");
           // pre_dura — the pose measured on the sweep made before the dura was opened
