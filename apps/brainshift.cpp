@@ -8,11 +8,16 @@
 //                      [--scene-options O.json] --out MODEL
 //       Pre-operative model: mesh, collision surface, fixed region, vessel skeleton, scene.
 //   brainshift register --model MODEL --doppler D.nii.gz [--bmode B.nii.gz] [--mri M.nii.gz]
+//                       [--pre-dura P.nii.gz | --pre-dura-pose POSE.json]
 //                       [--init rigid|identity] --out RES
 //       One intra-operative registration: RES/{report.json, deformed.vtu, displacement.nii.gz,
 //       preop_to_intraop.nrrd, intraop_to_preop.nrrd, warped_mri.nii.gz, uncertainty.nii.gz,
 //       overlay.png[, overlay_uncertainty.png]}.
-//   brainshift replay --model MODEL --sequence DIR --out RES
+//   brainshift pre-dura --model MODEL --doppler P.nii.gz --out POSE.json
+//       The navigation offset measured once on a sweep made on the closed dura, stored for
+//       register / replay --pre-dura-pose (no second extraction).
+//   brainshift replay --model MODEL --sequence DIR
+//                     [--pre-dura P.nii.gz | --pre-dura-pose POSE.json] --out RES
 //       Every DIR/frame_*/ in order, warm-started; latency summary in RES/replay.json.
 //   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv
 //                       [--surface-pre S.vtp --surface-intra T.vtp]
@@ -57,6 +62,7 @@
 #include "cmd_extract_footprint.hpp"
 #include "cmd_options.hpp"
 #include "cmd_phantom.hpp"
+#include "cmd_pre_dura.hpp"
 #include "cmd_prepare.hpp"
 #include "cmd_register.hpp"
 #include "cmd_replay.hpp"
@@ -86,6 +92,8 @@ int main(int argc, char** argv) {
   const CLI::App* prepare = apps::add_prepare_command(app, prepare_args);
   apps::RegisterArgs register_args;
   const CLI::App* reg = apps::add_register_command(app, register_args);
+  apps::PreDuraArgs pre_dura_args;
+  const CLI::App* pre_dura = apps::add_pre_dura_command(app, pre_dura_args);
   apps::ReplayArgs replay_args;
   const CLI::App* replay = apps::add_replay_command(app, replay_args);
   apps::EvaluateArgs evaluate_args;
@@ -118,7 +126,7 @@ int main(int argc, char** argv) {
   // reuse freed memory instead of faulting in fresh pages for each (core/process_memory.hpp).
   // Not for the long or heavy ones (bench, prepare), whose peak heap would be kept.
   // They also run their own two threads on small models: one BLAS thread (core/blas_threads.hpp).
-  if (reg->parsed() || replay->parsed() || extract_vessels->parsed() ||
+  if (reg->parsed() || replay->parsed() || pre_dura->parsed() || extract_vessels->parsed() ||
       extract_footprint->parsed()) {
     (void)brainshift::core::keep_freed_memory_for_reuse();
     (void)brainshift::core::one_blas_thread_unless_set();
@@ -129,6 +137,7 @@ int main(int argc, char** argv) {
     if (phantom->parsed()) return apps::run_phantom(phantom_args, std::cout);
     if (prepare->parsed()) return apps::run_prepare(prepare_args, std::cout);
     if (reg->parsed()) return apps::run_register(register_args, std::cout);
+    if (pre_dura->parsed()) return apps::run_pre_dura(pre_dura_args, std::cout);
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);

@@ -52,12 +52,19 @@ CLI::App* add_evaluate_command(CLI::App& app, EvaluateArgs& args) {
       ->required();
   c->add_option("--surface-pre", args.surface_pre, "pre-operative surface .vtp (e.g. ventricles)");
   c->add_option("--surface-intra", args.surface_intra, "intra-operative surface .vtp");
+  c->add_option(
+      "--brain-points-pre", args.brain_points_pre,
+      "points spread over the brain, pre-operative (CSV id,x,y,z, mm): whole-brain error");
+  c->add_option("--brain-points-intra", args.brain_points_intra,
+                "the same points' truth positions, intra-operative (CSV id,x,y,z, mm)");
   return c;
 }
 
 nlohmann::json evaluate(const EvaluateArgs& args) {
   BS_VERIFY(args.surface_pre.has_value() == args.surface_intra.has_value(),
             "evaluate: give both --surface-pre and --surface-intra, or neither");
+  BS_VERIFY(args.brain_points_pre.has_value() == args.brain_points_intra.has_value(),
+            "evaluate: give both --brain-points-pre and --brain-points-intra, or neither");
   const std::filesystem::path field_path = args.result / "displacement.nii.gz";
   const imaging::VolumeF field = imaging::read_volume(field_path);
   BS_VERIFY(field.components == 3, field_path.string()
@@ -116,6 +123,20 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
   }
   const auto pct = imaging::percent_shift_corrected(before.mean, after.mean);
   j["shift_corrected_pct"] = pct ? nlohmann::json(*pct) : nlohmann::json(nullptr);
+  if (args.brain_points_pre) {
+    const imaging::Landmarks bp = imaging::read_landmarks(*args.brain_points_pre);
+    const imaging::Landmarks bi = imaging::read_landmarks(*args.brain_points_intra);
+    const imaging::LandmarkPairs b =
+        imaging::match_landmarks_by_id(bp.ids, bp.points, bi.ids, bi.points);
+    BS_VERIFY(!b.ids.empty(), args.brain_points_pre->string()
+                                  << " and " << args.brain_points_intra->string()
+                                  << ": no point id in common");
+    j["whole_brain_points"] = b.ids.size();
+    j["whole_brain_before_mm"] =
+        stats_json(imaging::error_stats(imaging::landmark_errors(b.a, b.b)));
+    j["whole_brain_after_mm"] =
+        stats_json(imaging::error_stats(imaging::landmark_errors(moved(field, b.a), b.b)));
+  }
   if (args.surface_pre) {
     core::SurfaceMesh s_pre = imaging::read_surface_vtp(*args.surface_pre);
     const core::SurfaceMesh s_intra = imaging::read_surface_vtp(*args.surface_intra);
@@ -142,6 +163,12 @@ int run_evaluate(const EvaluateArgs& args, std::ostream& out) {
         << s["mean"].get<double>() << std::setw(8) << s["median"].get<double>() << std::setw(8)
         << s["p95"].get<double>() << std::setw(8) << s["max"].get<double>() << "\n";
   }
+  if (j.contains("whole_brain_after_mm"))
+    out << "whole brain (" << j["whole_brain_points"].get<std::size_t>() << " points): mean "
+        << j["whole_brain_before_mm"]["mean"].get<double>() << " -> "
+        << j["whole_brain_after_mm"]["mean"].get<double>() << " mm, p95 "
+        << j["whole_brain_before_mm"]["p95"].get<double>() << " -> "
+        << j["whole_brain_after_mm"]["p95"].get<double>() << " mm\n";
   if (!j["shift_corrected_pct"].is_null())
     out << "shift corrected: " << j["shift_corrected_pct"].get<double>() << " %\n";
   if (j.contains("surface_after_mm"))

@@ -25,6 +25,11 @@ struct EvaluateArgs {
   std::filesystem::path landmarks_intra;
   std::optional<std::filesystem::path> surface_pre;
   std::optional<std::filesystem::path> surface_intra;
+  /// Points with known truth spread over the brain (landmark CSVs, id,x,y,z, mm; e.g. a
+  /// phantom's truth field sampled at brain voxels): the whole-brain error, beside the landmarks'
+  /// (evaluation.json → `whole_brain_before_mm`, `whole_brain_after_mm`). Both or neither.
+  std::optional<std::filesystem::path> brain_points_pre;
+  std::optional<std::filesystem::path> brain_points_intra;
 };
 
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateArgs& args);

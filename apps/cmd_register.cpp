@@ -19,7 +19,12 @@ CLI::App* add_register_command(CLI::App& app, RegisterArgs& args) {
   c->add_option("--mri", args.mri, "pre-operative MRI to warp (same grid as the model's labels)");
   c->add_option("--pre-dura", args.pre_dura,
                 "power-Doppler volume of a sweep on the dura before it was opened: the navigation "
-                "offset is measured from it, so the sag is not mistaken for a pose");
+                "offset is measured from it, so the sag is not mistaken for a pose (stored as "
+                "RES/pre_dura_pose.json)");
+  c->add_option("--pre-dura-pose", args.pre_dura_pose,
+                "the same offset measured beforehand (brainshift pre-dura, or a previous run's "
+                "RES/pre_dura_pose.json): no second extraction")
+      ->excludes("--pre-dura");
   c->add_option("--init", args.init, "rigid start: rigid or identity (default: the scene's)")
       ->check(CLI::IsMember({"rigid", "identity"}));
   c->add_option("--out", args.out, "result folder RES")->required();

@@ -18,7 +18,11 @@ CLI::App* add_replay_command(CLI::App& app, ReplayArgs& args) {
   c->add_option("--out", args.out, "result folder RES")->required();
   c->add_option("--pre-dura", args.pre_dura,
                 "power-Doppler volume of a sweep on the dura before it was opened: the navigation "
-                "offset is measured on it once and kept for every frame");
+                "offset is measured on it once and kept for every frame (stored as "
+                "RES/pre_dura_pose.json)");
+  c->add_option("--pre-dura-pose", args.pre_dura_pose,
+                "the same offset measured beforehand (brainshift pre-dura): no extraction")
+      ->excludes("--pre-dura");
   c->add_option("--uncertainty", args.uncertainty,
                 "predicted error (uncertainty.nii.gz, ~0.1-0.2 s a frame): every frame, only the "
                 "last frame, or none")

@@ -1,7 +1,8 @@
 // BrainshiftRegister: `brainshift register` as a 3D Slicer command-line module.
 //
 //   BrainshiftRegister --xml                      (the module description Slicer reads)
-//   BrainshiftRegister --model MODEL --doppler D.nrrd [--bmode B.nrrd] [--preDura P.nrrd]
+//   BrainshiftRegister --model MODEL --doppler D.nrrd [--bmode B.nrrd]
+//                      [--preDura P.nrrd | --preDuraPose POSE.json]
 //                      [--preopMRI M.nrrd]
 //                      [--warpedMRI W.nrrd] [--preopToIntraop P.nrrd] [--intraopToPreop I.nrrd]
 //                      [--reportFile R.json] [--init scene|rigid|identity] [--resultDirectory RES]
@@ -19,6 +20,7 @@
 #include "staged_outputs.hpp"
 
 #include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/pose_file.hpp"
 #include "apps/workflow/result_fields.hpp"
 #include "core/blas_threads.hpp"
 #include "core/error.hpp"
@@ -55,8 +57,8 @@ bool has_extension(const std::filesystem::path& p, const std::string& ext) {
 /// The module's paths (absent: not given).
 struct RegisterPaths {
   std::filesystem::path model, doppler;
-  std::optional<std::filesystem::path> bmode, pre_dura, mri, warped, to_intra, to_pre, report,
-      result_dir;
+  std::optional<std::filesystem::path> bmode, pre_dura, pre_dura_pose, mri, warped, to_intra,
+      to_pre, report, result_dir;
 };
 
 RegisterPaths paths_of(const Values& v) {
@@ -65,6 +67,7 @@ RegisterPaths paths_of(const Values& v) {
   p.doppler = v.at("doppler");
   p.bmode = optional_path(v, "bmode");
   p.pre_dura = optional_path(v, "preDura");
+  p.pre_dura_pose = optional_path(v, "preDuraPose");
   p.mri = optional_path(v, "preopMRI");
   p.warped = optional_path(v, "warpedMRI");
   p.to_intra = optional_path(v, "preopToIntraop");
@@ -80,6 +83,8 @@ void check_outputs(const RegisterPaths& p) {
       p.warped || p.to_intra || p.to_pre || p.report || p.result_dir,
       "no output requested: give at least one of --warpedMRI, --preopToIntraop, --intraopToPreop, "
       "--reportFile, --resultDirectory");
+  BS_VERIFY(!(p.pre_dura && p.pre_dura_pose),
+            p.pre_dura_pose->string() << ": give a pre-dura Doppler or a stored pose, not both");
   BS_VERIFY(!p.warped || p.mri, p.warped->string()
                                     << ": the warped MRI needs the pre-operative MRI (--preopMRI)");
   for (const auto& t : {p.to_intra, p.to_pre})
@@ -150,9 +155,11 @@ int register_body(const Values& v, const ProgressReport& progress) {
   const std::string init = v.count("init") ? v.at("init") : "scene";
   if (init == "rigid") options.start = constraints::RigidStart::RIGID;
   if (init == "identity") options.start = constraints::RigidStart::IDENTITY;
-  if (p.pre_dura) {  // the navigation offset, measured before the dura was opened (as --pre-dura)
+  if (p.pre_dura || p.pre_dura_pose) {  // the navigation offset before the dura was opened
     progress("the navigation offset from the pre-dura sweep", 0.35);
-    in.data.pose = workflow::pose_from_pre_dura(s, *p.pre_dura, options, in.report["pre_dura"]);
+    // A measured pose is stored in the result directory (when one is given), as register does.
+    in.data.pose = workflow::given_pose(s, p.pre_dura, p.pre_dura_pose, options,
+                                        in.report["pre_dura"], in.measured_pose);
   }
   progress("registering (" + std::to_string(in.data.vessel_points.rows()) + " vessel points, " +
                std::to_string(in.data.footprint_points.rows()) + " footprint points)",

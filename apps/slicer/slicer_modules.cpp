@@ -140,6 +140,11 @@ ModuleDescription register_module() {
             "(far from the probe the warp is then right too).",
             "input", false, "type=\"scalar\""));
   in.parameters.push_back(
+      data("file", "preDuraPose", "Stored pre-dura pose (optional)",
+           "The same navigation offset measured beforehand (brainshift pre-dura, or a result "
+           "folder's pre_dura_pose.json): no second extraction. Not with the pre-dura Doppler.",
+           "input", false, "fileExtensions=\".json\""));
+  in.parameters.push_back(
       image("preopMRI", "Pre-operative MRI (optional)",
             "The MRI to warp, on the grid of the model's label map; needed for the warped MRI.",
             "input", false, "type=\"scalar\""));

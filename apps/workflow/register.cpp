@@ -1,8 +1,10 @@
 #include "apps/workflow/register.hpp"
 
 #include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/pose_file.hpp"
 #include "apps/workflow/result_report.hpp"
 #include "apps/workflow/session.hpp"
+#include "core/error.hpp"
 #include "imaging/io/image_io.hpp"
 
 #include <exception>
@@ -24,6 +26,8 @@ struct Images {
 }  // namespace
 
 RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& progress) {
+  BS_VERIFY(!(args.pre_dura && args.pre_dura_pose),
+            args.pre_dura_pose->string() << ": give a pre-dura sweep or a stored pose, not both");
   verify_output_folder(args.out);
   progress.stage("loading the model " + args.model.string());
   // The images do not need the model: the Doppler is read and its vessels extracted, and the MRI
@@ -52,10 +56,13 @@ RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& 
   constraints::RegistrationOptions options = s.loaded.scene.options;
   if (args.init == "rigid") options.start = constraints::RigidStart::RIGID;
   if (args.init == "identity") options.start = constraints::RigidStart::IDENTITY;
-  if (args.pre_dura) {
+  if (args.pre_dura)
     progress.stage("the navigation offset from the pre-dura sweep " + args.pre_dura->string());
-    in.data.pose = pose_from_pre_dura(s, *args.pre_dura, options, in.report["pre_dura"]);
-  }
+  if (args.pre_dura_pose)
+    progress.stage("the navigation offset stored in " + args.pre_dura_pose->string());
+  if (args.pre_dura || args.pre_dura_pose)
+    in.data.pose = given_pose(s, args.pre_dura, args.pre_dura_pose, options, in.report["pre_dura"],
+                              in.measured_pose);
   progress.stage("registering (" + std::to_string(in.data.vessel_points.rows()) +
                  " vessel points, " + std::to_string(in.data.footprint_points.rows()) +
                  " footprint points)");

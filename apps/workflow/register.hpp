@@ -26,6 +26,9 @@ struct RegisterOptions {
   /// after opening only adds the deformation (constraints::IntraopData::pose). Without it, the
   /// pose is searched in the post-opening sweep, where it can absorb part of the sag.
   std::optional<std::filesystem::path> pre_dura;
+  /// The same pose, measured once beforehand and stored (pose_file.hpp: `brainshift pre-dura`, or
+  /// RES/pre_dura_pose.json of a run with `pre_dura`): no second extraction. Not with `pre_dura`.
+  std::optional<std::filesystem::path> pre_dura_pose;
   std::string init;           ///< "rigid", "identity" or empty (the scene's choice)
   std::filesystem::path out;  ///< result folder RES (replaced atomically)
 };

@@ -1,6 +1,7 @@
 #include "apps/workflow/replay.hpp"
 
 #include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/pose_file.hpp"
 #include "apps/workflow/result_report.hpp"
 #include "apps/workflow/session.hpp"
 #include "core/error.hpp"
@@ -32,6 +33,8 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
       frames.push_back(e.path());
   std::sort(frames.begin(), frames.end());
   BS_VERIFY(!frames.empty(), args.sequence.string() << ": no frame_* folders");
+  BS_VERIFY(!(args.pre_dura && args.pre_dura_pose),
+            args.pre_dura_pose->string() << ": give a pre-dura sweep or a stored pose, not both");
   verify_output_folder(args.out);
   progress.stage("loading the model " + args.model.string());
   Session s = open_session(args.model);
@@ -40,11 +43,16 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
                             {"sequence", args.sequence.string()},
                             {"frames", nlohmann::json::array()}};
   // The navigation offset from the pre-dura sweep, once, before anything is written.
-  std::optional<Eigen::Isometry3d> pose;
-  if (args.pre_dura) {
+  if (args.pre_dura)
     progress.stage("the navigation offset from the pre-dura sweep " + args.pre_dura->string());
-    pose = pose_from_pre_dura(s, *args.pre_dura, s.loaded.scene.options, summary["pre_dura"]);
-  }
+  if (args.pre_dura_pose)
+    progress.stage("the navigation offset stored in " + args.pre_dura_pose->string());
+  nlohmann::json measured_pose;
+  const std::optional<Eigen::Isometry3d> pose =
+      args.pre_dura || args.pre_dura_pose
+          ? given_pose(s, args.pre_dura, args.pre_dura_pose, s.loaded.scene.options,
+                       summary["pre_dura"], measured_pose)
+          : std::nullopt;
   std::vector<double> latency;
   int failed = 0, unconverged = 0;
   std::optional<constraints::RegistrationResult> previous;
@@ -92,6 +100,8 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
     summary["failed"] = failed;
     summary["not_converged"] = unconverged;
     std::ofstream(dir / "replay.json") << summary.dump(2) << '\n';
+    if (!measured_pose.is_null())
+      std::ofstream(dir / pose_file_name) << measured_pose.dump(2) << '\n';
   });
   ReplayResult result;
   result.summary = std::move(summary);

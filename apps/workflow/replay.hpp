@@ -29,6 +29,9 @@ struct ReplayOptions {
   /// measured on it once and given to every frame (constraints::IntraopData::pose; as
   /// `register --pre-dura`). replay.json → `pre_dura` says what was measured.
   std::optional<std::filesystem::path> pre_dura;
+  /// The same pose stored beforehand (pose_file.hpp; `register --pre-dura-pose`). Not with
+  /// `pre_dura`. A pose measured here is stored as RES/pre_dura_pose.json.
+  std::optional<std::filesystem::path> pre_dura_pose;
 };
 
 /// What replay did (replay.json's content and its counts).

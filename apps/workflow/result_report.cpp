@@ -1,6 +1,7 @@
 #include "apps/workflow/result_report.hpp"
 
 #include "apps/workflow/model_folder.hpp"
+#include "apps/workflow/pose_file.hpp"
 #include "apps/workflow/result_fields.hpp"
 #include "apps/workflow/result_overlay.hpp"
 #include "core/logger.hpp"
@@ -79,6 +80,8 @@ void finish(const std::filesystem::path& dir, const Session& s, const IntraopInp
     report["timing"]["elapsed"] = report["timing"]["elapsed_before_outputs"].get<double>() +
                                   report["timing"]["outputs"].get<double>();
   std::ofstream(dir / "report.json") << report.dump(2) << '\n';
+  if (!in.measured_pose.is_null())
+    std::ofstream(dir / pose_file_name) << in.measured_pose.dump(2) << '\n';
 }
 
 }  // namespace

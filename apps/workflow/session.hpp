@@ -36,6 +36,9 @@ struct IntraopInputs {
   constraints::IntraopData data;
   nlohmann::json report;  ///< what extraction found (counts, thresholds)
   double seconds = 0.0;
+  /// A pose measured on a pre-dura sweep for this registration (pose_file.hpp's JSON): written
+  /// beside the result as RES/pre_dura_pose.json, for later runs' `--pre-dura-pose`. Null: none.
+  nlohmann::json measured_pose;
 };
 /// `vessels`: extraction settings (the defaults suit the intra-operative Doppler).
 IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,

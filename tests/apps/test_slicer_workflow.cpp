@@ -115,7 +115,8 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
       {"init", "scene"},
       {"resultDirectory", out / "res"}};
   for (const auto& [name, p] : tests::parameters_by_name(reg))
-    EXPECT_TRUE(values.count(name)) << name << " untested";
+    EXPECT_TRUE(values.count(name) || name == "preDuraPose")  // below: excludes preDura
+        << name << " untested";
   r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"),
                      tests::slicer_command_line(reg, values));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
@@ -141,6 +142,36 @@ TEST(SlicerWorkflow, ModulesRunOnNrrdInputsWriteEveryDeclaredOutputAndRefuseBadI
   // Grids agree to the 17 significant digits the NRRD header is written with.
   EXPECT_LT((warped.geometry.origin - mri.geometry.origin).norm(), 1e-9);
   EXPECT_EQ(entries(out), 5U) << "no temporaries left next to the outputs";
+
+  // The pose measured on the pre-dura sweep is stored in the result directory; given back as
+  // preDuraPose it is the same pose (no second extraction), and the registration the same.
+  ASSERT_TRUE(std::filesystem::exists(out / "res" / "pre_dura_pose.json"));
+  {
+    const auto out2 = dir / "slicer_out_pose";
+    std::filesystem::create_directory(out2);
+    const std::map<std::string, std::filesystem::path> v2 = {
+        {"model", model},
+        {"doppler", in / "doppler.nrrd"},
+        {"bmode", in / "bmode.nrrd"},
+        {"preDuraPose", out / "res" / "pre_dura_pose.json"},
+        {"reportFile", out2 / "report.json"}};
+    r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"),
+                       tests::slicer_command_line(reg, v2));
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+    const auto report2 = nlohmann::json::parse(read_all(out2 / "report.json"));
+    EXPECT_EQ(report2["intraop"]["pre_dura"]["source"], "pose_file");
+    EXPECT_EQ(report2["intraop"]["pre_dura"]["model_from_intraop"],
+              report["intraop"]["pre_dura"]["model_from_intraop"]);
+    EXPECT_EQ(report2["rigid"]["model_from_intraop"], report["rigid"]["model_from_intraop"]);
+    // Both at once: refused before any work.
+    auto both = v2;
+    both["preDura"] = in / "predura.nrrd";
+    both["reportFile"] = out2 / "both.json";
+    r = tests::run_exe(dir, tests::slicer_module("BrainshiftRegister"),
+                       tests::slicer_command_line(reg, both));
+    expect_one_error_line(r, "BrainshiftRegister", "not both");
+    EXPECT_FALSE(std::filesystem::exists(out2 / "both.json"));
+  }
 
   // Bad input: a truncated Doppler volume. One line naming it; nothing at the output paths.
   {

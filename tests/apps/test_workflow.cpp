@@ -138,6 +138,24 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
                               q(ph / "truth/ventricles_intraop.vtp"));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   const auto ev = read_json(res / "evaluation.json");
+  {  // Whole-brain points are point files like the landmarks: given the landmarks themselves,
+     // the whole-brain figures are the landmarks' to the last digit; one of the two alone is a
+     // one-line error.
+    const std::string eval = "evaluate --result " + q(res) + " --landmarks-pre " +
+                             q(ph / "truth/landmarks_preop.csv") + " --landmarks-intra " +
+                             q(ph / "truth/landmarks_intraop.csv");
+    const CliRun wb =
+        run_brainshift(dir, eval + " --brain-points-pre " + q(ph / "truth/landmarks_preop.csv") +
+                                " --brain-points-intra " + q(ph / "truth/landmarks_intraop.csv"));
+    ASSERT_EQ(wb.exit_code, 0) << wb.out << wb.err;
+    EXPECT_NE(wb.out.find("whole brain"), std::string::npos) << wb.out;
+    const auto ew = read_json(res / "evaluation.json");
+    EXPECT_EQ(ew["whole_brain_after_mm"], ew["tre_after_mm"]);
+    EXPECT_EQ(ew["whole_brain_before_mm"], ew["tre_before_mm"]);
+    expect_one_line_error(
+        run_brainshift(dir, eval + " --brain-points-pre " + q(ph / "truth/landmarks_preop.csv")),
+        "--brain-points-intra");
+  }
   for (const char* k : {"mean", "median", "p95", "max"}) {
     EXPECT_TRUE(ev["tre_before_mm"].contains(k)) << k;
     EXPECT_TRUE(ev["tre_after_mm"].contains(k)) << k;
@@ -245,13 +263,13 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     const auto res_pre = dir / "res_pre";
     const CliRun run = run_brainshift(dir, reg + " --pre-dura " + q(pre) + " --out " + q(res_pre));
     ASSERT_TRUE(run.exit_code == 0 || run.exit_code == 2) << run.out << run.err;
-    const auto rep = read_json(res_pre / "report.json");
-    ASSERT_TRUE(rep["intraop"].contains("pre_dura")) << rep["intraop"].dump();
-    const auto& p = rep["intraop"]["pre_dura"];
+    const auto rpt = read_json(res_pre / "report.json");
+    ASSERT_TRUE(rpt["intraop"].contains("pre_dura")) << rpt["intraop"].dump();
+    const auto& p = rpt["intraop"]["pre_dura"];
     for (const char* k : {"model_from_intraop", "message", "points", "translation_mm"})
       EXPECT_TRUE(p.contains(k)) << k;
-    EXPECT_NE(rep["rigid"]["stop_reason"].get<std::string>().find("given pose"), std::string::npos)
-        << rep["rigid"].dump();
+    EXPECT_NE(rpt["rigid"]["stop_reason"].get<std::string>().find("given pose"), std::string::npos)
+        << rpt["rigid"].dump();
     // The standard phantom has no navigation offset: the pose is the identity up to what the
     // Doppler centrelines' bias allows (vessels cut by the sector's side sit ≈ 1.5 mm inside it
     // along the beam; docs/BENCHMARKS.md): < 2 mm at the centroid and < 5° (measured 0.4 mm, 3°).
@@ -271,6 +289,57 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
                   .get<std::string>()
                   .find("given pose"),
               std::string::npos);
+    // The pose is stored beside the result (RES/pre_dura_pose.json) and, measured once by
+    // `pre-dura`, reused by register and replay without extracting the sweep again: the same
+    // pose to the last digit JSON keeps (the same function on the same points), and the same
+    // registration.
+    ASSERT_TRUE(std::filesystem::exists(res_pre / "pre_dura_pose.json"));
+    const auto pose_file = dir / "pose.json";
+    const CliRun pd = run_brainshift(
+        dir, "pre-dura --model " + q(model) + " --doppler " + q(pre) + " --out " + q(pose_file));
+    ASSERT_EQ(pd.exit_code, 0) << pd.out << pd.err;
+    EXPECT_NE(pd.out.find("pre-dura pose from"), std::string::npos) << pd.out;
+    const auto stored = read_json(pose_file);
+    EXPECT_EQ(stored["model_from_intraop"], p["model_from_intraop"]);
+    EXPECT_EQ(stored["model_from_intraop"],
+              read_json(res_pre / "pre_dura_pose.json")["model_from_intraop"]);
+    const auto res_pose = dir / "res_pose";
+    const CliRun rp =
+        run_brainshift(dir, reg + " --pre-dura-pose " + q(pose_file) + " --out " + q(res_pose));
+    ASSERT_EQ(rp.exit_code, run.exit_code) << rp.out << rp.err;
+    const auto rep_pose = read_json(res_pose / "report.json");
+    EXPECT_EQ(rep_pose["intraop"]["pre_dura"]["source"], "pose_file");
+    EXPECT_EQ(rep_pose["intraop"]["pre_dura"]["model_from_intraop"], p["model_from_intraop"]);
+    EXPECT_EQ(rep_pose["rigid"]["model_from_intraop"], rpt["rigid"]["model_from_intraop"]);
+    EXPECT_EQ(rep_pose["iterations"], rpt["iterations"]);
+    EXPECT_FALSE(std::filesystem::exists(res_pose / "pre_dura_pose.json"))
+        << "a given pose is not stored again";
+    const auto rep_stored = dir / "replay_stored";
+    const CliRun rs = run_brainshift(
+        dir, "replay --model " + q(model) + " --sequence " + q(ph / "intraop") +
+                 " --pre-dura-pose " + q(pose_file) + " --uncertainty none --out " + q(rep_stored));
+    ASSERT_EQ(rs.exit_code, rr.exit_code) << rs.out << rs.err;
+    EXPECT_EQ(read_json(rep_stored / "replay.json")["pre_dura"]["model_from_intraop"],
+              p["model_from_intraop"]);
+    // Both flags at once, a damaged pose file, or a pose measured for another model: one line,
+    // nothing written.
+    const CliRun both = run_brainshift(dir, reg + " --pre-dura " + q(pre) + " --pre-dura-pose " +
+                                                q(pose_file) + " --out " + q(bad));
+    EXPECT_NE(both.exit_code, 0);
+    EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
+    expect_nothing_half_written(bad);
+    std::ofstream(dir / "broken_pose.json") << "{\"format\": \"brainshift-pose\"";
+    expect_one_line_error(run_brainshift(dir, reg + " --pre-dura-pose " +
+                                                  q(dir / "broken_pose.json") + " --out " + q(bad)),
+                          "broken_pose.json: not valid JSON");
+    expect_nothing_half_written(bad);
+    auto other = stored;
+    other["preop_grid"]["origin_mm"][0] = other["preop_grid"]["origin_mm"][0].get<double>() + 5.0;
+    std::ofstream(dir / "other_pose.json") << other.dump();
+    expect_one_line_error(run_brainshift(dir, reg + " --pre-dura-pose " +
+                                                  q(dir / "other_pose.json") + " --out " + q(bad)),
+                          "measured for another model");
+    expect_nothing_half_written(bad);
     // A pre-dura sweep without vessels is a one-line error naming it; nothing is written.
     imaging::VolumeF zero = imaging::read_volume(pre);
     std::fill(zero.data.begin(), zero.data.end(), 0.0F);
