@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Nearest-neighbour x2 per axis upsampling of a float32 NIfTI-1 .nii.gz (same world extent):
 each voxel becomes 2x2x2 voxels of half the spacing, the origin moves by a quarter voxel.
-Makes the 16 M-voxel power Doppler of docs/BENCHMARKS.md ("The intra-operative path under
+Makes the 16 M-voxel power Doppler of docs/history/BENCHMARKS_NOTEBOOK.md ("The intra-operative path under
 2 s") from the demo's (165x165x76 -> 330x330x152). Standard library only.
 usage: scripts/upsample_nifti.py P/intraop/doppler.nii.gz D16.nii.gz"""
 import gzip, struct, sys

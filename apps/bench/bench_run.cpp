@@ -174,6 +174,7 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
   row.iterations = r.iterations;
   row.converged = r.converged;
   row.stop = constraints::to_string(r.stop);
+  row.stop_reason = r.stop_reason;
   row.rows = r.history.empty() ? 0 : r.history.back().rows;
   row.t = r.seconds;
   row.max_displacement_mm =

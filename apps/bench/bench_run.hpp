@@ -44,6 +44,7 @@ struct BenchRow {
   int iterations = 0;
   bool converged = false;
   std::string stop;
+  std::string stop_reason;  ///< the registration's own account of its stop
   double prepare_s =
       0.0;               ///< pre-operative: the whole `prepare` (meshing, factor, compliance block)
   double setup_s = 0.0;  ///< intra-operative model set-up: load MODEL, factorise, adopt the block

@@ -96,6 +96,7 @@ nlohmann::json row_json(const BenchRow& r) {
        r.dense_error_mean ? nlohmann::json(*r.dense_error_mean) : nlohmann::json(nullptr)},
       {"max_displacement_mm", r.max_displacement_mm},
       {"ok", r.ok},
+      {"stop_reason", r.stop_reason},
       {"error", r.error},
       {"note", r.note}};
   auto opt = [](const std::optional<double>& v) {

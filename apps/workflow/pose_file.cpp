@@ -79,9 +79,8 @@ StoredPose read_pose_file(const std::filesystem::path& path, const Session* s) {
             file << ": 'model_from_intraop' is not a rigid transform (its 3x3 block is not a "
                     "rotation)");
   const double shift = m.topRightCorner<3, 1>().norm();
-  BS_VERIFY(shift < 1000.0,
-            file << ": 'model_from_intraop' translates by " << shift
-                 << " mm (over 1 m: not a navigation offset)");
+  BS_VERIFY(shift < 1000.0, file << ": 'model_from_intraop' translates by " << shift
+                                 << " mm (over 1 m: not a navigation offset)");
   if (s) {
     BS_VERIFY(j.contains("preop_grid"),
               file << ": missing key 'preop_grid' (the model the pose was measured for)");

@@ -113,6 +113,14 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                 {"rms_before_mm", r.rigid.rms_before_mm},
                 {"rms_after_mm", r.rigid.rms_after_mm},
                 {"weak_dofs", r.rigid.weak_dofs}};
+  // The global start's evidence for its pose (when it ran): the best distinct other pose's
+  // share of the score and its distance, the points' spread, and whether it was ambiguous.
+  j["rigid"]["ambiguity"] = {
+      {"ambiguous", r.start.ambiguous},
+      {"reason", r.start.ambiguity},
+      {"runner_up_ratio", r.start.runner_up_ratio},
+      {"runner_up_distance_mm", r.start.runner_up_distance_mm},
+      {"spread_mm", {r.start.spread_mm(0), r.start.spread_mm(1), r.start.spread_mm(2)}}};
   j["timing"] = {{"rigid", r.seconds.rigid},
                  {"pairing", r.seconds.pairing},
                  {"free_motion", r.seconds.free_motion},

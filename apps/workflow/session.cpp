@@ -154,6 +154,8 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::pa
   report["rms_before_mm"] = g.rms_before_mm;
   report["rms_after_mm"] = g.rms_after_mm;
   report["message"] = g.message;
+  report["ambiguous"] = g.ambiguous;
+  report["ambiguity"] = g.ambiguity;
   report["model_from_intraop"] = matrix_json(g.transform.matrix());
   return g.transform;
 }

@@ -1,5 +1,5 @@
 # ISA-L's igzip (Debian: libisal-dev), optional: with it the .nii.gz outputs are deflated about 4x
-# faster than by zlib at level 1 (docs/BENCHMARKS.md "Speed"); without it zlib deflates them.
+# faster than by zlib at level 1 (docs/history/BENCHMARKS_NOTEBOOK.md "Speed"); without it zlib deflates them.
 # Either way the files decompress to the same bytes. Exposed as the imported target ISAL::isal.
 if(TARGET ISAL::isal)
   return()

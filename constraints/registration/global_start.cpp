@@ -8,6 +8,7 @@
 #include "core/mesh/tet_mesh.hpp"
 #include "core/timing.hpp"
 
+#include <Eigen/Eigenvalues>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 
@@ -45,6 +46,8 @@ std::string GlobalStartOptions::validate() const {
     os << "refine_iterations ≥ 0 and solver_iterations ≥ 1 needed; ";
   if (!(bulk_prior_mm > 0) || !(bulk_min_mm >= 0))
     os << "bulk_prior_mm must be > 0 and bulk_min_mm ≥ 0; ";
+  if (!(ambiguity_ratio > 0) || !(ambiguity_distance_mm > 0) || !(min_spread_mm >= 0))
+    os << "ambiguity_ratio and ambiguity_distance_mm must be > 0, min_spread_mm ≥ 0; ";
   const std::string s = os.str();
   return s.empty() ? s : "global start: " + s.substr(0, s.size() - 2);
 }
@@ -373,6 +376,27 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   std::sort(cands.begin(), cands.end(),
             [](const Pose& a, const Pose& b) { return a.score > b.score; });
   res.seconds_fine = seconds_since(t1);
+  // The best candidate distinct from the top one (the candidates are sorted by fine score).
+  if (!cands.empty() && cands.front().score > 0) {
+    auto placed = [&S](const Pose& p) -> MatrixX3d {
+      return (S.fine * rotation(p.w).transpose()).rowwise() + p.t.transpose();
+    };
+    const MatrixX3d top = placed(cands.front());
+    for (std::size_t k = 1; k < cands.size(); ++k) {
+      const double d = std::sqrt((placed(cands[k]) - top).rowwise().squaredNorm().mean());
+      if (d >= o.ambiguity_distance_mm) {
+        res.runner_up_ratio = cands[k].score / cands.front().score;
+        res.runner_up_distance_mm = d;
+        break;
+      }
+    }
+  }
+  {
+    const Matrix3d cov = S.fine.transpose() * S.fine / static_cast<double>(S.fine.rows());
+    const Eigen::SelfAdjointEigenSolver<Matrix3d> es(cov);
+    const Vector3d ev = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+    res.spread_mm = Vector3d(ev(2), ev(1), ev(0));
+  }
 
   // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the
   // points.
@@ -456,6 +480,18 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
                              : "below " + std::to_string(o.bulk_min_mm).substr(0, 4) + " mm");
     os << "; score " << res.score << " vs " << res.score_identity << " at the identity over "
        << res.points << " points";
+    std::ostringstream why;
+    why.setf(std::ios::fixed);
+    why.precision(2);
+    if (res.runner_up_ratio >= o.ambiguity_ratio)
+      why << "a pose " << res.runner_up_distance_mm << " mm away scores "
+          << 100.0 * res.runner_up_ratio << " % of the best";
+    else if (res.spread_mm(1) < o.min_spread_mm)
+      why << "the points spread " << res.spread_mm(1) << " mm across their main axis (below "
+          << o.min_spread_mm << " mm): the rotation about it is not pinned";
+    res.ambiguity = why.str();
+    res.ambiguous = !res.ambiguity.empty();
+    if (res.ambiguous) os << "; ambiguous: " << res.ambiguity;
   } else {
     res.score = res.score_identity;
     res.rms_after_mm = res.rms_before_mm;
@@ -465,6 +501,9 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   os << " (" << res.candidates << " candidates, " << res.refine_iterations << " refinement rounds)";
   res.message = os.str();
   res.seconds = seconds_since(t0);
+  logger().debug("global start: runner-up {:.3f} at {:.1f} mm, spread {:.1f} / {:.1f} / {:.1f} mm",
+                 res.runner_up_ratio, res.runner_up_distance_mm, res.spread_mm(0), res.spread_mm(1),
+                 res.spread_mm(2));
   logger().debug(
       "global start: {} in {:.1f} ms (table {:.1f}, coarse {:.1f}, fine {:.1f}, refine {:.1f})",
       res.message, 1e3 * res.seconds, 1e3 * res.seconds_table, 1e3 * res.seconds_coarse,

@@ -87,8 +87,16 @@ struct GlobalStartOptions {
   /// component along it is bounded above by 0 (the brain sinks away from the craniotomy; a bulge
   /// is left to the deformation loop). Without the bound, a sag seen near the probe is
   /// matched equally well by a larger pose plus a bulk shift *out* of the brain
-  /// (docs/BENCHMARKS.md, "Never worse than rigid, v7").
+  /// (docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid, v7").
   bool bulk_sinks = true;
+  /// Ambiguity (not scene keys: constants of the method). The pose is ambiguous when a searched
+  /// pose that places the points at least ambiguity_distance_mm (RMS) away from the best one
+  /// scores at least ambiguity_ratio of the best's fine score (two trees, or two parts of one,
+  /// that the points match nearly equally well), or when the points' spread across their main
+  /// axis is below min_spread_mm (points along one vessel: the rotation about it is not pinned).
+  double ambiguity_ratio = 0.9;
+  double ambiguity_distance_mm = 5.0;
+  double min_spread_mm = 3.0;
   /// Empty when valid, else what is wrong.
   [[nodiscard]] std::string validate() const;
 };
@@ -133,6 +141,15 @@ struct GlobalStartResult {
   double seconds = 0.0;         ///< total, of which:
   double seconds_table = 0.0, seconds_coarse = 0.0, seconds_fine = 0.0, seconds_refine = 0.0;
   std::string message;  ///< what was found and why it was (not) kept
+  /// The best searched pose distinct from the best one (GlobalStartOptions::ambiguity_*): its
+  /// fine score over the best searched pose's (0 when every candidate is the same pose), and the
+  /// RMS distance between where the two put the points (mm).
+  double runner_up_ratio = 0.0;
+  double runner_up_distance_mm = 0.0;
+  /// The points' RMS spread about their centroid along their principal axes, largest first (mm).
+  Vector3d spread_mm = Vector3d::Zero();
+  bool ambiguous = false;  ///< an accepted pose that the data do not single out (see options)
+  std::string ambiguity;   ///< why, when ambiguous
 };
 
 /// The bulk-response basis at given model-frame points (#N×3 → N matrices 3×3, or empty).

@@ -59,11 +59,12 @@ struct NoiseOptions {
   /// the paired test at z = 2: the deformation the loop adds beyond the start is kept only when it
   /// predicts held-out vessel branches better than the start does, by two standard errors. With
   /// the start's bulk shift bounded to a sag (GlobalStartOptions::bulk_sinks) this is never
-  /// behind rigid alone on the 36 phantom runs (12 cases × 3 seeds; docs/BENCHMARKS.md, "Never
-  /// worse than rigid, v7"); without the test the loop was up to 0.6 mm behind. With GCV the
-  /// stage is not worth it: on the phantoms GCV reads the Doppler centrelines' errors as signal
-  /// (correlated along each vessel) and picks the stiffest ratio of its range. The scatter
-  /// (GCV's σ̂) is always computed and reported, and used to refuse too scattered data.
+  /// behind rigid alone on the 36 phantom runs (12 cases × 3 seeds;
+  /// docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid, v7"); without the test the loop
+  /// was up to 0.6 mm behind. With GCV the stage is not worth it: on the phantoms GCV reads the
+  /// Doppler centrelines' errors as signal (correlated along each vessel) and picks the stiffest
+  /// ratio of its range. The scatter (GCV's σ̂) is always computed and reported, and used to refuse
+  /// too scattered data.
   bool enabled = true;
   NoiseCriterion criterion = NoiseCriterion::BLOCK_CV;
   /// BLOCK_CV: blocks are whole skeleton branches (0) or pieces of at most this arc length (mm).
@@ -80,8 +81,8 @@ struct NoiseOptions {
   /// Off by default: the vessel rows cannot see what the deformation buys away from the vessels.
   /// On `deep_tumour_one_side_vessels` the rule keeps the rigid answer (held-out rows 0.87 vs
   /// 0.95 mm, within one standard error) and loses 1.2 mm of mean TRE off the vessels; at the
-  /// minimum the cost on near-rigid cases is ≤ 0.11 mm against rigid alone (docs/BENCHMARKS.md,
-  /// "Never worse than rigid").
+  /// minimum the cost on near-rigid cases is ≤ 0.11 mm against rigid alone
+  /// (docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid").
   bool one_standard_error = false;
   /// BLOCK_CV: the paired test (issue 14 item 3). Deform only when the best finite compliance
   /// predicts the held-out blocks better than ε → ∞ (no deformation beyond the start) by more
@@ -90,7 +91,8 @@ struct NoiseOptions {
   /// the start. Unlike the one-SE rule it does not move a kept deformation to a smoother ratio.
   /// Needs consider_start. On by default at z = 2, a one-sided test at ≈ 2.5 % for the 15–25
   /// branches a sweep pairs (z = 1 deformed on 8 of 12 cases at seed 1, 6 of them then behind
-  /// rigid alone, by up to 0.24 mm; docs/BENCHMARKS.md, "Never worse than rigid, v7").
+  /// rigid alone, by up to 0.24 mm; docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid,
+  /// v7").
   bool paired_test = true;
   double paired_test_z = 2.0;  ///< standard errors the gain must exceed (≥ 0)
   /// Search range of the ratio ε / median(diag W) (dimensionless, as

@@ -399,6 +399,13 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
       res.stop_reason = "insufficient data: " + why + " (" + res.stop_reason + ")";
     }
   }
+  // A pose searched on these points that the points do not single out: the answer is written
+  // but not trusted (exit 2), so that a wrong pose is never reported as converged.
+  if (res.converged && !initial && !data.pose && res.start.ambiguous) {
+    res.converged = false;
+    res.stop = RegistrationStop::AMBIGUOUS_POSE;
+    res.stop_reason = "ambiguous pose: " + res.start.ambiguity + " (" + res.stop_reason + ")";
+  }
   // Too few points to trust a deformation are too few to trust the bulk shift fitted jointly
   // with a pose to them: a cold start returns the rigid pose alone, fitted without the bulk
   // response (the rigid-only start), the model at rest in it. With a given pose (a pre-dura

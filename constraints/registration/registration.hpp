@@ -91,8 +91,8 @@ struct IntraopData {
   /// p_model = pose · p_intra; e.g. the rigid start of a pre-dura sweep, pre_dura_pose()). Given,
   /// it replaces the pose search of the start: a sweep made after the dura is opened cannot tell
   /// a pose from the sag it sees as a near-uniform shift, and a pose that absorbs the sag moves
-  /// the whole model, fixed base included (docs/BENCHMARKS.md, "The bulk shift as a load, and the
-  /// pose from a pre-dura sweep"). The bulk shift is then searched in that frame
+  /// the whole model, fixed base included (docs/history/BENCHMARKS_NOTEBOOK.md, "The bulk shift as
+  /// a load, and the pose from a pre-dura sweep"). The bulk shift is then searched in that frame
   /// (shift_search.hpp).
   std::optional<Eigen::Isometry3d> pose;
 };
@@ -145,10 +145,10 @@ struct RegistrationOptions {
   /// of the pre-operative shape. A compliant row balances the elastic force of the displacement
   /// it holds, so from the rest shape it lags the data by a share of it; with the load only the
   /// part the load does not explain lags. The price is a prior of the load response's shape over
-  /// the whole brain. Measured (docs/BENCHMARKS.md, "The bulk shift as a load, and the pose from
-  /// a pre-dura sweep"): after the pose-searching start (whose pose has absorbed most of the sag)
-  /// mean landmark TRE 1.26 → 1.17 mm over the twelve phantom cases, but worse on the unit
-  /// tests' analytic sag (not a load response), on 9 vessel points (a load from nine points
+  /// the whole brain. Measured (docs/history/BENCHMARKS_NOTEBOOK.md, "The bulk shift as a load, and
+  /// the pose from a pre-dura sweep"): after the pose-searching start (whose pose has absorbed most
+  /// of the sag) mean landmark TRE 1.26 → 1.17 mm over the twelve phantom cases, but worse on the
+  /// unit tests' analytic sag (not a load response), on 9 vessel points (a load from nine points
   /// moves the whole brain) and across a warm start whose shift changed; with the pose given
   /// (a pre-dura sweep) the bulk shift is the sag itself and the load takes standard from 1.52
   /// to 1.35 mm. AUTO: on when the pose is given (IntraopData::pose), else off. Needs
@@ -157,7 +157,7 @@ struct RegistrationOptions {
   /// its linear response), not as a body force: the same load in the linear model, but the
   /// corotational iteration then starts from a stress-free state instead of carrying a 20 mm
   /// load, under which it did not settle (large_shift with a pre-dura pose: 28 elements inverted,
-  /// iteration cap, 3.9 mm; as the rest: converged, 0.95 mm; docs/BENCHMARKS.md).
+  /// iteration cap, 3.9 mm; as the rest: converged, 0.95 mm; docs/history/BENCHMARKS_NOTEBOOK.md).
   BulkLoad bulk_as_load = BulkLoad::AUTO;
   /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
   /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
@@ -320,6 +320,10 @@ enum class RegistrationStop {
                       ///< positions are the model at rest in the rigid-only pose (cold; the
                       ///< given pose plus the bulk response with a pre-dura sweep) or the warm
                       ///< start's (RegistrationResult::start_returned)
+  AMBIGUOUS_POSE,     ///< settled, but the global start's pose is not singled out by the data
+                      ///< (GlobalStartResult::ambiguous: another distinct pose scores nearly as
+                      ///< well, or the points cannot pin a rotation); the positions are the
+                      ///< loop's, not to be relied on
 };
 std::string to_string(RegistrationStop stop);
 

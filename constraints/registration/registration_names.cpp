@@ -18,6 +18,8 @@ std::string to_string(RegistrationStop stop) {
       return "diverged";
     case RegistrationStop::INSUFFICIENT_DATA:
       return "insufficient_data";
+    case RegistrationStop::AMBIGUOUS_POSE:
+      return "ambiguous_pose";
   }
   BS_UNREACHABLE();
 }

@@ -51,14 +51,14 @@
 /// δᵀ P δ / (m − rank M), P = S⁻¹ − S⁻¹ Gr M⁺ Grᵀ S⁻¹ (pose projected out); and the scale from
 /// held-out vessel blocks (vessel_blocks.hpp; closed-form leave-one-block-out of the linear-
 /// Gaussian fit: w = P δ, Σ_b w_bᵀ (P_bb)⁺ w_b / Σ_b rank P_bb). On the phantoms ML with the
-/// rigid term measured best (docs/BENCHMARKS.md, "Predicted error"): the held-out scale matches
-/// ML where the model fits and is lower on deep_tumour_one_side_vessels, where it under-predicts.
-/// `calibration` (dimensionless, default 1) multiplies s². The chosen estimate is then raised to
-/// its one-sided upper confidence bound (`scale_confidence`, default 0.95): k ŝ² / χ²_{1−c}(k),
-/// k the held-out vessel blocks (else the rows): few vessels, a wider map.
-/// The stated tracking accuracy (uncertainty_options.hpp; default 0) adds a rigid-pose
-/// covariance about the rows' centroid that no row can show: tracking_variance(), not scaled.
-/// Positions in mm, model (pre-operative, world RAS) frame.
+/// rigid term measured best (docs/history/BENCHMARKS_NOTEBOOK.md, "Predicted error"): the held-out
+/// scale matches ML where the model fits and is lower on deep_tumour_one_side_vessels, where it
+/// under-predicts. `calibration` (dimensionless, default 1) multiplies s². The chosen estimate is
+/// then raised to its one-sided upper confidence bound (`scale_confidence`, default 0.95): k ŝ² /
+/// χ²_{1−c}(k), k the held-out vessel blocks (else the rows): few vessels, a wider map. The stated
+/// tracking accuracy (uncertainty_options.hpp; default 0) adds a rigid-pose covariance about the
+/// rows' centroid that no row can show: tracking_variance(), not scaled. Positions in mm, model
+/// (pre-operative, world RAS) frame.
 
 #include "constraints/registration/registration.hpp"
 #include "constraints/registration/uncertainty_options.hpp"

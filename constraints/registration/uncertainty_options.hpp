@@ -45,7 +45,7 @@ struct UncertaintyOptions {
   /// effectively independent rows, k ŝ²/s² ~ χ²(k), so s² ≤ k ŝ² / χ²_{1−c}(k) with confidence c;
   /// k = the vessel blocks held out (rows along one block are one piece of evidence of the scale),
   /// else the rows. 0: the point estimate ŝ². Few vessels (sparse_vessels: 6 blocks) widen the
-  /// map more than many (standard: 21); docs/BENCHMARKS.md "Predicted error".
+  /// map more than many (standard: 21); docs/history/BENCHMARKS_NOTEBOOK.md "Predicted error".
   double scale_confidence = 0.95;
   /// The tracker's stated accuracy (see the file comment): RMS length of the translation error of
   /// the data's frame, mm (0: not included).
@@ -59,8 +59,8 @@ struct UncertaintyOptions {
   /// the sag does not reach: the pose's motion at each node, times one minus the node's load
   /// response relative to the data's (0 at the data, the whole motion at the fixed base), is
   /// added (predict_uncertainty()).
-  /// Measured on the twelve phantom cases (docs/BENCHMARKS.md, "Predicted error: the pose
-  /// searched after opening").
+  /// Measured on the twelve phantom cases (docs/history/BENCHMARKS_NOTEBOOK.md, "Predicted error:
+  /// the pose searched after opening").
   bool pose_confounded = true;
   [[nodiscard]] std::string validate() const;
 };

@@ -29,7 +29,7 @@ struct ElementRotations {
 /// rotation is the identity and the internal force is zero. Used for a load whose linear
 /// response is known (the bulk shift, constraints/registration): the corotational iteration then
 /// starts at that load's equilibrium instead of carrying a large body force, which it cannot
-/// converge under (the missing geometric stiffness; docs/BENCHMARKS.md).
+/// converge under (the missing geometric stiffness; docs/history/BENCHMARKS_NOTEBOOK.md).
 struct RestShape {
   MatrixX3d nodes;                      ///< #N×3, mm, world
   std::vector<Matrix3d> edges_inv;      ///< per tet: Dm⁻¹ of these nodes (1/mm)

@@ -7,10 +7,10 @@
 namespace brainshift::data_synth {
 
 std::vector<std::string> case_names() {
-  return {"standard",      "large_shift",     "deep_tumour_one_side_vessels",
-          "noisy_doppler", "tracking_error",  "sparse_vessels",
-          "resection",     "thin_structures", "offset_12mm",
-          "offset_20mm"};
+  return {"standard",      "large_shift",       "deep_tumour_one_side_vessels",
+          "noisy_doppler", "tracking_error",    "sparse_vessels",
+          "resection",     "thin_structures",   "offset_12mm",
+          "offset_20mm",   "sparse_offset_12mm"};
 }
 
 CaseParameters named_case(const std::string& name, std::uint32_t seed) {
@@ -56,7 +56,16 @@ CaseParameters named_case(const std::string& name, std::uint32_t seed) {
     p.tracking.rotation_deg =
         (big ? 4.0 : 3.0) * dir;    // degrees (Z·Y·X angles ≈ a rotation vector)
     p.truth_in_image_frame = true;  // an offset to recover, truth where the images put it (RESECT)
-  } else if (name == "sparse_vessels") {
+  } else if (name == "sparse_vessels" || name == "sparse_offset_12mm") {
+    // One small tree in view; sparse_offset_12mm sees it through offset_12mm's tracking offset:
+    // few branches to pin a pose, and a large offset to find (issue 32: the confidently wrong
+    // case).
+    if (name == "sparse_offset_12mm") {
+      const Vector3d dir = Vector3d(2.0, -1.5, 1.5).normalized();
+      p.tracking.translation = 12.0 * dir;
+      p.tracking.rotation_deg = 3.0 * dir;
+      p.truth_in_image_frame = true;
+    }
     p.vessels.cortical_trees = 1;
     p.vessels.min_generations = 3;
     p.vessels.max_generations = 3;

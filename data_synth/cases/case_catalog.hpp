@@ -15,6 +15,7 @@
 /// | thin_structures               | a thin ventricle horn and a one-voxel sulcus in the labels |
 /// | offset_12mm                   | standard seen through a 12 mm / 3° tracking offset         |
 /// | offset_20mm                   | standard seen through a 20 mm / 4° tracking offset         |
+/// | sparse_offset_12mm            | sparse_vessels seen through offset_12mm's offset           |
 
 #include "data_synth/geometry/brain_phantom.hpp"
 #include "data_synth/geometry/phantom_mesh.hpp"

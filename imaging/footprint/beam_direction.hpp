@@ -5,10 +5,10 @@
 /// A tracked B-mode volume is a fan (one sector image) or a sweep of fans (a freehand
 /// reconstruction); voxels outside the swept region are 0 (or NaN). Its grid need not follow the
 /// probe: freehand volumes sit on oblique grids whose axes are not the beam. What the data show
-/// (the 17 RESECT volumes, docs/BENCHMARKS.md): the swept region is a frustum-like prism whose
-/// cross-section grows linearly with depth along the beam (the sector widens laterally; the
-/// sweep adds elevation, constant or widening), its slab centroids stay on the beam axis, and its
-/// narrow (near-field) end is the probe face.
+/// (the 17 RESECT volumes, docs/history/BENCHMARKS_NOTEBOOK.md): the swept region is a frustum-like
+/// prism whose cross-section grows linearly with depth along the beam (the sector widens laterally;
+/// the sweep adds elevation, constant or widening), its slab centroids stay on the beam axis, and
+/// its narrow (near-field) end is the probe face.
 ///
 /// The estimate, from the swept voxels (a regular subsample):
 /// 1. every direction d of a Fibonacci sphere gets a fan score: the linear growth of the

@@ -34,9 +34,10 @@ struct FreehandFootprintOptions {
   /// against flat images here; the band contrast below decides.
   double min_slab_contrast = 1.2;
   /// Band contrast needed: median over the points of the band's mean echo (±1 mm, 3 mm disc)
-  /// over the tissue's 3-15 mm below. RESECT (docs/BENCHMARKS.md): 1.51-3.68 (median 2.4) with
-  /// the band; 0.70-1.64 (median 1.0) with the first 4 mm cut away. 1.5 keeps the weakest band
-  /// seen and refuses all but 2 of 17 band-less volumes; our synthetic band-less speckle: ≈ 1.0.
+  /// over the tissue's 3-15 mm below. RESECT (docs/history/BENCHMARKS_NOTEBOOK.md): 1.51-3.68
+  /// (median 2.4) with the band; 0.70-1.64 (median 1.0) with the first 4 mm cut away. 1.5 keeps the
+  /// weakest band seen and refuses all but 2 of 17 band-less volumes; our synthetic band-less
+  /// speckle: ≈ 1.0.
   double min_band_contrast = 1.5;
   double smoothing_sigma_mm = 1.0;  ///< see FootprintOptions
   double sample_spacing_mm = 10.0;  ///< see FootprintOptions

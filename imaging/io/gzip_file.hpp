@@ -16,13 +16,15 @@ namespace brainshift::imaging {
 /// How gzip_buffer() / gzip_file() compress.
 struct GzipOptions {
   /// zlib level 0 (stored) … 9. Default 1 with the run-length strategy: on float volumes it
-  /// compresses as well as gzip's default level 6 in a third of the time (docs/BENCHMARKS.md).
+  /// compresses as well as gzip's default level 6 in a third of the time
+  /// (docs/history/BENCHMARKS_NOTEBOOK.md).
   int level = 1;
   bool run_length = true;  ///< Z_RLE strategy (otherwise Z_DEFAULT_STRATEGY)
   int threads = 2;         ///< chunks compressed in parallel (≥ 1); more only above 1 MiB each
   /// Levels ≥ 1 by ISA-L's igzip (at min(level, 3), run_length ignored) when built with it
   /// (gzip_has_fast_deflate()): about 4x less CPU than zlib on the float volumes of `register`,
-  /// files about 1.5 % larger (docs/BENCHMARKS.md "Speed"). The decompressed bytes are the same.
+  /// files about 1.5 % larger (docs/history/BENCHMARKS_NOTEBOOK.md "Speed"). The decompressed bytes
+  /// are the same.
   bool fast = true;
 };
 

@@ -344,7 +344,7 @@ void write_nifti_by_vtk(const std::filesystem::path& target, const std::filesyst
                         const Volume<T>& volume) {
   // VTK's writer compresses at zlib's default level 6, slowly; a .nii.gz is written as .nii by
   // VTK, then compressed by gzip_file() (level 1, run-length, 2 threads: as small on float volumes,
-  // about 3x faster; docs/BENCHMARKS.md "Speed").
+  // about 3x faster; docs/history/BENCHMARKS_NOTEBOOK.md "Speed").
   const bool gz = ends_with(lower_name(target), ".gz");
   std::filesystem::path raw = temporary;
   raw += ".raw";

@@ -78,7 +78,7 @@ struct VesselExtractionOptions {
   /// support_edge_margin_mm of it. Off by default: on the phantoms the rule drops 32–51 of 87
   /// Doppler points (standard, seed 1; margin 0–1 mm) — the cortical vessels under a 15 mm probe
   /// face run along the sector's side — and still keeps some cut ones, which leaves the global
-  /// start too few points (docs/BENCHMARKS.md, "Never worse than rigid, v4").
+  /// start too few points (docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid, v4").
   bool drop_at_support_edge = false;
   double support_edge_margin_mm = 1.0;  ///< mm, ≥ 0
 

@@ -165,9 +165,9 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   EXPECT_GT(ev["shift_corrected_pct"].get<double>(), 33.0) << ev.dump();
   EXPECT_TRUE(ev.contains("surface_after_mm"));
   // The predicted error's calibration on the 13 truth landmarks (independent TLED truth). One case
-  // is too few landmarks to hold the bars (bench: docs/BENCHMARKS.md, "Predicted error");
-  // asked here: reported, the predicted error not off by more than 3× on average either way
-  // (RMS actual/predicted within [1/3, 3]) and most landmarks within 2 sigma.
+  // is too few landmarks to hold the bars (bench: docs/history/BENCHMARKS_NOTEBOOK.md,
+  // "Predicted error"); asked here: reported, the predicted error not off by more than 3× on
+  // average either way (RMS actual/predicted within [1/3, 3]) and most landmarks within 2 sigma.
   const auto& cal = ev["uncertainty_calibration"];
   ASSERT_TRUE(cal.is_object()) << ev.dump();
   EXPECT_EQ(cal["landmarks"].get<int>(), ev["landmarks"].get<int>());
@@ -272,7 +272,8 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
         << rpt["rigid"].dump();
     // The standard phantom has no navigation offset: the pose is the identity up to what the
     // Doppler centrelines' bias allows (vessels cut by the sector's side sit ≈ 1.5 mm inside it
-    // along the beam; docs/BENCHMARKS.md): < 2 mm at the centroid and < 5° (measured 0.4 mm, 3°).
+    // along the beam; docs/history/BENCHMARKS_NOTEBOOK.md): < 2 mm at the centroid and < 5°
+    // (measured 0.4 mm, 3°).
     EXPECT_LT(p["translation_mm"].get<double>(), 2.0) << p.dump();
     EXPECT_LT(p["rotation_deg"].get<double>(), 5.0) << p.dump();
     // replay --pre-dura: the offset is measured once and every frame keeps it.

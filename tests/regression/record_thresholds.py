@@ -31,7 +31,7 @@ The gap to rigid-only: the test allows rigid_gap_mm (0.1 mm), about four times t
 run-to-run spread measured on our mean TRE (0.023 mm); rigid-only does not use the mesh and does
 not vary. This script refuses to record a run whose gap at the test's seed exceeds it. Since
 2026-12-03 (the start's bulk shift bounded to a sag, the noise model's paired test on by default)
-the gap is 0 on all 36 runs of 12 cases x seeds 1-3 (docs/BENCHMARKS.md, v7).
+the gap is 0 on all 36 runs of 12 cases x seeds 1-3 (docs/history/BENCHMARKS_NOTEBOOK.md, v7).
 
 The same over the whole brain (bench's dense_error_mean_mm: 500 points drawn uniformly in the
 brain, their truth from the phantom's truth field): the test allows dense_rigid_gap_mm (0.3 mm).

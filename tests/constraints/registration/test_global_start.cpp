@@ -39,7 +39,8 @@ TEST(GlobalStart, RecoversA20mmFourDegreeOffsetOfACorticalTree) {
   const GlobalStartResult r = global_start(tree, intra, {}, GlobalStartOptions{});
   ASSERT_TRUE(r.accepted) << r.message;
   EXPECT_LT(max_error(r.transform, O.inverse(), intra), tol_mm) << r.message;
-  EXPECT_FALSE(r.bulk_accepted);  // no basis given: rigid only
+  EXPECT_FALSE(r.bulk_accepted);           // no basis given: rigid only
+  EXPECT_FALSE(r.ambiguous) << r.message;  // one tree, spread in two directions
 }
 
 TEST(GlobalStart, RecoversA25mmFiveDegreeOffset) {
@@ -167,6 +168,42 @@ TEST(GlobalStart, TheBulkShiftSinksAwayFromTheCraniotomy) {
   const GlobalStartResult u = global_start(c.tree, c.intra, c.basis, off, bulge_outward);
   ASSERT_TRUE(u.accepted && u.bulk_accepted) << u.message;
   EXPECT_LT((u.bulk_shift - s).norm(), 1.5) << u.message;
+}
+
+TEST(GlobalStart, TwoCopiesOfATreeMakeThePoseAmbiguous) {
+  // The skeleton holds the tree twice, the copy 20 mm along x; the points are the tree's, seen
+  // 10 mm along x. Moving them back 10 mm or on 10 mm fits one copy or the other equally: two
+  // poses 20 mm apart with the same score, which no data term can choose between (closed form:
+  // the scores are equal by symmetry, ratio 1 up to the sampling of the fine points).
+  const core::Skeleton tree = cortical_tree(1);
+  core::Skeleton both = tree;
+  for (const auto& e : tree.segments)
+    add_polyline(both, {tree.points.row(e[0]).transpose() + Vector3d(20, 0, 0),
+                        tree.points.row(e[1]).transpose() + Vector3d(20, 0, 0)});
+  const MatrixX3d pts = sample(tree, 1.0, 0.3, 2).rowwise() + Eigen::RowVector3d(10, 0, 0);
+  const GlobalStartResult r = global_start(both, pts, {}, GlobalStartOptions{});
+  ASSERT_TRUE(r.accepted) << r.message;
+  EXPECT_TRUE(r.ambiguous) << r.message;
+  EXPECT_GT(r.runner_up_ratio, 0.9) << r.message;
+  EXPECT_NEAR(r.runner_up_distance_mm, 20.0, 3.0) << r.message;  // one coarse step
+  EXPECT_NE(r.message.find("ambiguous"), std::string::npos) << r.message;
+}
+
+TEST(GlobalStart, PointsAlongOneVesselLeaveARotationOpen) {
+  // Points along one straight vessel (0.3 mm noise) of a tree: the rotation about the vessel
+  // maps it to itself. Their spread across the vessel is the noise, far below min_spread_mm.
+  core::Skeleton tree = cortical_tree(1);
+  std::vector<Vector3d> line;
+  for (double x = -25; x <= 25; x += 1.0) line.emplace_back(x, 30.0, 50.0);
+  add_polyline(tree, line);
+  core::Skeleton one;
+  add_polyline(one, line);
+  const MatrixX3d pts = sample(one, 1.0, 0.3, 3).rowwise() + Eigen::RowVector3d(0, 4, 2);
+  const GlobalStartResult r = global_start(tree, pts, {}, GlobalStartOptions{});
+  ASSERT_TRUE(r.accepted) << r.message;
+  EXPECT_LT(r.spread_mm(1), 1.0) << r.message;
+  EXPECT_TRUE(r.ambiguous) << r.message;
+  EXPECT_NE(r.ambiguity.find("not pinned"), std::string::npos) << r.ambiguity;
 }
 
 TEST(GlobalStart, EmptyOrTooFewPointsGiveTheIdentityAndSaySo) {

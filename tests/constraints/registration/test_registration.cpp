@@ -61,7 +61,8 @@ TEST(Registration, TheDefaultKeepsTheStartWhereHeldOutBranchesCannotShowTheGain)
   // branches does not find the loop's deformation significantly better than the start's rigid +
   // bulk state, so the answer is that state, bit for bit (start_only), and it still removes most of
   // the shift. The loop alone reaches ≤ 0.5 mm here (above): this is the default's known cost where
-  // the vessels are few and long (docs/BENCHMARKS.md, "Never worse than rigid, v7").
+  // the vessels are few and long (docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid,
+  // v7").
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);

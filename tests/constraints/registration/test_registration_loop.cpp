@@ -10,6 +10,7 @@
 
 #include <cmath>
 #include <limits>
+#include <random>
 
 namespace brainshift::constraints {
 namespace {
@@ -256,8 +257,10 @@ TEST(RegistrationLoop, AStepThatCannotBeComputedIsRejectedNotZeroed) {
   // zeroed silently, which the loop then read as a converged increment of 0 mm).
   Scene s;
   StepOptions o = RegistrationOptions::default_step();
-  o.gravity = Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());  // a free motion that
-                                                                             // cannot be computed
+  // A free motion that cannot be computed: finite inputs (a NaN gravity is refused up front)
+  // whose load overflows to infinity.
+  o.gravity = Vector3d::Constant(std::numeric_limits<double>::max());
+  o.density = 1.0;
   const StepResult step = s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, o);
   EXPECT_FALSE(step.finite);
   EXPECT_EQ(step.x, s.mesh.nodes());
@@ -288,6 +291,43 @@ TEST(RegistrationLoop, AWarmStartSettlesWhereAColdStartConverges) {
   EXPECT_TRUE(retried.cold_retry);
   EXPECT_NE(retried.stop_reason.find("warm start ended diverged"), std::string::npos)
       << retried.stop_reason;
+}
+
+TEST(RegistrationLoop, APoseTheDataDoNotSingleOutIsNotConverged) {
+  // The scene's tree plus one straight vessel; the sweep sees only the straight one, 6 mm off
+  // (57 points: enough pairs to be trusted otherwise). Any rotation about the vessel fits it as
+  // well, so the pose searched on it is ambiguous: written, but exit 2, never "converged".
+  core::Skeleton sk = make_skeleton();
+  const auto first = static_cast<index_t>(sk.points.rows());
+  sk.points.conservativeResize(first + 57, 3);
+  for (index_t k = 0; k < 57; ++k) {
+    sk.points.row(first + k) = Eigen::RowVector3d(-28.0 + k, 10.0, 10.0);
+    if (k > 0) sk.segments.push_back({first + k - 1, first + k});
+  }
+  Scene s(sk);
+  IntraopData d;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> g(0.0, 0.3);
+  d.vessel_points.resize(57, 3);
+  for (Eigen::Index k = 0; k < 57; ++k)
+    d.vessel_points.row(k) =
+        Eigen::RowVector3d(-28.0 + static_cast<double>(k) + g(rng), 14.0 + g(rng), 14.0 + g(rng));
+  RegistrationOptions o = loop_options();
+  o.start = RigidStart::RIGID;  // the pose searched on the sweep
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.start.accepted) << r.start.message;
+  EXPECT_TRUE(r.start.ambiguous) << r.start.message;
+  EXPECT_EQ(r.stop, RegistrationStop::AMBIGUOUS_POSE) << r.stop_reason;
+  EXPECT_FALSE(r.converged);
+  EXPECT_NE(r.stop_reason.find("ambiguous pose"), std::string::npos) << r.stop_reason;
+  EXPECT_TRUE(r.positions.allFinite());
+  // The whole tree in view: the same search is not ambiguous, and converges.
+  Scene full;
+  IntraopData all;
+  all.vessel_points = sample_deformed(full.skeleton, 0.3, 1);
+  const RegistrationResult ok = register_model(*full.model, all, o);
+  EXPECT_FALSE(ok.start.ambiguous) << ok.start.message;
+  EXPECT_NE(ok.stop, RegistrationStop::AMBIGUOUS_POSE) << ok.stop_reason;
 }
 
 TEST(RegistrationLoop, TooFewVesselPointsAreNotTrusted) {

@@ -214,7 +214,8 @@ TEST(ConstrainedStep, ExactTangentStepsBendABeam90DegreesAndLinearFemGainsVolume
 TEST(ConstrainedStep, WarpedStepsConvergeUnderModerateBendingWhereUnwarpedOnesDoNot) {
   // Warped compliance R K0⁻¹ Rᵀ is a good tangent while rotations vary little across the
   // compliance's reach (brain shift: < 15°). On this slender beam it converges at 20° of bend;
-  // at 90° it does not (measured, see the note in docs/BENCHMARKS.md), where EXACT is needed.
+  // at 90° it does not (measured, see the note in docs/history/BENCHMARKS_NOTEBOOK.md), where EXACT
+  // is needed.
   const BentBeam scene(20);
   auto build = [&](const MatrixX3d& x) { return scene.rows(x); };
   ConstrainedModel model(scene.mesh, tests::nodes_below(scene.mesh, 0), {});
