@@ -13,6 +13,9 @@ CLI::App* add_bench_command(CLI::App& app, BenchArgs& args) {
   CLI::App* c = app.add_subcommand(
       "bench", "Speed against error on the phantom cases: sweeps, baselines, Pareto plot");
   c->add_flag("--quick", args.quick, "standard case and a few sweep points (< 2 min)");
+  c->add_flag("--elastix", args.elastix,
+              "also run elastix (Debian's, rigid + B-spline mutual information) on every case as "
+              "the image-registration peer (about 30-60 s a case)");
   c->add_option("--suite", args.suite,
                 "all, cases (every named case + baselines) or sweeps (on standard)")
       ->check(CLI::IsMember({"all", "cases", "sweeps"}))

@@ -21,6 +21,7 @@ PACKAGES=(
   zlib1g-dev
   libisal-dev            # optional: ISA-L's igzip, ~4x faster .nii.gz writing than zlib
   calculix-ccx           # independent FEM reference for verification tests
+  elastix                # the bench's image-registration peer (bench --elastix; not linked)
   gnuplot-nox            # benchmark plots
   clang-format           # scripts/lint.sh: formatting checked by scripts/test.sh (CI)
   clang-tidy             # scripts/lint.sh --tidy: the naming rules of .clang-tidy (on demand)

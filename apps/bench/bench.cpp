@@ -1,5 +1,6 @@
 #include "apps/bench/bench.hpp"
 
+#include "apps/bench/baseline_elastix.hpp"
 #include "apps/bench/baselines.hpp"
 #include "apps/bench/bench_table.hpp"
 #include "apps/workflow/intraop_footprint.hpp"
@@ -22,6 +23,9 @@ using constraints::RegistrationResult;
 
 BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
   verify_output_folder(args.out);
+  BS_VERIFY(!args.elastix || elastix_available(),
+            "bench --elastix: elastix and transformix are not on the PATH (Debian package "
+            "'elastix'; scripts/install_deps.sh installs it)");
   std::vector<std::string> cases = args.cases;
   std::vector<std::string> known = data_synth::case_names();
   known.insert(known.end(), real_anatomy_cases().begin(), real_anatomy_cases().end());
@@ -198,6 +202,53 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
                                          ? ": dense truth reproduces the landmarks to " +
                                                std::to_string(c.dense.frame_fit_rms_mm) + " mm RMS"
                                          : ": no dense calibration: " + c.dense.note));
+          }
+          // elastix (--elastix): the image-registration peer on the same MRA and Doppler, its
+          // rigid stage and rigid + B-spline from one run (baseline_elastix.hpp); the error in
+          // the pre-operative frame.
+          if (args.elastix) {
+            progress.stage(name + ": elastix");
+            const Eigen::Index nl = c.truth.b.rows(), nd = c.dense.intra.rows();
+            MatrixX3d points(nl + nd, 3);  // the landmarks, then the dense points
+            points << c.truth.b, c.dense.intra;
+            const ElastixResult ex = elastix_register(c.phantom / "preop/mra.nii.gz",
+                                                      c.phantom / "intraop/doppler.nii.gz",
+                                                      c.phantom / "intraop/bmode.nii.gz", points,
+                                                      work / name / "elastix", ElastixOptions{});
+            for (const char* method : {"elastix_rigid", "elastix"}) {
+              BenchRow row = base_row("cases", name);
+              row.method = method;
+              describe(row, s, data);
+              row.prepare_s = 0.0;
+              row.ok = ex.ok;
+              row.error = ex.error;
+              row.t.total = ex.seconds;
+              row.stop = ex.ok ? "converged" : "failed";
+              row.stop_reason =
+                  "elastix: rigid then B-spline, Mattes MI, masked to the sweep; "
+                  "error in the pre-operative frame";
+              if (ex.ok) {
+                const MatrixX3d& all = std::string(method) == "elastix" ? ex.bspline : ex.rigid;
+                const MatrixX3d mapped = all.topRows(nl);
+                const auto before =
+                    imaging::error_stats(imaging::landmark_errors(c.truth.a, c.truth.b));
+                const auto after =
+                    imaging::error_stats(imaging::landmark_errors(mapped, c.truth.a));
+                row.tre_before_mean = before.mean;
+                row.tre_before_p95 = before.p95;
+                row.tre_mean = after.mean;
+                row.tre_p95 = after.p95;
+                row.tre_max = after.max;
+                row.tre_near_mean = row.tre_far_mean = std::nan("");
+                row.corrected_pct = imaging::percent_shift_corrected(before.mean, after.mean);
+                row.converged = true;
+                if (nd > 0)
+                  row.dense_error_mean = imaging::error_stats(imaging::landmark_errors(
+                                                                  all.bottomRows(nd), c.dense.pre))
+                                             .mean;
+              }
+              rows.push_back(row);
+            }
           }
         } catch (const std::exception& e) {  // the case itself could not be built
           failed.error = e.what();

@@ -46,6 +46,9 @@ struct BenchOptions {
   /// skipped with a message (results.json → skipped). Default: $BRAINSHIFT_DATA, else
   /// ../shared/data.
   std::filesystem::path real_data;
+  /// The image-registration peer (baseline_elastix.hpp: Debian's elastix, run as a separate
+  /// program; ≈ 30-60 s a case): rows elastix_rigid and elastix in the cases suite.
+  bool elastix = false;
   std::filesystem::path out;  ///< DIR
 };
 
