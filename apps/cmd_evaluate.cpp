@@ -6,6 +6,7 @@
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
+#include "imaging/io/landmark_files.hpp"
 #include "imaging/io/surface_io.hpp"
 #include "imaging/warping/warp_image.hpp"
 
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <iomanip>
 #include <ostream>
+#include <sstream>
 
 namespace brainshift::apps {
 namespace {
@@ -39,16 +41,35 @@ nlohmann::json surface_json(const imaging::SurfaceDistanceStats& s) {
           {"h25", s.h25}, {"max", s.max}, {"mean", s.mean}};
 }
 
+/// The per-landmark errors as a Slicer markups file: each landmark at its intra-operative
+/// (truth) position, labelled with its id, the error after and before in its description.
+void write_landmark_errors(const std::filesystem::path& path, const imaging::LandmarkPairs& pairs,
+                           ConstRef<MatrixX3d> predicted) {
+  const std::vector<double> after = imaging::landmark_errors(predicted, pairs.b);
+  const std::vector<double> before = imaging::landmark_errors(pairs.a, pairs.b);
+  std::vector<std::string> descriptions;
+  for (std::size_t i = 0; i < after.size(); ++i) {
+    std::ostringstream d;
+    d << std::fixed << std::setprecision(2) << "error " << after[i] << " mm (before registration "
+      << before[i] << " mm)";
+    descriptions.push_back(d.str());
+  }
+  imaging::write_markups_json(path, {pairs.ids, pairs.b}, descriptions);
+}
+
 }  // namespace
 
 CLI::App* add_evaluate_command(CLI::App& app, EvaluateArgs& args) {
   CLI::App* c =
       app.add_subcommand("evaluate", "TRE and surface distances of a result against truth");
   c->add_option("--result", args.result, "result folder RES from register")->required();
-  c->add_option("--landmarks-pre", args.landmarks_pre, "pre-operative landmarks CSV id,x,y,z (mm)")
+  c->add_option("--landmarks-pre", args.landmarks_pre,
+                "pre-operative landmarks: CSV id,x,y,z (RAS mm), MNI .tag (a two-volume file's "
+                "first set), Slicer .mrk.json or .fcsv")
       ->required();
   c->add_option("--landmarks-intra", args.landmarks_intra,
-                "intra-operative landmarks CSV id,x,y,z (mm)")
+                "intra-operative landmarks, the same formats (a two-volume .tag file's second "
+                "set: RESECT's CaseN-MRI-beforeUS.tag serves as both)")
       ->required();
   c->add_option("--surface-pre", args.surface_pre, "pre-operative surface .vtp (e.g. ventricles)");
   c->add_option("--surface-intra", args.surface_intra, "intra-operative surface .vtp");
@@ -70,8 +91,10 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
   BS_VERIFY(field.components == 3, field_path.string()
                                        << ": expected a 3-component displacement field, got "
                                        << field.components);
-  const imaging::Landmarks pre = imaging::read_landmarks(args.landmarks_pre);
-  const imaging::Landmarks intra = imaging::read_landmarks(args.landmarks_intra);
+  const imaging::Landmarks pre =
+      imaging::read_landmark_file(args.landmarks_pre, imaging::TagVolume::FIRST);
+  const imaging::Landmarks intra =
+      imaging::read_landmark_file(args.landmarks_intra, imaging::TagVolume::SECOND);
   const imaging::LandmarkPairs pairs =
       imaging::match_landmarks_by_id(pre.ids, pre.points, intra.ids, intra.points);
   BS_VERIFY(!pairs.ids.empty(), args.landmarks_pre.string()
@@ -121,11 +144,15 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
          "sigma = predicted RMS length of the 3-D error (sqrt tr Σ); within k sigma: |e| <= k "
          "sigma; per axis: each component |e_c| <= k sigma/sqrt(3)"}};
   }
+  write_landmark_errors(args.result / landmark_errors_file, pairs, predicted);
+  j["landmark_errors_file"] = landmark_errors_file;
   const auto pct = imaging::percent_shift_corrected(before.mean, after.mean);
   j["shift_corrected_pct"] = pct ? nlohmann::json(*pct) : nlohmann::json(nullptr);
   if (args.brain_points_pre) {
-    const imaging::Landmarks bp = imaging::read_landmarks(*args.brain_points_pre);
-    const imaging::Landmarks bi = imaging::read_landmarks(*args.brain_points_intra);
+    const imaging::Landmarks bp =
+        imaging::read_landmark_file(*args.brain_points_pre, imaging::TagVolume::FIRST);
+    const imaging::Landmarks bi =
+        imaging::read_landmark_file(*args.brain_points_intra, imaging::TagVolume::SECOND);
     const imaging::LandmarkPairs b =
         imaging::match_landmarks_by_id(bp.ids, bp.points, bi.ids, bi.points);
     BS_VERIFY(!b.ids.empty(), args.brain_points_pre->string()
@@ -186,7 +213,8 @@ int run_evaluate(const EvaluateArgs& args, std::ostream& out) {
         << c["per_axis_within_2_sigma_pct"].get<double>() << " % (calibrated: 68.3 / 95.4)\n";
   }
   for (const auto& w : j["unpaired_landmarks"]) out << "warning: " << w.get<std::string>() << "\n";
-  out << "written: " << (args.result / "evaluation.json").string() << "\n";
+  out << "written: " << (args.result / "evaluation.json").string() << ", "
+      << (args.result / landmark_errors_file).string() << "\n";
   return 0;
 }
 

@@ -4,8 +4,10 @@
 /// and after (mean, median, p95, max, mm), percent of shift corrected, and with surfaces the
 /// H95/H75/H50/H25 Hausdorff percentiles (seeds 001 and 004) before and after. The pre-operative
 /// landmarks (and surface vertices) are moved by RES/displacement.nii.gz (trilinear; the field
-/// maps the pre-operative frame to the intra-operative one, rigid part included). Writes
-/// RES/evaluation.json and prints a table.
+/// maps the pre-operative frame to the intra-operative one, rigid part included). Landmarks come
+/// as CSV, MNI .tag, Slicer .mrk.json or .fcsv (imaging/io/landmark_files.hpp). Writes
+/// RES/evaluation.json, RES/landmark_errors.mrk.json (each landmark at its intra-operative
+/// position with its error, for Slicer's Markups module) and prints a table.
 
 #include <nlohmann/json.hpp>
 
@@ -19,13 +21,16 @@ class App;
 
 namespace brainshift::apps {
 
+/// The per-landmark errors evaluate() writes in RES (Slicer markups, LPS).
+inline constexpr const char* landmark_errors_file = "landmark_errors.mrk.json";
+
 struct EvaluateArgs {
   std::filesystem::path result;
   std::filesystem::path landmarks_pre;
   std::filesystem::path landmarks_intra;
   std::optional<std::filesystem::path> surface_pre;
   std::optional<std::filesystem::path> surface_intra;
-  /// Points with known truth spread over the brain (landmark CSVs, id,x,y,z, mm; e.g. a
+  /// Points with known truth spread over the brain (landmark files, as above; e.g. a
   /// phantom's truth field sampled at brain voxels): the whole-brain error, beside the landmarks'
   /// (evaluation.json → `whole_brain_before_mm`, `whole_brain_after_mm`). Both or neither.
   std::optional<std::filesystem::path> brain_points_pre;

@@ -25,6 +25,11 @@ CLI::App* add_register_command(CLI::App& app, RegisterArgs& args) {
                 "the same offset measured beforehand (brainshift pre-dura, or a previous run's "
                 "RES/pre_dura_pose.json): no second extraction")
       ->excludes("--pre-dura");
+  c->add_option("--landmarks", args.landmarks,
+                "landmark pairs to register on as well: one two-volume MNI .tag (MRI set first) "
+                "or two files PRE INTRA (CSV id,x,y,z RAS mm, .tag, Slicer .mrk.json or .fcsv), "
+                "paired by id")
+      ->expected(1, 2);
   c->add_option("--init", args.init, "rigid start: rigid or identity (default: the scene's)")
       ->check(CLI::IsMember({"rigid", "identity"}));
   c->add_option("--out", args.out, "result folder RES")->required();

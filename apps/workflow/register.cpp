@@ -5,7 +5,9 @@
 #include "apps/workflow/result_report.hpp"
 #include "apps/workflow/session.hpp"
 #include "core/error.hpp"
+#include "imaging/evaluation/metrics.hpp"
 #include "imaging/io/image_io.hpp"
+#include "imaging/io/landmark_files.hpp"
 
 #include <exception>
 #include <future>
@@ -22,6 +24,32 @@ struct Images {
   std::optional<imaging::VolumeF> mri;
   std::exception_ptr mri_failure;
 };
+
+/// The landmark pairs of `register --landmarks` (RegisterOptions::landmarks) into the data:
+/// the pre-operative set as model points, the intra-operative one as their targets.
+void add_landmarks(const std::vector<std::filesystem::path>& files, IntraopInputs& in) {
+  BS_VERIFY(files.size() == 1 || files.size() == 2,
+            "--landmarks: give one file of pairs (a two-volume .tag) or two files (pre-operative, "
+            "intra-operative), not "
+                << files.size());
+  const imaging::Landmarks pre =
+      imaging::read_landmark_file(files.front(), imaging::TagVolume::FIRST);
+  const imaging::Landmarks intra =
+      imaging::read_landmark_file(files.back(), imaging::TagVolume::SECOND);
+  BS_VERIFY(files.size() == 2 || pre.points != intra.points,
+            files.front().string()
+                << ": one set of points, not pairs (give a two-volume .tag, or a second file)");
+  const imaging::LandmarkPairs pairs =
+      imaging::match_landmarks_by_id(pre.ids, pre.points, intra.ids, intra.points);
+  BS_VERIFY(!pairs.ids.empty(), files.front().string() << " and " << files.back().string()
+                                                       << ": no landmark id in common");
+  in.data.landmark_model_points = pairs.a;
+  in.data.landmark_targets = pairs.b;
+  nlohmann::json names = nlohmann::json::array();
+  for (const auto& f : files) names.push_back(f.string());
+  in.report["landmarks"] = {
+      {"files", names}, {"pairs", pairs.ids.size()}, {"unpaired", pairs.warnings}};
+}
 
 }  // namespace
 
@@ -47,6 +75,7 @@ RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& 
   progress.stage("extracting vessels" + std::string(args.bmode ? " and the probe footprint" : ""));
   Images images = reading.get();
   IntraopInputs in = read_intraop(s, images.doppler, args.bmode);
+  if (!args.landmarks.empty()) add_landmarks(args.landmarks, in);
   if (images.mri_failure) std::rethrow_exception(images.mri_failure);
   const std::optional<imaging::VolumeF> mri =
       args.mri

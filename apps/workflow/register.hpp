@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace brainshift::workflow {
 
@@ -29,6 +30,11 @@ struct RegisterOptions {
   /// The same pose, measured once beforehand and stored (pose_file.hpp: `brainshift pre-dura`, or
   /// RES/pre_dura_pose.json of a run with `pre_dura`): no second extraction. Not with `pre_dura`.
   std::optional<std::filesystem::path> pre_dura_pose;
+  /// Landmark pairs to register on besides the images (e.g. a tracked pointer on bifurcations
+  /// seen in the MRI): one file of pairs (a two-volume MNI .tag: MRI set first) or two files
+  /// (pre-operative, intra-operative), in any format of imaging/io/landmark_files.hpp, paired by
+  /// id. Empty: none.
+  std::vector<std::filesystem::path> landmarks;
   std::string init;           ///< "rigid", "identity" or empty (the scene's choice)
   std::filesystem::path out;  ///< result folder RES (replaced atomically)
 };

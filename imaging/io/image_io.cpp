@@ -561,7 +561,10 @@ void write_displacement_for_slicer(const std::filesystem::path& path,
             file << ": displacement field has non-finite values");
   verify_geometry(displacement_ras.geometry, file);
   write_atomically(path, [&](const std::filesystem::path& temporary) {
-    write_nrrd(temporary, displacement_ras, NrrdSpace::LPS);
+    // What current Slicer reads without asking: a displacement field (NIfTI intent 1006) in the
+    // resampling sense (y + u(y) is where to sample the content shown at y).
+    write_nrrd(temporary, displacement_ras, NrrdSpace::LPS,
+               {{"intent_code", "1006"}, {"displacement field type", "resampling"}});
   });
 }
 

@@ -71,7 +71,8 @@ void write_labels(const std::filesystem::path& path, const LabelVolume& labels);
 ///
 /// Slicer treats a displacement field like ITK, as a resampling ("from parent") transform: for
 /// a point p of the grid, p + u(p) is the corresponding point of the transformed space. Pass the
-/// field in that sense.
+/// field in that sense; the file says so (`intent_code:=1006`, `displacement field
+/// type:=resampling`, identity measurement frame).
 /// @param[in] path  target, must end in .nrrd.
 /// @param[in] displacement_ras  3 components per voxel, mm, world RAS vectors on a RAS grid.
 /// \throws brainshift::Error naming the path: not .nrrd, not 3 components, non-finite values,

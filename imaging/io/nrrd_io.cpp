@@ -107,8 +107,9 @@ Vector3d parse_vector(const std::string& text, const std::string& file, const st
   return v;
 }
 
-/// The vectors of "space directions": "(a,b,c) (d,e,f) none ...".
-std::vector<Vector3d> parse_vectors(const std::string& text, const std::string& file) {
+/// The vectors of "space directions" or "measurement frame": "(a,b,c) (d,e,f) none ...".
+std::vector<Vector3d> parse_vectors(const std::string& text, const std::string& file,
+                                    const char* field = "space directions") {
   std::vector<Vector3d> out;
   std::istringstream in(text);
   for (std::string token; in >> token;) {
@@ -119,10 +120,10 @@ std::vector<Vector3d> parse_vectors(const std::string& text, const std::string& 
     while (token.find(')') == std::string::npos) {
       std::string more;
       BS_VERIFY(static_cast<bool>(in >> more),
-                file << ": cannot parse NRRD space directions '" << text << "'");
+                file << ": cannot parse NRRD " << field << " '" << text << "'");
       token += more;
     }
-    out.push_back(parse_vector(token, file, "space directions"));
+    out.push_back(parse_vector(token, file, field));
   }
   return out;
 }
@@ -167,7 +168,8 @@ std::vector<unsigned char> gunzip(const std::vector<unsigned char>& in, std::siz
 
 template <typename T>
 void write_nrrd_impl(const std::filesystem::path& path, const Volume<T>& volume, NrrdSpace space,
-                     const char* type_name) {
+                     const char* type_name,
+                     const std::vector<std::pair<std::string, std::string>>& key_values) {
   const ImageGeometry& g = volume.geometry;
   const Vector3d signs = space == NrrdSpace::LPS ? Vector3d(-1, -1, 1) : Vector3d(1, 1, 1);
   const Vector3d origin = signs.cwiseProduct(g.origin);
@@ -189,7 +191,17 @@ void write_nrrd_impl(const std::filesystem::path& path, const Volume<T>& volume,
   h << "\nkinds:";
   if (multi) h << (vector ? " vector" : " list");
   h << " domain domain domain\nendian: little\nencoding: raw\nspace origin: (" << origin[0] << ','
-    << origin[1] << ',' << origin[2] << ")\n\n";
+    << origin[1] << ',' << origin[2] << ")\n";
+  // The vectors' components are in `space` itself (Slicer and ITK read no measurement frame as
+  // the identity too; stating it leaves no reader guessing).
+  if (vector) h << "measurement frame: (1,0,0) (0,1,0) (0,0,1)\n";
+  for (const auto& [key, value] : key_values) {
+    BS_VERIFY(!key.empty() && key.find(":=") == std::string::npos &&
+                  key.find('\n') == std::string::npos && value.find('\n') == std::string::npos,
+              path.string() << ": bad NRRD key/value pair '" << key << "'");
+    h << key << ":=" << value << '\n';
+  }
+  h << '\n';
 
   std::vector<T> data = volume.data;
   if (vector && space == NrrdSpace::LPS) {
@@ -323,18 +335,37 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
 
   VolumeF volume(g, components);
   for (std::size_t i = 0; i < count; ++i) volume.data[i] = type.to_float(&raw[i * type.bytes]);
-  if (components == 3)
-    for (std::size_t v = 0; v < count; v += 3)
-      for (int c = 0; c < 3; ++c) volume.data[v + c] *= float(signs[c]);
+  if (components == 3) {
+    // Vector components given in the measurement frame M (columns: its axes in the file's
+    // space) are M v in that space; then the space's signs take them to RAS.
+    Matrix3d to_ras = signs.asDiagonal();
+    if (has("measurement frame")) {
+      const std::vector<Vector3d> m =
+          parse_vectors(fields["measurement frame"], file, "measurement frame");
+      BS_VERIFY(m.size() == 3 && !m[0].hasNaN() && !m[1].hasNaN() && !m[2].hasNaN(),
+                file << ": NRRD measurement frame must be three vectors");
+      Matrix3d frame;
+      for (int a = 0; a < 3; ++a) frame.col(a) = m[std::size_t(a)];
+      BS_VERIFY(std::abs(frame.determinant()) > 1e-6,
+                file << ": NRRD measurement frame is singular");
+      to_ras = to_ras * frame;
+    }
+    for (std::size_t v = 0; v < count; v += 3) {
+      const Vector3d x(volume.data[v], volume.data[v + 1], volume.data[v + 2]);
+      const Vector3d y = to_ras * x;
+      for (int c = 0; c < 3; ++c) volume.data[v + std::size_t(c)] = float(y[c]);
+    }
+  }
   return volume;
 }
 
-void write_nrrd(const std::filesystem::path& path, const VolumeF& volume, NrrdSpace space) {
-  write_nrrd_impl(path, volume, space, "float");
+void write_nrrd(const std::filesystem::path& path, const VolumeF& volume, NrrdSpace space,
+                const std::vector<std::pair<std::string, std::string>>& key_values) {
+  write_nrrd_impl(path, volume, space, "float", key_values);
 }
 
 void write_nrrd(const std::filesystem::path& path, const LabelVolume& volume, NrrdSpace space) {
-  write_nrrd_impl(path, volume, space, "uint8");
+  write_nrrd_impl(path, volume, space, "uint8", {});
 }
 
 }  // namespace brainshift::imaging

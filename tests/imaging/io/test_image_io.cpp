@@ -194,6 +194,12 @@ TEST(SlicerDisplacement, TranslationIsWrittenInLpsWithFlippedVectorsAndGeometry)
   EXPECT_NE(header.find("kinds: vector domain domain domain\n"), std::string::npos) << header;
   EXPECT_NE(header.find("type: float\n"), std::string::npos) << header;
   EXPECT_NE(header.find("sizes: 3 7 5 4\n"), std::string::npos) << header;
+  // What current Slicer reads without asking: a displacement field, resampling sense, its
+  // vectors in the file's space.
+  EXPECT_NE(header.find("intent_code:=1006\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("displacement field type:=resampling\n"), std::string::npos) << header;
+  EXPECT_NE(header.find("measurement frame: (1,0,0) (0,1,0) (0,0,1)\n"), std::string::npos)
+      << header;
   // space origin in LPS: (−x, −y, z) of the RAS origin.
   std::istringstream origin_line(header.substr(header.find("space origin: (") + 15));
   double ox = 0, oy = 0, oz = 0;

@@ -74,6 +74,51 @@ TEST(NrrdFromSlicer, AGzipShortLabelMapInObliqueLpsReadsIntoRasWithItsLabels) {
   EXPECT_LT((v.geometry.index_to_world({0, 2, 1}) - Vector3d(-61.5, -80, -28.8)).norm(), TOL);
 }
 
+TEST(NrrdFromSlicer, VectorsInAMeasurementFrameAreTakenToWorldRas) {
+  const tests::TempFolder dir;
+  // One voxel, vector (1, 2, 3) in a measurement frame whose axes are the LPS space's
+  // (y, −x, z) — a 90° turn about S (columns given one per parenthesis, as the NRRD format
+  // says). In LPS the vector is M v = (−2, 1, 3); in RAS (2, −1, 3). Written by hand here,
+  // not by our writer.
+  const std::vector<float> v = {1.0f, 2.0f, 3.0f};
+  const std::string header =
+      "NRRD0004\n"
+      "type: float\n"
+      "dimension: 4\n"
+      "space: left-posterior-superior\n"
+      "sizes: 3 1 1 1\n"
+      "space directions: none (1,0,0) (0,1,0) (0,0,1)\n"
+      "kinds: vector domain domain domain\n"
+      "endian: little\n"
+      "encoding: raw\n"
+      "space origin: (0,0,0)\n"
+      "measurement frame: (0,1,0) (-1,0,0) (0,0,1)\n"
+      "intent_code:=1006\n"
+      "\n";
+  {
+    std::ofstream out(dir / "u.nrrd", std::ios::binary);
+    out << header;
+    out.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(float)));
+  }
+  const VolumeF u = read_volume(dir / "u.nrrd");
+  ASSERT_EQ(u.components, 3);
+  // Exact: a permutation with signs of small integers.
+  EXPECT_EQ(u.data[0], 2.0f);
+  EXPECT_EQ(u.data[1], -1.0f);
+  EXPECT_EQ(u.data[2], 3.0f);
+
+  // A singular frame is a one-line error naming the file.
+  {
+    std::string bad = header;
+    bad.replace(bad.find("(0,1,0) (-1,0,0)"), 16, "(0,1,0) (0,2,0)");
+    std::ofstream out(dir / "singular.nrrd", std::ios::binary);
+    out << bad;
+    out.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(float)));
+  }
+  tests::expect_error([&] { read_volume(dir / "singular.nrrd"); },
+                      {"singular.nrrd", "measurement frame"});
+}
+
 TEST(NrrdFromSlicer, AHeaderClaimingAHugeOrEmptyComponentAxisIsOneLineNamingTheFile) {
   // Damaged headers are refused before any allocation: a component axis of 10^12 (its int
   // conversion used to wrap), one of 0, and three sizes whose product is 2^45 voxels.
