@@ -22,6 +22,9 @@
 //   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv
 //                       [--surface-pre S.vtp --surface-intra T.vtp]
 //       TRE before/after, shift corrected, Hausdorff percentiles; RES/evaluation.json.
+//   brainshift export-dicom --volume RES/warped_mri.nii.gz [--like MRI_SERIES] --out DIR
+//       A volume as a DICOM MR series (new series UID; patient and study of --like kept; marked
+//       brain-shift corrected, not for diagnosis), for a navigation system to import.
 //   brainshift phantom --case NAME [--seed N] [--vessels FILE.vtp] [--frames K] --out DIR
 //       Synthetic phantom case with known truth (pre-op MRI/labels/MRA, intra-op Doppler/B-mode,
 //       truth displacement and landmarks); an unknown NAME lists the valid ones.
@@ -58,6 +61,7 @@
 #include "cmd_bench.hpp"
 #include "cmd_demo.hpp"
 #include "cmd_evaluate.hpp"
+#include "cmd_export_dicom.hpp"
 #include "cmd_extract.hpp"
 #include "cmd_extract_footprint.hpp"
 #include "cmd_options.hpp"
@@ -98,6 +102,8 @@ int main(int argc, char** argv) {
   const CLI::App* replay = apps::add_replay_command(app, replay_args);
   apps::EvaluateArgs evaluate_args;
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
+  apps::ExportDicomArgs export_dicom_args;
+  const CLI::App* export_dicom = apps::add_export_dicom_command(app, export_dicom_args);
   apps::OptionsArgs options_args;
   const CLI::App* options = apps::add_options_command(app, options_args);
   apps::BenchArgs bench_args;
@@ -138,6 +144,7 @@ int main(int argc, char** argv) {
     if (prepare->parsed()) return apps::run_prepare(prepare_args, std::cout);
     if (reg->parsed()) return apps::run_register(register_args, std::cout);
     if (pre_dura->parsed()) return apps::run_pre_dura(pre_dura_args, std::cout);
+    if (export_dicom->parsed()) return apps::run_export_dicom(export_dicom_args, std::cout);
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);

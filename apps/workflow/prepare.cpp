@@ -18,6 +18,7 @@
 #include "imaging/meshing/skeleton_in_mesh.hpp"
 #include "imaging/vessels/vessel_extraction.hpp"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <fstream>
@@ -191,6 +192,23 @@ imaging::SkeletonFit mra_vessels(const std::filesystem::path& path, const imagin
 }
 
 nlohmann::json input_entry(const std::filesystem::path& p) {
+  if (std::filesystem::is_directory(p)) {  // a DICOM series: its files, in name order
+    std::vector<std::filesystem::path> files;
+    for (const auto& e : std::filesystem::directory_iterator(p))
+      if (e.is_regular_file()) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    std::uintmax_t bytes = 0;
+    std::uint64_t hash = 14695981039346656037ull;  // FNV-1a over the files' own hashes
+    for (const auto& f : files) {
+      bytes += std::filesystem::file_size(f);
+      const std::uint64_t h = file_hash(f);
+      for (int b = 0; b < 8; ++b) hash = (hash ^ ((h >> (8 * b)) & 0xff)) * 1099511628211ull;
+    }
+    return {{"path", std::filesystem::absolute(p).string()},
+            {"files", files.size()},
+            {"bytes", bytes},
+            {"fnv1a64", std::to_string(hash)}};
+  }
   return {{"path", std::filesystem::absolute(p).string()},
           {"bytes", std::filesystem::file_size(p)},
           {"fnv1a64", std::to_string(file_hash(p))}};

@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/dicom_io.hpp"
 #include "imaging/io/gzip_file.hpp"
 #include "imaging/io/image_frame.hpp"
 #include "imaging/io/nrrd_io.hpp"
@@ -489,6 +490,8 @@ ImageFormat image_format(const std::filesystem::path& path) {
 }
 
 VolumeF read_volume(const std::filesystem::path& path, std::string* header_note) {
+  if (header_note != nullptr) header_note->clear();
+  if (is_dicom_path(path)) return read_dicom_series(path);  // orthonormal there (dicom_io.cpp)
   const ImageFormat format = image_format(path);
   verify_readable(path);
   VolumeF volume = [&] {

@@ -9,6 +9,7 @@
 /// | .mha, .mhd       | MetaImage  | LPS (ITK physical)| VTK's metaio; writes .mha only       |
 /// | .nrrd            | NRRD       | its `space` field | nrrd_io.hpp (writes RAS)             |
 /// | .vti             | VTK XML    | RAS (our choice)  | vtkXMLImageDataReader/Writer         |
+/// | folder, .dcm     | DICOM      | LPS (patient)     | dicom_io.hpp (GDCM); read only here  |
 ///
 /// NIfTI: the world is the sform when sform_code > 0, else the qform when qform_code > 0, else
 /// (method 1) the pixel spacing about the origin, with a warning. scl_slope/scl_inter are

@@ -6,6 +6,7 @@
 #include "cli_helpers.hpp"
 
 #include "imaging/io/csv.hpp"
+#include "imaging/io/dicom_io.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/landmark_files.hpp"
 
@@ -40,9 +41,20 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   CliRun r = run_brainshift(dir, "phantom --case standard --seed 1 --frames 3 --out " + q(ph));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
 
+  // The MRI as a scanner would give it: a DICOM series (written by GDCM; read back through the
+  // same path as any input volume), for prepare and register.
+  const auto mri_dicom = dir / "mri_dicom";
+  imaging::DicomSeriesInfo patient;
+  patient.patient_name = "Phantom^Standard";
+  patient.patient_id = "BS-0001";
+  patient.study_instance_uid = "1.2.826.0.1.3680043.2.1125.9.1";
+  patient.frame_of_reference_uid = "1.2.826.0.1.3680043.2.1125.9.2";
+  std::filesystem::create_directories(mri_dicom);
+  imaging::write_dicom_series(mri_dicom, imaging::read_volume(ph / "preop/mri.nii.gz"), patient,
+                              "T1");
   r = run_brainshift(dir, "prepare --labels " + q(ph / "preop/labels.nii.gz") + " --mra " +
-                              q(ph / "preop/mra.nii.gz") + " --mri " + q(ph / "preop/mri.nii.gz") +
-                              " --out " + q(model));
+                              q(ph / "preop/mra.nii.gz") + " --mri " + q(mri_dicom) + " --out " +
+                              q(model));
   ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
   for (const char* f : {"scene.json", "model.json", "mesh.vtu", "surface.vtp", "vessels.vtp",
                         "fixed.csv", "compliance.bin"})
@@ -50,7 +62,7 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   EXPECT_NE(r.err.find("brainshift prepare: ["), std::string::npos) << "progress lines on stderr";
 
   const std::string reg = "register --model " + q(model) + " --doppler " +
-                          q(ph / "intraop/doppler.nii.gz") + " --mri " + q(ph / "preop/mri.nii.gz");
+                          q(ph / "intraop/doppler.nii.gz") + " --mri " + q(mri_dicom);
   r = run_brainshift(dir, reg + " --out " + q(res));
   // 0 = converged, 2 = stopped without meeting the convergence test; both write the result.
   ASSERT_TRUE(r.exit_code == 0 || r.exit_code == 2) << r.out << r.err;
@@ -58,6 +70,38 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
                         "preop_to_intraop.nrrd", "intraop_to_preop.nrrd", "warped_mri.nii.gz",
                         "overlay.png", "uncertainty.nii.gz", "overlay_uncertainty.png"})
     EXPECT_TRUE(std::filesystem::exists(res / f)) << f;
+  {  // The warped MRI as a DICOM series of the patient's study, for a navigation system.
+    const auto out = dir / "warped_dicom";
+    const CliRun e = run_brainshift(dir, "export-dicom --volume " + q(res / "warped_mri.nii.gz") +
+                                             " --like " + q(mri_dicom) + " --out " + q(out));
+    ASSERT_EQ(e.exit_code, 0) << e.out << e.err;
+    imaging::DicomSeriesInfo info;
+    const imaging::VolumeF back = imaging::read_dicom_series(out, &info);
+    const imaging::VolumeF warped = imaging::read_volume(res / "warped_mri.nii.gz");
+    EXPECT_EQ(info.patient_name, patient.patient_name);
+    EXPECT_EQ(info.patient_id, patient.patient_id);
+    EXPECT_EQ(info.study_instance_uid, patient.study_instance_uid);
+    EXPECT_EQ(info.frame_of_reference_uid, patient.frame_of_reference_uid);
+    EXPECT_EQ(info.series_description, imaging::corrected_series_description);
+    ASSERT_EQ(back.geometry.size, warped.geometry.size);
+    // Geometry within 1e-4 mm (issue 35); values within half a stored step of the int16 range.
+    const Vector3d far(warped.geometry.size[0] - 1, warped.geometry.size[1] - 1,
+                       warped.geometry.size[2] - 1);
+    for (const Vector3d& ijk : {Vector3d(0, 0, 0), far})
+      EXPECT_LT((back.geometry.index_to_world(ijk) - warped.geometry.index_to_world(ijk)).norm(),
+                1e-4);
+    const auto [lo, hi] = std::minmax_element(warped.data.begin(), warped.data.end());
+    const double half_step = 0.5 * double(*hi - *lo) / 65535.0 + 1e-3;
+    double worst = 0;
+    for (std::size_t i = 0; i < warped.data.size(); ++i)
+      worst = std::max(worst, double(std::abs(back.data[i] - warped.data[i])));
+    EXPECT_LE(worst, half_step);
+    // Bad input: one line naming the file, nothing written.
+    expect_one_line_error(run_brainshift(dir, "export-dicom --volume " + q(res / "deformed.vtu") +
+                                                  " --out " + q(dir / "bad_dicom")),
+                          "deformed.vtu");
+    expect_nothing_half_written(dir / "bad_dicom");
+  }
   const auto report = read_json(res / "report.json");
   for (const char* k : {"timing", "iterations", "converged", "stop_reason", "constraints", "rigid"})
     EXPECT_TRUE(report.contains(k)) << k;
