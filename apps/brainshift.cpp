@@ -22,6 +22,9 @@
 //   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv
 //                       [--surface-pre S.vtp --surface-intra T.vtp]
 //       TRE before/after, shift corrected, Hausdorff percentiles; RES/evaluation.json.
+//   brainshift reconstruct --sequence S.seq.mha [--calibration ImageToProbe.txt] [--spacing MM]
+//                          --out V.nii.gz [--coverage C.nii.gz] [--report R.json]
+//       A volume from a PLUS sequence of tracked frames (pixel nearest neighbour, hole filling).
 //   brainshift export-dicom --volume RES/warped_mri.nii.gz [--like MRI_SERIES] --out DIR
 //       A volume as a DICOM MR series (new series UID; patient and study of --like kept; marked
 //       brain-shift corrected, not for diagnosis), for a navigation system to import.
@@ -68,6 +71,7 @@
 #include "cmd_phantom.hpp"
 #include "cmd_pre_dura.hpp"
 #include "cmd_prepare.hpp"
+#include "cmd_reconstruct.hpp"
 #include "cmd_register.hpp"
 #include "cmd_replay.hpp"
 #include "cmd_simulate.hpp"
@@ -104,6 +108,8 @@ int main(int argc, char** argv) {
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
   apps::ExportDicomArgs export_dicom_args;
   const CLI::App* export_dicom = apps::add_export_dicom_command(app, export_dicom_args);
+  apps::ReconstructArgs reconstruct_args;
+  const CLI::App* reconstruct = apps::add_reconstruct_command(app, reconstruct_args);
   apps::OptionsArgs options_args;
   const CLI::App* options = apps::add_options_command(app, options_args);
   apps::BenchArgs bench_args;
@@ -145,6 +151,7 @@ int main(int argc, char** argv) {
     if (reg->parsed()) return apps::run_register(register_args, std::cout);
     if (pre_dura->parsed()) return apps::run_pre_dura(pre_dura_args, std::cout);
     if (export_dicom->parsed()) return apps::run_export_dicom(export_dicom_args, std::cout);
+    if (reconstruct->parsed()) return apps::run_reconstruct(reconstruct_args, std::cout);
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);

@@ -6,6 +6,7 @@
 #include "apps/workflow/session.hpp"
 #include "core/error.hpp"
 #include "imaging/evaluation/metrics.hpp"
+#include "imaging/io/plus_sequence.hpp"
 
 #include <algorithm>
 #include <fstream>
@@ -27,12 +28,18 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
   std::error_code ec;
   BS_VERIFY(std::filesystem::is_directory(args.sequence, ec), args.sequence.string()
                                                                   << ": no such folder");
+  // The sweeps: frame_*/ folders (doppler.nii.gz, or doppler.seq.mha, optional bmode.nii.gz),
+  // else the folder's PLUS sequence files (*.seq.mha, one sweep each), in name order.
   std::vector<std::filesystem::path> frames;
   for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
     if (e.is_directory() && e.path().filename().string().rfind("frame_", 0) == 0)
       frames.push_back(e.path());
+  if (frames.empty())
+    for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
+      if (e.is_regular_file() && imaging::is_plus_sequence(e.path())) frames.push_back(e.path());
   std::sort(frames.begin(), frames.end());
-  BS_VERIFY(!frames.empty(), args.sequence.string() << ": no frame_* folders");
+  BS_VERIFY(!frames.empty(), args.sequence.string()
+                                 << ": no frame_* folders and no PLUS sequence files (*.seq.mha)");
   BS_VERIFY(!(args.pre_dura && args.pre_dura_pose),
             args.pre_dura_pose->string() << ": give a pre-dura sweep or a stored pose, not both");
   verify_output_folder(args.out);
@@ -58,13 +65,19 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
   std::optional<constraints::RegistrationResult> previous;
   write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
     for (const auto& f : frames) {
-      const std::string name = f.filename().string();
+      const bool sweep_file = imaging::is_plus_sequence(f);
+      std::string name = f.filename().string();
+      if (sweep_file) name.resize(name.size() - 8);  // without .seq.mha
       progress.stage(name);
       nlohmann::json entry = {{"frame", name}};
       try {
         const std::filesystem::path bmode = f / "bmode.nii.gz";
-        IntraopInputs in = read_intraop(s, f / "doppler.nii.gz",
-                                        std::filesystem::exists(bmode)
+        const std::filesystem::path doppler = sweep_file ? f
+                                              : std::filesystem::exists(f / "doppler.seq.mha")
+                                                  ? f / "doppler.seq.mha"
+                                                  : f / "doppler.nii.gz";
+        IntraopInputs in = read_intraop(s, doppler,
+                                        !sweep_file && std::filesystem::exists(bmode)
                                             ? std::optional<std::filesystem::path>(bmode)
                                             : std::nullopt);
         in.data.pose = pose;

@@ -7,6 +7,8 @@
 #include "core/logger.hpp"
 #include "core/timing.hpp"
 #include "imaging/io/image_io.hpp"
+#include "imaging/io/plus_sequence.hpp"
+#include "imaging/reconstruction/volume_reconstruction.hpp"
 #include "imaging/vessels/skeleton_graph.hpp"
 
 #include <chrono>
@@ -32,7 +34,10 @@ void verify_overlap(const Session& s, const imaging::ImageGeometry& g,
 }
 
 imaging::VolumeF read_doppler(const std::filesystem::path& doppler) {
-  imaging::VolumeF d = imaging::read_volume(doppler);
+  // A PLUS sequence of tracked frames: reconstructed at the frames' own pixel size.
+  imaging::VolumeF d = imaging::is_plus_sequence(doppler)
+                           ? imaging::reconstruct_sequence_file(doppler, {})
+                           : imaging::read_volume(doppler);
   BS_VERIFY(d.components == 1, doppler.string() << ": expected a scalar Doppler volume, got "
                                                 << d.components << " components");
   return d;

@@ -4,6 +4,7 @@
 // CTest runs each test in its own process.
 
 #include "cli_helpers.hpp"
+#include "plus_sweep.hpp"
 
 #include "imaging/io/csv.hpp"
 #include "imaging/io/dicom_io.hpp"
@@ -70,6 +71,40 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
                         "preop_to_intraop.nrrd", "intraop_to_preop.nrrd", "warped_mri.nii.gz",
                         "overlay.png", "uncertainty.nii.gz", "overlay_uncertainty.png"})
     EXPECT_TRUE(std::filesystem::exists(res / f)) << f;
+  {  // A PLUS sequence of tracked Doppler frames (cut from the phantom's Doppler volume, one with
+     // an INVALID transform): reconstructed by `reconstruct`, and registered directly.
+    const imaging::VolumeF d = imaging::read_volume(ph / "intraop/doppler.nii.gz");
+    const float peak = *std::max_element(d.data.begin(), d.data.end());
+    const tests::Sweep sweep = tests::cut_sweep(d, 0.5, 0.8, 80, {5}, 255.0 / double(peak));
+    tests::write_plus_sequence(dir / "sweep.seq.mha", sweep, "MF", /*image_to_reference=*/true);
+    CliRun e =
+        run_brainshift(dir, "reconstruct --sequence " + q(dir / "sweep.seq.mha") + " --out " +
+                                q(dir / "sweep.nii.gz") + " --report " + q(dir / "sweep.json"));
+    ASSERT_EQ(e.exit_code, 0) << e.out << e.err;
+    const auto rep = read_json(dir / "sweep.json");
+    EXPECT_EQ(rep["frames"].get<int>(), 80);
+    EXPECT_EQ(rep["frames_skipped"].get<int>(), 1);
+    EXPECT_NEAR(rep["spacing_mm"].get<double>(), 0.5, 1e-9) << "the frames' pixel size";
+    e = run_brainshift(dir, "register --model " + q(model) + " --doppler " +
+                                q(dir / "sweep.seq.mha") + " --out " + q(dir / "res_seq"));
+    EXPECT_TRUE(e.exit_code == 0 || e.exit_code == 2) << e.out << e.err;
+    EXPECT_NE(read_json(dir / "res_seq" / "report.json").dump().find("sweep.seq.mha"),
+              std::string::npos);
+    // replay over a folder of sequence files: one sweep each, named by the file.
+    std::filesystem::create_directories(dir / "sweeps");
+    std::filesystem::copy_file(dir / "sweep.seq.mha", dir / "sweeps" / "sweep_a.seq.mha");
+    e = run_brainshift(dir, "replay --model " + q(model) + " --sequence " + q(dir / "sweeps") +
+                                " --uncertainty none --out " + q(dir / "replay_seq"));
+    EXPECT_TRUE(e.exit_code == 0 || e.exit_code == 2) << e.out << e.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "replay_seq" / "sweep_a" / "report.json"));
+    // A truncated sequence: one line naming it, nothing written.
+    const std::string bytes = read_all(dir / "sweep.seq.mha");
+    std::ofstream(dir / "cut.seq.mha", std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+    expect_one_line_error(run_brainshift(dir, "reconstruct --sequence " + q(dir / "cut.seq.mha") +
+                                                  " --out " + q(dir / "cut.nii.gz")),
+                          "cut.seq.mha");
+    EXPECT_FALSE(std::filesystem::exists(dir / "cut.nii.gz"));
+  }
   {  // The warped MRI as a DICOM series of the patient's study, for a navigation system.
     const auto out = dir / "warped_dicom";
     const CliRun e = run_brainshift(dir, "export-dicom --volume " + q(res / "warped_mri.nii.gz") +

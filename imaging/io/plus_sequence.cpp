@@ -1,0 +1,282 @@
+#include "imaging/io/plus_sequence.hpp"
+
+#include "core/error.hpp"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace brainshift::imaging {
+namespace {
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(" \t\r\n");
+  return s.substr(b, e - b + 1);
+}
+
+std::string lower_case(std::string s) {
+  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::vector<double> parse_numbers(const std::string& text, const std::string& file,
+                                  const std::string& field) {
+  std::string t = text;
+  std::replace(t.begin(), t.end(), ',', ' ');
+  std::replace(t.begin(), t.end(), '\t', ' ');
+  std::istringstream in(t);
+  std::vector<double> v;
+  for (std::string w; in >> w;) {
+    char* end = nullptr;
+    const double x = std::strtod(w.c_str(), &end);
+    BS_VERIFY(end && *end == '\0' && std::isfinite(x),
+              file << ": " << field << ": '" << w << "' is not a number");
+    v.push_back(x);
+  }
+  return v;
+}
+
+Eigen::Matrix4d matrix_of(const std::vector<double>& v, const std::string& file,
+                          const std::string& field) {
+  BS_VERIFY(v.size() == 16, file << ": " << field << " has " << v.size()
+                                 << " numbers, a 4x4 matrix has 16 (row-major)");
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m(r, c) = v[std::size_t(4 * r + c)];
+  BS_VERIFY((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() < 1e-6,
+            file << ": " << field << ": the last row of a transform must be 0 0 0 1");
+  // An image's transform may leave its third column zero (a 2-D image has no thickness): the
+  // first two columns must span a plane.
+  const Vector3d a = m.block<3, 1>(0, 0), b = m.block<3, 1>(0, 1);
+  BS_VERIFY(a.cross(b).norm() > 1e-12 * std::max(1.0, a.squaredNorm() + b.squaredNorm()),
+            file << ": " << field << ": singular transform (its first two columns are parallel)");
+  return m;
+}
+
+struct ElementType {
+  int bytes;
+  float (*to_float)(const unsigned char*);
+};
+
+template <typename T>
+float as_float(const unsigned char* p) {
+  T v;
+  std::memcpy(&v, p, sizeof(T));
+  return float(v);
+}
+
+ElementType element_type(const std::string& name, const std::string& file) {
+  if (name == "MET_UCHAR") return {1, as_float<std::uint8_t>};
+  if (name == "MET_CHAR") return {1, as_float<std::int8_t>};
+  if (name == "MET_USHORT") return {2, as_float<std::uint16_t>};
+  if (name == "MET_SHORT") return {2, as_float<std::int16_t>};
+  if (name == "MET_UINT") return {4, as_float<std::uint32_t>};
+  if (name == "MET_INT") return {4, as_float<std::int32_t>};
+  if (name == "MET_FLOAT") return {4, as_float<float>};
+  if (name == "MET_DOUBLE") return {8, as_float<double>};
+  BS_THROW(file << ": unsupported ElementType '" << name << "'");
+}
+
+}  // namespace
+
+bool is_plus_sequence(const std::filesystem::path& path) {
+  std::string name = path.filename().string();
+  for (char& c : name) c = char(std::tolower(static_cast<unsigned char>(c)));
+  return name.size() > 8 && name.compare(name.size() - 8, 8, ".seq.mha") == 0;
+}
+
+PlusSequence read_plus_sequence(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  std::ifstream in(path, std::ios::binary);
+  BS_VERIFY(in.is_open(), file << ": cannot open (no such file, or not readable)");
+  std::map<std::string, std::string> fields;
+  std::string line;
+  bool data_follows = false;
+  constexpr std::size_t max_header_lines = 5'000'000;  // ~20 fields per frame, 250k frames
+  for (std::size_t n = 0; std::getline(in, line); ++n) {
+    BS_VERIFY(n < max_header_lines, file << ": MetaImage header does not end");
+    const auto eq = line.find('=');
+    BS_VERIFY(eq != std::string::npos || trim(line).empty(),
+              file << ": not a MetaImage sequence header (line " << n + 1 << ": '"
+                   << line.substr(0, 60) << "')");
+    if (eq == std::string::npos) continue;
+    const std::string key = trim(line.substr(0, eq));
+    const std::string value = trim(line.substr(eq + 1));
+    if (n == 0)
+      BS_VERIFY(key == "ObjectType" || key == "NDims",
+                file << ": not a MetaImage file (first line '" << line.substr(0, 60) << "')");
+    if (key == "ElementDataFile") {
+      BS_VERIFY(value == "LOCAL", file << ": pixel data in another file ('" << value
+                                       << "') is not supported; save the sequence as one .seq.mha");
+      data_follows = true;
+      break;
+    }
+    fields[key] = value;
+  }
+  BS_VERIFY(data_follows, file << ": MetaImage header without 'ElementDataFile = LOCAL' "
+                                  "(truncated or not a sequence file)");
+  const auto field = [&](const std::string& key) -> const std::string& {
+    const auto it = fields.find(key);
+    BS_VERIFY(it != fields.end(), file << ": the header lacks '" << key << "'");
+    return it->second;
+  };
+  const auto has = [&](const std::string& key) { return fields.count(key) > 0; };
+
+  BS_VERIFY(!has("NDims") || field("NDims") == "3",
+            file << ": NDims " << field("NDims") << " (a sequence of 2-D frames has 3)");
+  const std::vector<double> dims = parse_numbers(field("DimSize"), file, "DimSize");
+  BS_VERIFY(dims.size() == 3 && dims[0] >= 1 && dims[1] >= 1 && dims[2] >= 0 &&
+                dims[0] * dims[1] * std::max(dims[2], 1.0) < double(1LL << 34),
+            file << ": DimSize '" << field("DimSize") << "' is not columns rows frames");
+  PlusSequence seq;
+  seq.columns = int(dims[0]);
+  seq.rows = int(dims[1]);
+  const std::size_t count = std::size_t(dims[2]);
+  BS_VERIFY(!has("ElementNumberOfChannels") || field("ElementNumberOfChannels") == "1",
+            file << ": " << field("ElementNumberOfChannels")
+                 << " channels per pixel (colour video); a grey-scale sequence is needed");
+  BS_VERIFY(!has("BinaryDataByteOrderMSB") || lower_case(field("BinaryDataByteOrderMSB")) == "false",
+            file << ": big-endian pixel data is not supported");
+  const ElementType type = element_type(field("ElementType"), file);
+  if (has("UltrasoundImageOrientation")) seq.orientation_in_file = field("UltrasoundImageOrientation");
+  const std::string& o = seq.orientation_in_file;
+  BS_VERIFY((o.size() == 2 || (o.size() == 3 && (o[2] == 'A' || o[2] == 'D'))) &&
+                (o[0] == 'M' || o[0] == 'U') && (o[1] == 'F' || o[1] == 'N'),
+            file << ": UltrasoundImageOrientation '" << o
+                 << "' is not one of MF, MN, UF, UN (the first two letters)");
+
+  // Frames' fields.
+  seq.frames.resize(count);
+  for (std::size_t f = 0; f < count; ++f) {
+    char prefix[32];
+    std::snprintf(prefix, sizeof prefix, "Seq_Frame%04zu_", f);
+    const std::string p = prefix;
+    SequenceFrame& frame = seq.frames[f];
+    for (auto it = fields.lower_bound(p); it != fields.end() && it->first.rfind(p, 0) == 0; ++it) {
+      const std::string name = it->first.substr(p.size());
+      const std::string where = it->first;
+      if (name == "Timestamp") {
+        const auto v = parse_numbers(it->second, file, where);
+        BS_VERIFY(v.size() == 1, file << ": " << where << " is not one number");
+        frame.timestamp = v[0];
+      } else if (name == "ImageStatus") {
+        frame.image_ok = it->second == "OK";
+      } else if (name.size() > 9 && name.compare(name.size() - 9, 9, "Transform") == 0) {
+        const auto status = fields.find(it->first + "Status");
+        const bool ok = status == fields.end() || status->second == "OK";
+        const std::string transform = name.substr(0, name.size() - 9);
+        if (ok)
+          frame.transforms[transform] = matrix_of(parse_numbers(it->second, file, where), file, where);
+        else
+          frame.invalid.push_back(transform);
+      }
+    }
+  }
+
+  // Pixels.
+  const std::size_t per_frame = std::size_t(seq.columns) * std::size_t(seq.rows);
+  const std::size_t bytes = per_frame * count * std::size_t(type.bytes);
+  std::vector<unsigned char> raw(bytes);
+  const bool compressed = has("CompressedData") && lower_case(field("CompressedData")) == "true";
+  if (!compressed) {
+    in.read(reinterpret_cast<char*>(raw.data()), std::streamsize(bytes));
+    BS_VERIFY(std::size_t(in.gcount()) == bytes,
+              file << ": truncated pixel data (" << in.gcount() << " of " << bytes << " bytes)");
+  } else {
+    const std::vector<unsigned char> packed((std::istreambuf_iterator<char>(in)),
+                                            std::istreambuf_iterator<char>());
+    uLongf produced = uLongf(bytes);
+    const int status = uncompress(raw.data(), &produced, packed.data(), uLong(packed.size()));
+    BS_VERIFY(status == Z_OK && produced == bytes,
+              file << ": corrupt or truncated compressed pixel data (zlib status " << status
+                   << ", " << produced << " of " << bytes << " bytes)");
+  }
+  // Turned to MF: U mirrors the columns, N the rows.
+  const bool flip_x = o[0] == 'U', flip_y = o[1] == 'N';
+  seq.pixels.resize(per_frame * count);
+  for (std::size_t f = 0; f < count; ++f)
+    for (int r = 0; r < seq.rows; ++r)
+      for (int c = 0; c < seq.columns; ++c) {
+        const std::size_t src =
+            f * per_frame + std::size_t(r) * std::size_t(seq.columns) + std::size_t(c);
+        const int rr = flip_y ? seq.rows - 1 - r : r, cc = flip_x ? seq.columns - 1 - c : c;
+        seq.pixels[f * per_frame + std::size_t(rr) * std::size_t(seq.columns) + std::size_t(cc)] =
+            type.to_float(&raw[src * std::size_t(type.bytes)]);
+      }
+  return seq;
+}
+
+std::vector<std::optional<Eigen::Matrix4d>> image_to_world(
+    const PlusSequence& sequence, const std::string& file,
+    const std::optional<Eigen::Matrix4d>& calibration, const std::string& image_to) {
+  std::vector<std::optional<Eigen::Matrix4d>> out(sequence.frames.size());
+  std::set<std::string> names;
+  int placed = 0;
+  for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
+    const SequenceFrame& frame = sequence.frames[f];
+    for (const auto& [name, m] : frame.transforms) names.insert(name);
+    for (const auto& name : frame.invalid) names.insert(name);
+    if (!frame.image_ok) continue;
+    const auto get = [&](const std::string& name) -> const Eigen::Matrix4d* {
+      const auto it = frame.transforms.find(name);
+      return it == frame.transforms.end() ? nullptr : &it->second;
+    };
+    std::optional<Eigen::Matrix4d> m;
+    if (!image_to.empty()) {
+      if (const auto* t = get(image_to)) m = *t;
+    } else if (calibration) {
+      for (const char* probe : {"ProbeToReference", "ProbeToTracker"})
+        if (const auto* t = get(probe)) {
+          m = (*t) * (*calibration);
+          break;
+        }
+    } else {
+      for (const char* image : {"ImageToReference", "ImageToTracker"})
+        if (const auto* t = get(image)) {
+          m = *t;
+          break;
+        }
+    }
+    if (m) {
+      out[f] = m;
+      ++placed;
+    }
+  }
+  if (placed == 0 && !sequence.frames.empty()) {
+    std::string list;
+    for (const auto& n : names) list += (list.empty() ? "" : ", ") + n + "Transform";
+    BS_THROW(file << ": no frame can be placed: "
+                  << (!image_to.empty()
+                          ? "no valid " + image_to + "Transform"
+                          : calibration ? std::string("no valid ProbeToReference or ProbeToTracker "
+                                                      "transform")
+                                        : std::string("no valid ImageToReference or "
+                                                      "ImageToTracker transform (give "
+                                                      "--calibration with a ProbeTo* one)"))
+                  << "; the file has " << (list.empty() ? "no transforms" : list));
+  }
+  return out;
+}
+
+Eigen::Matrix4d read_matrix_file(const std::filesystem::path& path) {
+  const std::string file = path.string();
+  std::ifstream in(path);
+  BS_VERIFY(in.is_open(), file << ": cannot open (no such file, or not readable)");
+  std::ostringstream text;
+  text << in.rdbuf();
+  BS_VERIFY(text.str().size() < 65536, file << ": too long for a 4x4 matrix");
+  return matrix_of(parse_numbers(text.str(), file, "matrix"), file, "matrix");
+}
+
+}  // namespace brainshift::imaging
