@@ -45,7 +45,7 @@ inline double sample(const VolumeF& v, const Vector3d& p) {
 /// rounded to 0…255 (PLUS's MET_UCHAR).
 struct Sweep {
   int columns = 0, rows = 0, frames = 0;
-  Matrix4d calibration;                  // Image to Probe
+  Matrix4d calibration;  // Image to Probe
   std::vector<Matrix4d> probe_to_tracker;
   std::vector<std::vector<std::uint8_t>> pixels;  // MF, row-major
   std::vector<bool> valid;
@@ -63,7 +63,8 @@ inline Sweep cut_sweep(const VolumeF& volume, double pixel_mm, double step_mm, i
   Matrix4d c = Matrix4d::Identity();
   c.block<3, 1>(0, 0) = Vector3d(pixel_mm, 0, 0);
   c.block<3, 1>(0, 1) = Vector3d(0, 0, -pixel_mm);  // rows go down, into the tissue
-  c.block<3, 1>(0, 3) = Vector3d(-0.5 * pixel_mm * (s.columns - 1), 0, 0.5 * pixel_mm * (s.rows - 1));
+  c.block<3, 1>(0, 3) =
+      Vector3d(-0.5 * pixel_mm * (s.columns - 1), 0, 0.5 * pixel_mm * (s.rows - 1));
   s.calibration = c;
   const Vector3d centre = g.index_to_world(0.5 * (g.size.array() - 1).cast<double>().matrix());
   const double sweep = 0.6 * extent[1];
@@ -77,8 +78,10 @@ inline Sweep cut_sweep(const VolumeF& volume, double pixel_mm, double step_mm, i
     axes.col(1) = g.direction.col(1);
     axes.col(2) = g.direction.col(2);
     const double tilt = 6.0 * M_PI / 180.0 * std::sin(2 * M_PI * t);
-    probe.topLeftCorner<3, 3>() = axes * Eigen::AngleAxisd(tilt, Vector3d::UnitX()).toRotationMatrix();
-    probe.block<3, 1>(0, 3) = centre + g.direction.col(1) * ((t - 0.5) * std::min(sweep, step_mm * (frames - 1)));
+    probe.topLeftCorner<3, 3>() =
+        axes * Eigen::AngleAxisd(tilt, Vector3d::UnitX()).toRotationMatrix();
+    probe.block<3, 1>(0, 3) =
+        centre + g.direction.col(1) * ((t - 0.5) * std::min(sweep, step_mm * (frames - 1)));
     s.probe_to_tracker.push_back(probe);
     const bool ok = std::find(invalid.begin(), invalid.end(), n) == invalid.end();
     s.valid.push_back(ok);
@@ -109,7 +112,8 @@ inline std::string matrix_text(const Matrix4d& m) {
 /// per-frame fields Seq_FrameNNNN_*, ElementDataFile = LOCAL last, raw uchar frames) in the
 /// orientation `orientation` (MF or UF here; UF stores each row mirrored).
 inline void write_plus_sequence(const std::filesystem::path& path, const Sweep& s,
-                         const std::string& orientation, bool image_to_reference = false) {
+                                const std::string& orientation, bool image_to_reference = false,
+                                bool calibration_in_frames = false) {
   std::ostringstream h;
   h << "ObjectType = Image\nNDims = 3\nAnatomicalOrientation = RAI\nBinaryData = True\n"
     << "BinaryDataByteOrderMSB = False\nCenterOfRotation = 0 0 0\nCompressedData = False\n"
@@ -124,10 +128,14 @@ inline void write_plus_sequence(const std::filesystem::path& path, const Sweep& 
     std::snprintf(p, sizeof p, "Seq_Frame%04d_", n);
     h << p << "FrameNumber = " << n << '\n'
       << p << name << "Transform = "
-      << matrix_text(image_to_reference ? Matrix4d(s.probe_to_tracker[std::size_t(n)] * s.calibration)
-                                        : s.probe_to_tracker[std::size_t(n)])
+      << matrix_text(image_to_reference
+                         ? Matrix4d(s.probe_to_tracker[std::size_t(n)] * s.calibration)
+                         : s.probe_to_tracker[std::size_t(n)])
       << '\n'
       << p << name << "TransformStatus = " << (s.valid[std::size_t(n)] ? "OK" : "INVALID") << '\n'
+      << (calibration_in_frames
+              ? std::string(p) + "ImageToProbeTransform = " + matrix_text(s.calibration) + "\n"
+              : std::string())
       << p << "Timestamp = " << 0.05 * n << '\n'
       << p << "UnfilteredTimestamp = " << 0.05 * n << '\n'
       << p << "ImageStatus = OK\n";

@@ -3,6 +3,15 @@
 #include "core/error.hpp"
 #include "imaging/io/image_frame.hpp"
 
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <gdcmDataElement.h>
 #include <gdcmDataSet.h>
 #include <gdcmFile.h>
@@ -14,16 +23,6 @@
 #include <gdcmTrace.h>
 #include <gdcmUIDGenerator.h>
 #include <gdcmWriter.h>
-
-#include <algorithm>
-#include <array>
-#include <cctype>
-#include <cmath>
-#include <cstdint>
-#include <cstdio>
-#include <cstdlib>
-#include <cstring>
-#include <fstream>
 #include <map>
 #include <sstream>
 #include <vector>
@@ -51,8 +50,8 @@ std::string text(const gdcm::DataSet& ds, std::uint16_t group, std::uint16_t ele
 }
 
 /// A decimal string's first value (a DS element), or `fallback` when absent or empty.
-double decimal(const gdcm::DataSet& ds, std::uint16_t group, std::uint16_t element,
-               double fallback, const std::string& file, const char* name) {
+double decimal(const gdcm::DataSet& ds, std::uint16_t group, std::uint16_t element, double fallback,
+               const std::string& file, const char* name) {
   const std::string s = text(ds, group, element);
   if (s.empty()) return fallback;
   char* end = nullptr;
@@ -113,9 +112,8 @@ Slice read_slice(const std::string& file) {
   s.values.resize(n);
   const auto convert = [&](auto zero) {
     using T = decltype(zero);
-    BS_VERIFY(buffer.size() >= n * sizeof(T),
-              file << ": DICOM pixel data holds " << buffer.size() << " bytes, expected "
-                   << n * sizeof(T));
+    BS_VERIFY(buffer.size() >= n * sizeof(T), file << ": DICOM pixel data holds " << buffer.size()
+                                                   << " bytes, expected " << n * sizeof(T));
     for (std::size_t i = 0; i < n; ++i) {
       T v;
       std::memcpy(&v, buffer.data() + i * sizeof(T), sizeof(T));
@@ -123,17 +121,34 @@ Slice read_slice(const std::string& file) {
     }
   };
   switch (pf.GetScalarType()) {
-    case gdcm::PixelFormat::UINT8: convert(std::uint8_t{}); break;
-    case gdcm::PixelFormat::INT8: convert(std::int8_t{}); break;
+    case gdcm::PixelFormat::UINT8:
+      convert(std::uint8_t{});
+      break;
+    case gdcm::PixelFormat::INT8:
+      convert(std::int8_t{});
+      break;
     case gdcm::PixelFormat::UINT12:
-    case gdcm::PixelFormat::UINT16: convert(std::uint16_t{}); break;
+    case gdcm::PixelFormat::UINT16:
+      convert(std::uint16_t{});
+      break;
     case gdcm::PixelFormat::INT12:
-    case gdcm::PixelFormat::INT16: convert(std::int16_t{}); break;
-    case gdcm::PixelFormat::UINT32: convert(std::uint32_t{}); break;
-    case gdcm::PixelFormat::INT32: convert(std::int32_t{}); break;
-    case gdcm::PixelFormat::FLOAT32: convert(float{}); break;
-    case gdcm::PixelFormat::FLOAT64: convert(double{}); break;
-    default: BS_THROW(file << ": unsupported DICOM pixel format " << pf);
+    case gdcm::PixelFormat::INT16:
+      convert(std::int16_t{});
+      break;
+    case gdcm::PixelFormat::UINT32:
+      convert(std::uint32_t{});
+      break;
+    case gdcm::PixelFormat::INT32:
+      convert(std::int32_t{});
+      break;
+    case gdcm::PixelFormat::FLOAT32:
+      convert(float{});
+      break;
+    case gdcm::PixelFormat::FLOAT64:
+      convert(double{});
+      break;
+    default:
+      BS_THROW(file << ": unsupported DICOM pixel format " << pf);
   }
   return s;
 }
@@ -145,7 +160,9 @@ std::vector<std::string> series_files(const fs::path& path, DicomSeriesInfo* inf
   std::error_code ec;
   BS_VERIFY(fs::exists(path, ec), where << ": no such file or folder");
   const bool folder = fs::is_directory(path, ec);
-  const fs::path dir = folder ? path : path.parent_path().empty() ? fs::path(".") : path.parent_path();
+  const fs::path dir = folder                       ? path
+                       : path.parent_path().empty() ? fs::path(".")
+                                                    : path.parent_path();
   std::vector<std::string> files;
   for (const auto& entry : fs::directory_iterator(dir, ec))
     if (entry.is_regular_file()) files.push_back(entry.path().string());
@@ -166,14 +183,14 @@ std::vector<std::string> series_files(const fs::path& path, DicomSeriesInfo* inf
   BS_VERIFY(!by_series.empty(), where << ": no DICOM file found");
   std::string chosen;
   if (folder) {
-    BS_VERIFY(by_series.size() == 1,
-              where << ": the folder holds " << by_series.size()
-                    << " DICOM series; pass one file of the series wanted");
+    BS_VERIFY(by_series.size() == 1, where << ": the folder holds " << by_series.size()
+                                           << " DICOM series; pass one file of the series wanted");
     chosen = by_series.begin()->first;
   } else {
     const std::string self = path.string();
-    BS_VERIFY(scanner.IsKey(self.c_str()) || scanner.IsKey((dir / path.filename()).string().c_str()),
-              where << ": not a DICOM file");
+    BS_VERIFY(
+        scanner.IsKey(self.c_str()) || scanner.IsKey((dir / path.filename()).string().c_str()),
+        where << ": not a DICOM file");
     const char* uid = scanner.GetValue((dir / path.filename()).string().c_str(), series_uid);
     chosen = uid ? uid : "";
     while (!chosen.empty() && (chosen.back() == ' ' || chosen.back() == '\0')) chosen.pop_back();
@@ -310,13 +327,13 @@ VolumeF read_dicom_series(const std::filesystem::path& path, DicomSeriesInfo* in
 void write_dicom_series(const std::filesystem::path& dir, const VolumeF& volume,
                         const DicomSeriesInfo& source, const std::string& description) {
   const std::string where = dir.string();
-  BS_VERIFY(volume.components == 1,
-            where << ": a DICOM MR series holds one component per voxel, got "
-                  << volume.components);
+  BS_VERIFY(volume.components == 1, where
+                                        << ": a DICOM MR series holds one component per voxel, got "
+                                        << volume.components);
   BS_VERIFY(!volume.empty(), where << ": the volume to write as DICOM is empty");
-  BS_VERIFY(description.size() <= 64,
-            where << ": a DICOM Series Description holds 64 characters, got "
-                  << description.size());
+  BS_VERIFY(
+      description.size() <= 64,
+      where << ": a DICOM Series Description holds 64 characters, got " << description.size());
   float lo = 0, hi = 0;
   bool integral = true;
   for (std::size_t i = 0; i < volume.data.size(); ++i) {

@@ -29,7 +29,8 @@ std::string lower(std::string s) {
 }
 
 bool ends_with(const std::string& s, std::string_view suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 std::string_view trim(std::string_view s) {
@@ -123,7 +124,8 @@ TagLine split_tag_line(std::string_view line, const std::string& where) {
       const std::string_view token =
           line.substr(i, end == std::string_view::npos ? std::string_view::npos : end - i);
       double v = 0;
-      BS_VERIFY(parse_double(token, v), where << ": expected a finite number, got '" << token << "'");
+      BS_VERIFY(parse_double(token, v),
+                where << ": expected a finite number, got '" << token << "'");
       BS_VERIFY(t.label.empty(), where << ": a number after the label");
       t.numbers.push_back(v);
       i += token.size();
@@ -154,7 +156,8 @@ Landmarks read_tag(const std::filesystem::path& path, TagVolume volume) {
     std::string_view l = trim(line);
     if (l.empty() || l.front() == '%') continue;
     const auto eq = l.find('=');
-    BS_VERIFY(eq != std::string_view::npos, where() << ": expected 'key = value;', got '" << l << "'");
+    BS_VERIFY(eq != std::string_view::npos, where()
+                                                << ": expected 'key = value;', got '" << l << "'");
     const std::string_view key = trim(l.substr(0, eq));
     std::string_view value = trim(l.substr(eq + 1));
     if (key == "Points") {
@@ -284,9 +287,9 @@ Landmarks read_fcsv(const std::filesystem::path& path) {
   int number = 0;
   const auto where = [&] { return file + ":" + std::to_string(number); };
   bool lps = false;  // Slicer <= 4.10 wrote RAS without saying so
-  std::vector<std::string> columns = {"id",  "x",   "y",    "z",     "ow",   "ox",
-                                      "oy",  "oz",  "vis",  "sel",   "lock", "label",
-                                      "desc", "associatedNodeID"};
+  std::vector<std::string> columns = {
+      "id", "x",   "y",   "z",    "ow",    "ox",   "oy",
+      "oz", "vis", "sel", "lock", "label", "desc", "associatedNodeID"};
   LandmarkSet set(file);
   while (std::getline(in, line)) {
     ++number;
@@ -322,8 +325,8 @@ Landmarks read_fcsv(const std::filesystem::path& path) {
     const std::ptrdiff_t cs[3] = {cx, cy, cz};
     for (int a = 0; a < 3; ++a)
       BS_VERIFY(parse_double(f[static_cast<std::size_t>(cs[a])], p[a]),
-                where() << ": expected a finite number for " << "xyz"[a] << ", got '"
-                        << f[static_cast<std::size_t>(cs[a])] << "'");
+                where() << ": expected a finite number for "
+                        << "xyz"[a] << ", got '" << f[static_cast<std::size_t>(cs[a])] << "'");
     std::string id;
     for (const char* name : {"label", "id"}) {
       const std::ptrdiff_t c = column(name);

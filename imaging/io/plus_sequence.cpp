@@ -2,8 +2,6 @@
 
 #include "core/error.hpp"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -14,6 +12,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <zlib.h>
 
 namespace brainshift::imaging {
 namespace {
@@ -146,10 +145,12 @@ PlusSequence read_plus_sequence(const std::filesystem::path& path) {
   BS_VERIFY(!has("ElementNumberOfChannels") || field("ElementNumberOfChannels") == "1",
             file << ": " << field("ElementNumberOfChannels")
                  << " channels per pixel (colour video); a grey-scale sequence is needed");
-  BS_VERIFY(!has("BinaryDataByteOrderMSB") || lower_case(field("BinaryDataByteOrderMSB")) == "false",
-            file << ": big-endian pixel data is not supported");
+  BS_VERIFY(
+      !has("BinaryDataByteOrderMSB") || lower_case(field("BinaryDataByteOrderMSB")) == "false",
+      file << ": big-endian pixel data is not supported");
   const ElementType type = element_type(field("ElementType"), file);
-  if (has("UltrasoundImageOrientation")) seq.orientation_in_file = field("UltrasoundImageOrientation");
+  if (has("UltrasoundImageOrientation"))
+    seq.orientation_in_file = field("UltrasoundImageOrientation");
   const std::string& o = seq.orientation_in_file;
   BS_VERIFY((o.size() == 2 || (o.size() == 3 && (o[2] == 'A' || o[2] == 'D'))) &&
                 (o[0] == 'M' || o[0] == 'U') && (o[1] == 'F' || o[1] == 'N'),
@@ -177,7 +178,8 @@ PlusSequence read_plus_sequence(const std::filesystem::path& path) {
         const bool ok = status == fields.end() || status->second == "OK";
         const std::string transform = name.substr(0, name.size() - 9);
         if (ok)
-          frame.transforms[transform] = matrix_of(parse_numbers(it->second, file, where), file, where);
+          frame.transforms[transform] =
+              matrix_of(parse_numbers(it->second, file, where), file, where);
         else
           frame.invalid.push_back(transform);
       }
@@ -199,8 +201,8 @@ PlusSequence read_plus_sequence(const std::filesystem::path& path) {
     uLongf produced = uLongf(bytes);
     const int status = uncompress(raw.data(), &produced, packed.data(), uLong(packed.size()));
     BS_VERIFY(status == Z_OK && produced == bytes,
-              file << ": corrupt or truncated compressed pixel data (zlib status " << status
-                   << ", " << produced << " of " << bytes << " bytes)");
+              file << ": corrupt or truncated compressed pixel data (zlib status " << status << ", "
+                   << produced << " of " << bytes << " bytes)");
   }
   // Turned to MF: U mirrors the columns, N the rows.
   const bool flip_x = o[0] == 'U', flip_y = o[1] == 'N';
@@ -247,6 +249,13 @@ std::vector<std::optional<Eigen::Matrix4d>> image_to_world(
           m = *t;
           break;
         }
+      // Recordings that carry the calibration in every frame (ImageToProbeTransform).
+      if (const auto* c = get("ImageToProbe"); !m && c)
+        for (const char* probe : {"ProbeToReference", "ProbeToTracker"})
+          if (const auto* t = get(probe)) {
+            m = (*t) * (*c);
+            break;
+          }
     }
     if (m) {
       out[f] = m;
@@ -257,13 +266,12 @@ std::vector<std::optional<Eigen::Matrix4d>> image_to_world(
     std::string list;
     for (const auto& n : names) list += (list.empty() ? "" : ", ") + n + "Transform";
     BS_THROW(file << ": no frame can be placed: "
-                  << (!image_to.empty()
-                          ? "no valid " + image_to + "Transform"
-                          : calibration ? std::string("no valid ProbeToReference or ProbeToTracker "
-                                                      "transform")
+                  << (!image_to.empty() ? "no valid " + image_to + "Transform"
+                      : calibration     ? std::string("no valid ProbeToReference or ProbeToTracker "
+                                                          "transform")
                                         : std::string("no valid ImageToReference or "
-                                                      "ImageToTracker transform (give "
-                                                      "--calibration with a ProbeTo* one)"))
+                                                          "ImageToTracker transform (give "
+                                                          "--calibration with a ProbeTo* one)"))
                   << "; the file has " << (list.empty() ? "no transforms" : list));
   }
   return out;

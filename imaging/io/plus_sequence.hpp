@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// @brief PLUS sequence files (.seq.mha): tracked 2-D ultrasound frames as PLUS, 3D Slicer
-/// (Sequences) and IBIS record them. http://perk-software.cs.queensu.ca/plus/doc/nightly/user/FileSequenceFile.html
+/// (Sequences) and IBIS record them.
+/// http://perk-software.cs.queensu.ca/plus/doc/nightly/user/FileSequenceFile.html
 ///
 /// A MetaImage header (`Key = Value` lines, `ElementDataFile = LOCAL` last) whose DimSize is
 /// columns, rows, frames, followed by the frames' pixels (raw, or zlib when `CompressedData =
@@ -61,7 +62,8 @@ PlusSequence read_plus_sequence(const std::filesystem::path& path);
 /// transform missing or invalid, or its image status not OK). The transform is, in this order of
 /// preference: `image_to` (a name such as "ImageToReference") when given; else with
 /// `calibration` (Image to Probe), the frame's ProbeToReference or ProbeToTracker times it; else
-/// ImageToReference, ImageToTracker. \throws brainshift::Error naming `file` when no frame has
+/// ImageToReference, ImageToTracker, or the frame's own ImageToProbe after ProbeToReference or
+/// ProbeToTracker. \throws brainshift::Error naming `file` when no frame has
 /// such a transform (listing the names the file has).
 std::vector<std::optional<Eigen::Matrix4d>> image_to_world(
     const PlusSequence& sequence, const std::string& file,

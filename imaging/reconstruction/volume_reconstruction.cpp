@@ -16,8 +16,8 @@ VolumeF reconstruct_volume(const PlusSequence& sequence,
   BS_VERIFY(options.spacing_mm > 0 && std::isfinite(options.spacing_mm),
             file << ": the reconstruction spacing must be > 0 mm, got " << options.spacing_mm);
   BS_VERIFY(image_to_world.size() == sequence.frames.size(),
-            file << ": " << image_to_world.size() << " transforms for "
-                 << sequence.frames.size() << " frames");
+            file << ": " << image_to_world.size() << " transforms for " << sequence.frames.size()
+                 << " frames");
   ReconstructionReport rep;
   rep.frames = int(sequence.frames.size());
   const int w = sequence.columns, h = sequence.rows;
@@ -69,8 +69,7 @@ VolumeF reconstruct_volume(const PlusSequence& sequence,
       for (int i = 0; i < w; ++i) {
         const Vector3d q = row + double(i) * di;
         const long x = std::lround(q[0]), y = std::lround(q[1]), z = std::lround(q[2]);
-        if (x < 0 || y < 0 || z < 0 || x >= g.size[0] || y >= g.size[1] || z >= g.size[2])
-          continue;
+        if (x < 0 || y < 0 || z < 0 || x >= g.size[0] || y >= g.size[1] || z >= g.size[2]) continue;
         const std::size_t v = (std::size_t(z) * ny + std::size_t(y)) * nx + std::size_t(x);
         sum[v] += double(sequence.at(f, i, j));
         ++hits[v];
@@ -162,9 +161,8 @@ VolumeF reconstruct_sequence_file(const std::filesystem::path& path,
     ro.spacing_mm = *options.spacing_mm;
   } else {
     const Vector3d extent = hi - lo;
-    const double fit =
-        std::cbrt((extent[0] + pixel_mm) * (extent[1] + pixel_mm) * (extent[2] + pixel_mm) /
-                  options.max_default_voxels);
+    const double fit = std::cbrt((extent[0] + pixel_mm) * (extent[1] + pixel_mm) *
+                                 (extent[2] + pixel_mm) / options.max_default_voxels);
     ro.spacing_mm = std::max(pixel_mm, fit);
   }
   ReconstructionReport rep;

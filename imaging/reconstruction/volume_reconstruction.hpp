@@ -17,22 +17,22 @@
 
 #include <cstdint>
 #include <filesystem>
-#include <string>
 #include <optional>
+#include <string>
 #include <vector>
 
 namespace brainshift::imaging {
 
 struct ReconstructionOptions {
-  double spacing_mm = 0.5;       ///< output voxel size, mm (> 0)
-  int max_fill_radius = 10;      ///< voxels; 0: no hole filling
-  double max_voxels = 2.7e8;     ///< a larger grid is an error (1 GiB of float)
+  double spacing_mm = 0.5;    ///< output voxel size, mm (> 0)
+  int max_fill_radius = 10;   ///< voxels; 0: no hole filling
+  double max_voxels = 2.7e8;  ///< a larger grid is an error (1 GiB of float)
 };
 
 struct ReconstructionReport {
-  int frames = 0;               ///< in the sequence
-  int frames_placed = 0;        ///< inserted
-  int frames_skipped = 0;       ///< transform missing or invalid, or image status not OK
+  int frames = 0;          ///< in the sequence
+  int frames_placed = 0;   ///< inserted
+  int frames_skipped = 0;  ///< transform missing or invalid, or image status not OK
   long long pixels_inserted = 0;
   long long voxels = 0;         ///< in the grid
   long long voxels_hit = 0;     ///< reached by a pixel
@@ -45,8 +45,9 @@ struct ReconstructionReport {
 
 /// Reconstructs `sequence` with each frame's Image-to-world transform (image_to_world(); a
 /// frame without one is skipped). @param[out] coverage  when not null: on the output grid, 1
-/// where pixels fell, 2 where filled between them, 0 outside the sweep. \throws brainshift::Error naming `file`: no frame placed, a
-/// non-positive spacing, a grid over max_voxels (with the spacing that would fit).
+/// where pixels fell, 2 where filled between them, 0 outside the sweep. \throws brainshift::Error
+/// naming `file`: no frame placed, a non-positive spacing, a grid over max_voxels (with the spacing
+/// that would fit).
 VolumeF reconstruct_volume(const PlusSequence& sequence,
                            const std::vector<std::optional<Eigen::Matrix4d>>& image_to_world,
                            const ReconstructionOptions& options, const std::string& file,

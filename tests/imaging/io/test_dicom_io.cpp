@@ -220,9 +220,7 @@ TEST(DicomSeries, BadSeriesGiveOneLineNamingThePath) {
   const tests::TempFolder dir;
   fs::create_directories(dir / "empty");
   expect_error([&] { read_volume(dir / "empty"); }, {"empty", "no DICOM file"});
-  {
-    std::ofstream(dir / "notes.dcm") << "not a DICOM file\n";
-  }
+  { std::ofstream(dir / "notes.dcm") << "not a DICOM file\n"; }
   expect_error([&] { read_volume(dir / "notes.dcm"); }, {"notes.dcm", "DICOM"});
 
   const VolumeF v = random_volume(oblique_geometry(), true);

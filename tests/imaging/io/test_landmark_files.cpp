@@ -36,7 +36,7 @@ Landmarks truth() {
   l.ids = {"1", "2", "3"};
   l.points.resize(3, 3);
   l.points << 50.164402, -31.719656, 34.845306,  //
-      -44.5, 31.25, -29.970621,                   //
+      -44.5, 31.25, -29.970621,                  //
       0.125, 0, 1e-3;
   return l;
 }
@@ -123,7 +123,8 @@ TEST(LandmarkFiles, MarkupsWeWriteAreLpsAndReadBackExactly) {
   EXPECT_EQ(dir.count(), 1u);  // nothing else (no temporary) left behind
 }
 
-/// RESECT's own summary line: "CaseN-MRI-beforeUS.tag  n= 15 mean=  1.82 sd= 0.87 min= 0.56 max=  3.84 mm".
+/// RESECT's own summary line: "CaseN-MRI-beforeUS.tag  n= 15 mean=  1.82 sd= 0.87 min= 0.56
+/// max=  3.84 mm".
 TEST(LandmarkFiles, ResectTagFilesAgreeWithTheirPublishedSummary) {
   const auto folder = std::filesystem::path(tests::shared_data_dir) / "resect" / "landmarks";
   const auto summary = folder / "landmark_displacement_summary.txt";
@@ -174,10 +175,7 @@ TEST(LandmarkFiles, BadFilesGiveOneLineNamingTheFile) {
   expect_error([&] { read_landmark_file(write_text(dir, "d.tag", head + " 1 2 nan;\n")); },
                {"d.tag:4", "finite number", "nan"});
   expect_error(
-      [&] {
-        read_landmark_file(
-            write_text(dir, "e.tag", head + " 1 2 3 \"x\"\n 4 5 6 \"x\";\n"));
-      },
+      [&] { read_landmark_file(write_text(dir, "e.tag", head + " 1 2 3 \"x\"\n 4 5 6 \"x\";\n")); },
       {"e.tag:5", "id x is repeated", "e.tag:4"});
   expect_error([&] { read_landmark_file(write_text(dir, "f.tag", head + ";\n")); },
                {"f.tag", "no landmarks"});
@@ -187,9 +185,9 @@ TEST(LandmarkFiles, BadFilesGiveOneLineNamingTheFile) {
                {"b.mrk.json", "not a Slicer markups file"});
   expect_error(
       [&] {
-        read_landmark_file(write_text(
-            dir, "c.mrk.json",
-            R"({"markups": [{"coordinateSystem": "IJK", "controlPoints": []}]})"));
+        read_landmark_file(
+            write_text(dir, "c.mrk.json",
+                       R"({"markups": [{"coordinateSystem": "IJK", "controlPoints": []}]})"));
       },
       {"c.mrk.json", "markups[0]", "coordinateSystem must be LPS or RAS", "IJK"});
   expect_error(

@@ -3,10 +3,10 @@
 // header format (not by the reader's code), reconstructed, and compared with the volume they
 // were cut from: on a smooth synthetic volume and on a real intra-operative B-mode volume
 // (RESECT Case1, ../shared/data).
-#include "tests/config.hpp"
 #include "expect_error.hpp"
 #include "plus_sweep.hpp"
 #include "temp_folder.hpp"
+#include "tests/config.hpp"
 
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/plus_sequence.hpp"
@@ -95,7 +95,8 @@ double check_round_trip(const VolumeF& truth, double pixel_mm, double step_mm, i
   for (int a = 0; a < 3; ++a) {
     Vector3d e = Vector3d::Zero();
     e[a] = spacing;
-    const double cm = correlation(rec, coverage, truth, -e), cp = correlation(rec, coverage, truth, e);
+    const double cm = correlation(rec, coverage, truth, -e),
+                 cp = correlation(rec, coverage, truth, e);
     const double curvature = cm - 2 * c0 + cp;
     EXPECT_LT(curvature, 0) << "no correlation peak along axis " << a;
     if (curvature >= 0) continue;
@@ -170,6 +171,14 @@ TEST(PlusSequence, OrientationStatusAndBadFiles) {
   tests::expect_error([&] { (void)image_to_world(mf, "mf.seq.mha", std::nullopt); },
                       {"mf.seq.mha", "ProbeToTrackerTransform", "--calibration"});
 
+  // The calibration recorded in every frame (ImageToProbeTransform) places the frames too.
+  write_plus_sequence(dir / "cal.seq.mha", s, "MF", false, /*calibration_in_frames=*/true);
+  const auto placed = image_to_world(read_plus_sequence(dir / "cal.seq.mha"), "cal", std::nullopt);
+  ASSERT_EQ(placed.size(), 4u);
+  EXPECT_FALSE(placed[2].has_value()) << "its ProbeToTracker is INVALID";
+  ASSERT_TRUE(placed[1].has_value());
+  EXPECT_TRUE(placed[1]->isApprox(s.probe_to_tracker[1] * s.calibration, 1e-12));
+
   // Bad files: one line naming the file.
   const auto text = [&](const std::string& name, const std::string& content) {
     std::ofstream(dir / name, std::ios::binary) << content;
@@ -179,8 +188,9 @@ TEST(PlusSequence, OrientationStatusAndBadFiles) {
                       {"a.seq.mha", "MetaImage"});
   std::ifstream in(dir / "mf.seq.mha", std::ios::binary);
   std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  tests::expect_error([&] { read_plus_sequence(text("cut.seq.mha", all.substr(0, all.size() - 10))); },
-                      {"cut.seq.mha", "truncated"});
+  tests::expect_error(
+      [&] { read_plus_sequence(text("cut.seq.mha", all.substr(0, all.size() - 10))); },
+      {"cut.seq.mha", "truncated"});
   std::string bad = all;
   bad.replace(bad.find("UltrasoundImageOrientation = MF"), 31, "UltrasoundImageOrientation = XY");
   tests::expect_error([&] { read_plus_sequence(text("o.seq.mha", bad)); },
