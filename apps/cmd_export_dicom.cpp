@@ -16,8 +16,9 @@ CLI::App* add_export_dicom_command(CLI::App& app, ExportDicomArgs& args) {
       "export-dicom",
       "Write a volume (e.g. RES/warped_mri.nii.gz) as a DICOM MR series for a navigation "
       "system: new series, marked brain-shift corrected and not for diagnosis");
-  cmd->add_option("--volume", args.volume, "the volume to export (NIfTI, NRRD, MetaImage, VTI "
-                                           "or a DICOM series), one component, world RAS")
+  cmd->add_option("--volume", args.volume,
+                  "the volume to export (NIfTI, NRRD, MetaImage, VTI or a DICOM series), one "
+                  "component, world RAS")
       ->required();
   cmd->add_option("--like", args.like,
                   "the original DICOM series (its folder or one file): its patient, study and "
@@ -34,8 +35,9 @@ int run_export_dicom(const ExportDicomArgs& args, std::ostream& out) {
   workflow::verify_output_folder(args.out);
   const std::string description =
       args.description.empty() ? imaging::corrected_series_description : args.description;
-  BS_VERIFY(description.size() <= 64, "--description: a DICOM Series Description holds 64 "
-                                      "characters, got " << description.size());
+  BS_VERIFY(
+      description.size() <= 64,
+      "--description: a DICOM Series Description holds 64 characters, got " << description.size());
   imaging::DicomSeriesInfo source;
   if (args.like) {
     BS_VERIFY(imaging::is_dicom_path(*args.like),
@@ -49,9 +51,8 @@ int run_export_dicom(const ExportDicomArgs& args, std::ostream& out) {
   workflow::write_folder_atomically(args.out, [&](const std::filesystem::path& dir) {
     imaging::write_dicom_series(dir, volume, source, description);
   });
-  out << "wrote " << args.out.string() << ": " << volume.geometry.size[2]
-      << " MR slices of " << volume.geometry.size[0] << " x " << volume.geometry.size[1] << " ("
-      << description << ")"
+  out << "wrote " << args.out.string() << ": " << volume.geometry.size[2] << " MR slices of "
+      << volume.geometry.size[0] << " x " << volume.geometry.size[1] << " (" << description << ")"
       << (args.like ? ", patient and study of " + args.like->string() : std::string()) << '\n';
   return 0;
 }

@@ -28,8 +28,9 @@ void verify_parent(const std::filesystem::path& file) {
 
 CLI::App* add_reconstruct_command(CLI::App& app, ReconstructArgs& args) {
   CLI::App* cmd = app.add_subcommand(
-      "reconstruct", "Reconstruct a volume from a PLUS sequence file of tracked ultrasound frames "
-                     "(.seq.mha): pixel nearest neighbour, then hole filling between data");
+      "reconstruct",
+      "Reconstruct a volume from a PLUS sequence file of tracked ultrasound frames "
+      "(.seq.mha): pixel nearest neighbour, then hole filling between data");
   cmd->add_option("--sequence", args.sequence, "the PLUS sequence file (.seq.mha)")->required();
   cmd->add_option("--calibration", args.calibration,
                   "Image-to-Probe matrix: a text file of 16 numbers, row-major (PLUS's Matrix); "
