@@ -30,8 +30,9 @@ CLI::App* add_reconstruct_command(CLI::App& app, ReconstructArgs& args) {
   CLI::App* cmd = app.add_subcommand(
       "reconstruct",
       "Reconstruct a volume from a PLUS sequence file of tracked ultrasound frames "
-      "(.seq.mha): pixel nearest neighbour, then hole filling between data");
-  cmd->add_option("--sequence", args.sequence, "the PLUS sequence file (.seq.mha)")->required();
+      "(.seq.mha, .seq.nrrd): pixel nearest neighbour, then hole filling between data");
+  cmd->add_option("--sequence", args.sequence, "the PLUS sequence file (.seq.mha or .seq.nrrd)")
+      ->required();
   cmd->add_option("--calibration", args.calibration,
                   "Image-to-Probe matrix: a text file of 16 numbers, row-major (PLUS's Matrix); "
                   "the frames are then placed by ProbeToReference (or ProbeToTracker) times it");
@@ -52,7 +53,7 @@ CLI::App* add_reconstruct_command(CLI::App& app, ReconstructArgs& args) {
 int run_reconstruct(const ReconstructArgs& args, std::ostream& out) {
   const core::Stopwatch watch;
   BS_VERIFY(imaging::is_plus_sequence(args.sequence),
-            args.sequence.string() << ": not a PLUS sequence file (.seq.mha)");
+            args.sequence.string() << ": not a PLUS sequence file (.seq.mha or .seq.nrrd)");
   (void)imaging::image_format(args.out);  // a known extension, before the work
   verify_parent(args.out);
   if (args.coverage) {

@@ -1,6 +1,7 @@
 #pragma once
 /// @file
-/// @brief `brainshift reconstruct`: a PLUS sequence file (tracked 2-D ultrasound frames, .seq.mha)
+/// @brief `brainshift reconstruct`: a PLUS sequence file (tracked 2-D ultrasound frames, .seq.mha
+/// or .seq.nrrd)
 /// as a volume, as PLUS's VolumeReconstructor makes it (imaging/reconstruction/):
 ///
 ///   brainshift reconstruct --sequence S.seq.mha [--calibration ImageToProbe.txt]
@@ -28,7 +29,7 @@ namespace brainshift::apps {
 
 /// Arguments of `brainshift reconstruct`.
 struct ReconstructArgs {
-  std::filesystem::path sequence;                    ///< .seq.mha
+  std::filesystem::path sequence;                    ///< .seq.mha or .seq.nrrd
   std::optional<std::filesystem::path> calibration;  ///< Image-to-Probe matrix file
   std::string transform;                             ///< e.g. "ImageToReference"; empty: auto
   std::optional<double> spacing_mm;                  ///< default: the frames' pixel size

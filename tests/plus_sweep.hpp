@@ -15,6 +15,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include <zlib.h>
 
 namespace brainshift::tests {
 
@@ -151,6 +152,60 @@ inline void write_plus_sequence(const std::filesystem::path& path, const Sweep& 
         const int mj = orientation[1] == 'N' ? s.rows - 1 - j : j;
         out.put(char(image[std::size_t(mj) * std::size_t(s.columns) + std::size_t(mi)]));
       }
+}
+
+/// `raw` deflated: gzip (window bits 15 + 16) or zlib (15).
+inline std::string deflate_bytes(const std::string& raw, bool gzip) {
+  z_stream z{};
+  deflateInit2(&z, 6, Z_DEFLATED, gzip ? 15 + 16 : 15, 8, Z_DEFAULT_STRATEGY);
+  std::string out(deflateBound(&z, uLong(raw.size())) + 64, '\0');
+  z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(raw.data()));
+  z.avail_in = uInt(raw.size());
+  z.next_out = reinterpret_cast<Bytef*>(out.data());
+  z.avail_out = uInt(out.size());
+  deflate(&z, Z_FINISH);
+  out.resize(z.total_out);
+  deflateEnd(&z);
+  return out;
+}
+
+/// The MF pixels of `s`, frame after frame, as stored for `orientation`.
+inline std::string stored_pixels(const Sweep& s, const std::string& orientation) {
+  std::string bytes;
+  for (const auto& image : s.pixels)
+    for (int j = 0; j < s.rows; ++j)
+      for (int i = 0; i < s.columns; ++i) {
+        const int mi = orientation[0] == 'U' ? s.columns - 1 - i : i;
+        const int mj = orientation[1] == 'N' ? s.rows - 1 - j : j;
+        bytes.push_back(char(image[std::size_t(mj) * std::size_t(s.columns) + std::size_t(mi)]));
+      }
+  return bytes;
+}
+
+/// Writes `s` as PLUS's NRRD sequence (vtkPlusNrrdSequenceIO): NRRD0004, type, dimension 3,
+/// sizes columns rows frames with kinds "domain domain list", gzip encoding, the orientation and
+/// each frame's fields as key/value pairs.
+inline void write_plus_sequence_nrrd(const std::filesystem::path& path, const Sweep& s,
+                                     const std::string& orientation) {
+  std::ostringstream h;
+  h << "NRRD0004\n# Complete NRRD file format specification at:\n"
+    << "# http://teem.sourceforge.net/nrrd/format.html\n"
+    << "type: unsigned char\ndimension: 3\nsizes: " << s.columns << ' ' << s.rows << ' ' << s.frames
+    << "\nkinds: domain domain list\nendian: little\nencoding: gzip\n"
+    << "ultrasound image orientation:=" << orientation << "\n"
+    << "ultrasound image type:=BRIGHTNESS\n";
+  for (int n = 0; n < s.frames; ++n) {
+    char p[32];
+    std::snprintf(p, sizeof p, "Seq_Frame%04d_", n);
+    h << p << "ProbeToTrackerTransform:=" << matrix_text(s.probe_to_tracker[std::size_t(n)]) << '\n'
+      << p << "ProbeToTrackerTransformStatus:=" << (s.valid[std::size_t(n)] ? "OK" : "INVALID")
+      << '\n'
+      << p << "Timestamp:=" << 0.05 * n << '\n'
+      << p << "ImageStatus:=OK\n";
+  }
+  h << '\n';
+  std::ofstream out(path, std::ios::binary);
+  out << h.str() << deflate_bytes(stored_pixels(s, orientation), true);
 }
 
 }  // namespace brainshift::tests

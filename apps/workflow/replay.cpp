@@ -9,6 +9,7 @@
 #include "imaging/io/plus_sequence.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <iostream>
 #include <optional>
@@ -29,7 +30,7 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
   BS_VERIFY(std::filesystem::is_directory(args.sequence, ec), args.sequence.string()
                                                                   << ": no such folder");
   // The sweeps: frame_*/ folders (doppler.nii.gz, or doppler.seq.mha, optional bmode.nii.gz),
-  // else the folder's PLUS sequence files (*.seq.mha, one sweep each), in name order.
+  // else the folder's PLUS sequence files (*.seq.mha, *.seq.nrrd; one sweep each), in name order.
   std::vector<std::filesystem::path> frames;
   for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
     if (e.is_directory() && e.path().filename().string().rfind("frame_", 0) == 0)
@@ -38,8 +39,9 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
     for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
       if (e.is_regular_file() && imaging::is_plus_sequence(e.path())) frames.push_back(e.path());
   std::sort(frames.begin(), frames.end());
-  BS_VERIFY(!frames.empty(), args.sequence.string()
-                                 << ": no frame_* folders and no PLUS sequence files (*.seq.mha)");
+  BS_VERIFY(!frames.empty(),
+            args.sequence.string()
+                << ": no frame_* folders and no PLUS sequence files (*.seq.mha, *.seq.nrrd)");
   BS_VERIFY(!(args.pre_dura && args.pre_dura_pose),
             args.pre_dura_pose->string() << ": give a pre-dura sweep or a stored pose, not both");
   verify_output_folder(args.out);
@@ -67,7 +69,11 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
     for (const auto& f : frames) {
       const bool sweep_file = imaging::is_plus_sequence(f);
       std::string name = f.filename().string();
-      if (sweep_file) name.resize(name.size() - 8);  // without .seq.mha
+      if (sweep_file) {  // without .seq.mha / .seq.nrrd (any case)
+        std::string lower = name;
+        for (char& c : lower) c = char(std::tolower(static_cast<unsigned char>(c)));
+        name.resize(lower.rfind(".seq."));
+      }
       progress.stage(name);
       nlohmann::json entry = {{"frame", name}};
       try {

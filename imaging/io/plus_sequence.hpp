@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// @brief PLUS sequence files (.seq.mha): tracked 2-D ultrasound frames as PLUS, 3D Slicer
-/// (Sequences) and IBIS record them.
+/// @brief PLUS sequence files (.seq.mha, .seq.nrrd): tracked 2-D ultrasound frames as PLUS,
+/// 3D Slicer (Sequences) and IBIS record them.
 /// http://perk-software.cs.queensu.ca/plus/doc/nightly/user/FileSequenceFile.html
 ///
 /// A MetaImage header (`Key = Value` lines, `ElementDataFile = LOCAL` last) whose DimSize is
@@ -49,10 +49,13 @@ struct PlusSequence {
   }
 };
 
-/// True when `path` ends in .seq.mha (any case).
+/// True when `path` ends in .seq.mha or .seq.nrrd (any case).
 bool is_plus_sequence(const std::filesystem::path& path);
 
-/// Reads a .seq.mha file.
+/// Reads a .seq.mha or .seq.nrrd file. The NRRD form (PLUS's vtkPlusNrrdSequenceIO) has the
+/// NRRD fields (type, sizes with kinds "domain domain [domain] list", encoding raw or gzip) and
+/// the orientation (`ultrasound image orientation`) and frame fields as key/value pairs.
+/// The pixel data the header claims is checked against the file before it is allocated.
 /// \throws brainshift::Error, one line naming the file: not a MetaImage, a field missing or
 /// malformed (named, with the frame), an unsupported element type, channel count, orientation
 /// or dimension, truncated or corrupt pixel data.

@@ -171,6 +171,34 @@ TEST(PlusSequence, OrientationStatusAndBadFiles) {
   tests::expect_error([&] { (void)image_to_world(mf, "mf.seq.mha", std::nullopt); },
                       {"mf.seq.mha", "ProbeToTrackerTransform", "--calibration"});
 
+  // The same sweep as PLUS's NRRD sequence (gzip, stored UN) and as a compressed MetaImage
+  // sequence (CompressedData = True: zlib) reads the same.
+  tests::write_plus_sequence_nrrd(dir / "un.seq.nrrd", s, "UN");
+  const PlusSequence nrrd = read_plus_sequence(dir / "un.seq.nrrd");
+  EXPECT_TRUE(nrrd.pixels == mf.pixels);
+  ASSERT_EQ(nrrd.frames.size(), 4u);
+  EXPECT_TRUE(nrrd.frames[2].transforms.empty());
+  EXPECT_TRUE(
+      nrrd.frames[1].transforms.at("ProbeToTracker").isApprox(s.probe_to_tracker[1], 1e-12));
+  {
+    std::ifstream raw_in(dir / "mf.seq.mha", std::ios::binary);
+    std::string all_mha((std::istreambuf_iterator<char>(raw_in)), std::istreambuf_iterator<char>());
+    const auto at_data = all_mha.find("ElementDataFile = LOCAL\n") + 24;
+    std::string header = all_mha.substr(0, at_data);
+    header.replace(header.find("CompressedData = False"), 22, "CompressedData = True");
+    std::ofstream(dir / "z.seq.mha", std::ios::binary)
+        << header << tests::deflate_bytes(all_mha.substr(at_data), false);
+    EXPECT_TRUE(read_plus_sequence(dir / "z.seq.mha").pixels == mf.pixels);
+    // A header claiming far more pixels than the file can hold: refused before allocating.
+    std::string huge = header;
+    const auto dim_at = huge.find("DimSize = ");
+    huge.replace(dim_at, huge.find('\n', dim_at) - dim_at, "DimSize = 90000 90000 4");
+    std::ofstream(dir / "huge.seq.mha", std::ios::binary)
+        << huge << tests::deflate_bytes(all_mha.substr(at_data), false);
+    tests::expect_error([&] { read_plus_sequence(dir / "huge.seq.mha"); },
+                        {"huge.seq.mha", "deflate"});
+  }
+
   // The calibration recorded in every frame (ImageToProbeTransform) places the frames too.
   write_plus_sequence(dir / "cal.seq.mha", s, "MF", false, /*calibration_in_frames=*/true);
   const auto placed = image_to_world(read_plus_sequence(dir / "cal.seq.mha"), "cal", std::nullopt);
