@@ -7,7 +7,9 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -16,6 +18,7 @@
 #include <sstream>
 #include <string>
 #include <vector>
+#include <zlib.h>
 
 namespace brainshift::imaging {
 namespace {
@@ -283,6 +286,61 @@ TEST(ImageIoErrors, NonFiniteSpacingAndZeroSizeAreRefused) {
   ImageGeometry bad = oblique_geometry();
   bad.spacing[1] = std::numeric_limits<double>::infinity();
   expect_error([&] { write_volume(dir / "inf.nii", VolumeF(bad)); }, {"inf.nii", "spacing"});
+}
+
+/// A NIfTI-1 header (348 bytes + 4 of extension flag) claiming `dims` float32 voxels with
+/// spacing `pixdim`, written by hand (the fields at their offsets in nifti1.h).
+std::string nifti_header(std::array<std::int16_t, 3> dims, float pixdim) {
+  std::string h(352, '\0');
+  const auto put = [&](int at, const auto& v) { std::memcpy(h.data() + at, &v, sizeof v); };
+  put(0, std::int32_t(348));
+  put(40, std::int16_t(3));
+  for (int a = 0; a < 3; ++a) put(42 + 2 * a, dims[std::size_t(a)]);
+  put(70, std::int16_t(16));  // DT_FLOAT32
+  put(72, std::int16_t(32));  // bitpix
+  for (int a = 1; a <= 3; ++a) put(76 + 4 * a, pixdim);
+  put(108, 352.0f);  // vox_offset
+  std::memcpy(h.data() + 344, "n+1", 4);
+  return h;
+}
+
+TEST(ImageIoErrors, HostileHeadersAreRefusedBeforeAnyAllocation) {
+  // Issue 36: a header claiming 30000³ float voxels over 1 kB of data ended in std::bad_alloc;
+  // a small .nii.gz inflating to gigabytes was decompressed before its zero spacing was seen.
+  const tests::TempFolder dir;
+  write_text(dir / "huge.nii", nifti_header({30000, 30000, 30000}, 1.0f) + std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "huge.nii"); }, {"huge.nii", "claims", "GiB"});
+  write_text(dir / "short.nii", nifti_header({64, 64, 64}, 1.0f) + std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "short.nii"); }, {"short.nii", "truncated", "claims"});
+  const std::string zeros(4 << 20, '\0');  // 4 MiB of voxels: 64 × 128 × 128 floats
+  {
+    gzFile z = gzopen((dir / "zero_spacing.nii.gz").c_str(), "wb");
+    const std::string h = nifti_header({64, 128, 128}, 0.0f);
+    gzwrite(z, h.data(), unsigned(h.size()));
+    gzwrite(z, zeros.data(), unsigned(zeros.size()));
+    gzclose(z);
+  }
+  expect_error([&] { read_volume(dir / "zero_spacing.nii.gz"); },
+               {"zero_spacing.nii.gz", "pixdim[1]", "spacing"});
+  {  // 1.6 GB claimed from a few kB of gzip: more than deflate can hold.
+    gzFile z = gzopen((dir / "bomb.nii.gz").c_str(), "wb");
+    const std::string h = nifti_header({1000, 1000, 400}, 1.0f);
+    gzwrite(z, h.data(), unsigned(h.size()));
+    gzwrite(z, zeros.data(), 4096);
+    gzclose(z);
+  }
+  expect_error([&] { read_volume(dir / "bomb.nii.gz"); }, {"bomb.nii.gz", "deflate"});
+  // MetaImage: the header alone is read first.
+  write_text(dir / "huge.mha",
+             "ObjectType = Image\nNDims = 3\nDimSize = 30000 30000 30000\nElementType = "
+             "MET_FLOAT\nElementDataFile = LOCAL\n" +
+                 std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "huge.mha"); }, {"huge.mha", "claims"});
+  write_text(dir / "short.mha",
+             "ObjectType = Image\nNDims = 3\nDimSize = 64 64 64\nElementType = "
+             "MET_FLOAT\nElementDataFile = LOCAL\n" +
+                 std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "short.mha"); }, {"short.mha", "truncated"});
 }
 
 TEST(ImageIoHeaders, SinglePrecisionDirectionIsReorthonormalisedAndNoted) {
