@@ -190,6 +190,7 @@ constexpr RetiredKey kRetired[] = {
     {"global_start.max_points", kInternal},
     {"global_start.candidates", kInternal},
     {"global_start.min_gain", kInternal},
+    {"global_start.significance_block_mm", kInternal},
     {"global_start.refine_distance_mm", kInternal},
     {"global_start.loss_scale_mm", kInternal},
     {"global_start.refine_iterations", kInternal},

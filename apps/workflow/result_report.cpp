@@ -120,7 +120,9 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
       {"reason", r.start.ambiguity},
       {"runner_up_ratio", r.start.runner_up_ratio},
       {"runner_up_distance_mm", r.start.runner_up_distance_mm},
-      {"spread_mm", {r.start.spread_mm(0), r.start.spread_mm(1), r.start.spread_mm(2)}}};
+      {"spread_mm", {r.start.spread_mm(0), r.start.spread_mm(1), r.start.spread_mm(2)}},
+      {"gain_z", r.start.gain_z},
+      {"gain_blocks", r.start.gain_blocks}};
   j["timing"] = {{"rigid", r.seconds.rigid},
                  {"pairing", r.seconds.pairing},
                  {"free_motion", r.seconds.free_motion},

@@ -161,6 +161,8 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::pa
   report["message"] = g.message;
   report["ambiguous"] = g.ambiguous;
   report["ambiguity"] = g.ambiguity;
+  report["gain_z"] = g.gain_z;
+  report["gain_blocks"] = g.gain_blocks;
   report["model_from_intraop"] = matrix_json(g.transform.matrix());
   return g.transform;
 }

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <sstream>
 #include <vector>
@@ -40,6 +41,8 @@ std::string GlobalStartOptions::validate() const {
     os << "coarse_points, max_points, candidates must be ≥ 1; ";
   if (min_points < 3) os << "min_points must be ≥ 3; ";
   if (!(min_gain >= 1)) os << "min_gain must be ≥ 1; ";
+  if (!(significance_z >= 0) || !(significance_block_mm > 0))
+    os << "significance_z must be ≥ 0 and significance_block_mm > 0; ";
   if (!(loss_scale_mm > 0) || !(convergence_mm > 0))
     os << "loss_scale_mm and convergence_mm must be > 0; ";
   if (refine_iterations < 0 || solver_iterations < 1)
@@ -103,6 +106,15 @@ struct Search {
     for (Eigen::Index i = 0; i < fine.rows(); ++i)
       s += std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
     return s;
+  }
+  /// Each fine point's share of score(p).
+  [[nodiscard]] Eigen::VectorXd contributions(const Pose& p) const {
+    const Matrix3d R = rotation(p.w);
+    const double tf2 = o.fine_kernel_mm * o.fine_kernel_mm;
+    Eigen::VectorXd c(fine.rows());
+    for (Eigen::Index i = 0; i < fine.rows(); ++i)
+      c(i) = std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
+    return c;
   }
   /// RMS distance of the fine points within the coarse kernel, 0 when none.
   [[nodiscard]] double rms(const Pose& p) const {
@@ -454,6 +466,30 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
   // 4. Decision by the data score.
   res.rms_before_mm = S.rms(identity);
   res.accepted = best.score > o.min_gain * res.score_identity && best.score > 0;
+  // The gain must stand out of its own scatter: the points grouped in blocks of
+  // significance_block_mm (errors along a vessel are correlated within a block, not across), the
+  // blocks' mean gain over its standard error ≥ significance_z. Fewer than 4 blocks: not tested.
+  if (res.accepted && o.significance_z > 0) {
+    const Eigen::VectorXd g = S.contributions(best) - S.contributions(identity);
+    std::map<std::array<long, 3>, double> blocks;
+    for (Eigen::Index i = 0; i < S.fine.rows(); ++i) {
+      const Vector3d q = S.fine.row(i).transpose() / o.significance_block_mm;
+      blocks[{long(std::floor(q(0))), long(std::floor(q(1))), long(std::floor(q(2)))}] += g(i);
+    }
+    res.gain_blocks = static_cast<int>(blocks.size());
+    if (blocks.size() >= 4) {
+      double sum = 0, sum2 = 0;
+      for (const auto& [key, b] : blocks) {
+        sum += b;
+        sum2 += b * b;
+      }
+      const double n = double(blocks.size());
+      const double mean = sum / n;
+      const double sd = std::sqrt(std::max(0.0, (sum2 - n * mean * mean) / (n - 1)));
+      res.gain_z = sd > 0 ? mean / (sd / std::sqrt(n)) : std::numeric_limits<double>::infinity();
+      if (res.gain_z < o.significance_z) res.accepted = false;
+    }
+  }
   std::ostringstream os;
   os.setf(std::ios::fixed);
   os.precision(2);
@@ -496,7 +532,12 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
     res.score = res.score_identity;
     res.rms_after_mm = res.rms_before_mm;
     os << "identity kept: the best pose scores " << best.score << " vs " << res.score_identity
-       << " at the identity over " << res.points << " points (gain below " << o.min_gain << ")";
+       << " at the identity over " << res.points << " points (";
+    if (best.score > o.min_gain * res.score_identity && best.score > 0)
+      os << "gain " << res.gain_z << " standard errors over " << res.gain_blocks << " blocks of "
+         << o.significance_block_mm << " mm, below " << o.significance_z << ")";
+    else
+      os << "gain below " << o.min_gain << ")";
   }
   os << " (" << res.candidates << " candidates, " << res.refine_iterations << " refinement rounds)";
   res.message = os.str();

@@ -42,7 +42,8 @@
 ///    can trade a sag for a larger pose plus a bulk shift out of the brain (the phantoms, seed 3:
 ///    11.6 mm / 7.7° plus 3 mm upwards, where the truth is no offset and a 7 mm sag).
 /// 4. decision by the data score: the pose is kept when its fine score beats the identity's by
-///    `min_gain`; otherwise the identity is returned and the message says why. No motion cap.
+///    `min_gain` and when the gain is significant across blocks of points (significance_z);
+///    otherwise the identity is returned and the message says why. No motion cap.
 
 #include "core/config.hpp"
 #include "core/geometry/skeleton.hpp"
@@ -74,6 +75,13 @@ struct GlobalStartOptions {
   /// Keep the pose only when its score > min_gain × the identity's: a pose that matches hardly
   /// more points than no motion (noise, a flat score along a single vessel) is not worth moving.
   double min_gain = 1.05;
+  /// And only when the gain stands out of its own scatter: the fine points grouped in cubes of
+  /// significance_block_mm (errors along a vessel are correlated within a block), the blocks'
+  /// mean gain ≥ significance_z standard errors (one-sided ≈ 98 % at 2; 0: off). Fewer than
+  /// four blocks are not tested. A pose that only tilts the points by a centreline bias gains
+  /// little and unevenly; a navigation offset gains on every block.
+  double significance_z = 2.0;
+  double significance_block_mm = 10.0;
   double refine_distance_mm =
       3.0;                     ///< refinement pairs within this distance (mm); ≤ coarse_kernel_mm
   double loss_scale_mm = 1.0;  ///< Cauchy loss scale of the refinement (mm)
@@ -112,6 +120,9 @@ void visit_fields(GlobalStartOptions& o, V&& v) {
     "rotations searched, per axis (degrees)");
   v("min_points", o.min_points, core::Range{3, 1e6},
     "fewer vessel points: the identity, not accepted");
+  v("significance_z", o.significance_z, core::Range{0, 10},
+    "a searched pose is kept only when its score gain over the identity is this many standard "
+    "errors of the gain between 10 mm blocks of points (0: off)");
   v("bulk_response", o.bulk_response, "refine the bulk shift of the model's load response too");
   v("bulk_prior_mm", o.bulk_prior_mm, core::Range{1e-6, 1e6},
     "prior scale of the bulk shift: a shift this large costs as much as the robust loss's scale "
@@ -130,6 +141,8 @@ struct GlobalStartResult {
   bool bulk_accepted = false;   ///< |s| ≥ bulk_min_mm (else bulk_shift is zero)
   double score = 0.0;           ///< fine score at the result (kernel-weighted points)
   double score_identity = 0.0;  ///< fine score at the identity, s = 0
+  double gain_z = 0.0;          ///< the blocks' mean gain over its standard error (see options)
+  int gain_blocks = 0;          ///< blocks of significance_block_mm holding points
   double translation_mm = 0.0;  ///< motion of the centroid under transform (mm)
   double rotation_deg = 0.0;    ///< rotation angle of transform (degrees)
   int points = 0;               ///< points scored by the fine stage

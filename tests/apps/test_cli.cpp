@@ -182,20 +182,20 @@ TEST(Cli, DemoRunsTheWholeWorkflowAndCorrectsMostOfTheShift) {
   EXPECT_EQ(report["intraop"]["pre_dura"]["source"], "pose_file") << report["intraop"].dump();
   const auto ev = nlohmann::json::parse(read_all(out / "result" / "evaluation.json"));
   // The phantom's mean landmark shift is ≈ 7 mm; the registration must remove at least half of
-  // it (measured on seed 1: 7.23 → 1.17 mm, 84 %).
+  // it (measured on seed 1: 7.23 → 0.99 mm, 86 %).
   EXPECT_GT(ev["tre_before_mm"]["mean"].get<double>(), 5.0);
   EXPECT_LT(ev["tre_after_mm"]["mean"].get<double>(),
             0.5 * ev["tre_before_mm"]["mean"].get<double>());
   EXPECT_GT(ev["shift_corrected_pct"].get<double>(), 50.0);
-  // Over the whole brain (2000 points of the phantom's own truth field, not our model) the
-  // two-sweep result must be better than no registration by a clear margin: at most 0.8× the
-  // error before (measured 4.16 → 2.69 mm, 0.65×; one sweep alone is 9.32 mm, worse than none).
+  // Over the whole brain (2000 points of the phantom's own truth field, a neo-Hookean model on
+  // its own mesh, not ours) the two-sweep result meets issue 32's bar: ≤ 1.2 mm mean on
+  // `standard` (measured 4.16 → 1.13 mm; the true pose, the identity, gives 1.13 too; before the
+  // pose's significance test the pre-dura sweep's 3° tilt gave 2.69; one sweep alone 9.32).
   ASSERT_TRUE(ev.contains("whole_brain_after_mm")) << ev.dump();
   EXPECT_GE(ev["whole_brain_points"].get<int>(), 1000);
-  EXPECT_LT(ev["whole_brain_after_mm"]["mean"].get<double>(),
-            0.8 * ev["whole_brain_before_mm"]["mean"].get<double>())
+  EXPECT_LE(ev["whole_brain_after_mm"]["mean"].get<double>(), 1.2)
       << ev["whole_brain_after_mm"].dump();
-  // A visible deformation: the model's own, not the rigid start alone (measured 11.3 mm; the
+  // A visible deformation: the model's own, not the rigid start alone (measured 15.7 mm; the
   // phantom's cortical shift is 10 mm at most).
   EXPECT_GT(report["max_displacement_mm"].get<double>(), 3.0);
 }

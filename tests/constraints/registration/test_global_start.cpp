@@ -78,6 +78,19 @@ TEST(GlobalStart, NoOffsetMeansNoMotion) {
   EXPECT_TRUE(r.transform.matrix().allFinite());
 }
 
+TEST(GlobalStart, ANavigationOffsetGainsOnEveryBlock) {
+  // The significance rule (significance_z) must not cost a real offset: a 6 mm / 2° offset of
+  // the cortical tree gains on every block of points, far beyond 2 standard errors.
+  const core::Skeleton tree = cortical_tree(1);
+  const MatrixX3d pts = sample(tree, 1.0, 0.3, 6);
+  const Eigen::Isometry3d O = offset(6.0, 2.0, pts.colwise().mean().transpose());
+  const MatrixX3d intra = apply(O, pts);
+  const GlobalStartResult r = global_start(tree, intra, {}, GlobalStartOptions{});
+  ASSERT_TRUE(r.accepted) << r.message;
+  EXPECT_LT(max_error(r.transform, O.inverse(), intra), tol_mm) << r.message;
+  EXPECT_GT(r.gain_z, 4.0) << r.message;
+}
+
 TEST(GlobalStart, ThirtyPercentOutliersDoNotBreakIt) {
   const core::Skeleton tree = cortical_tree(2);
   MatrixX3d pts = sample(tree, 1.0, 0.3, 7);
