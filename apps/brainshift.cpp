@@ -76,6 +76,7 @@
 #include "cmd_replay.hpp"
 #include "cmd_simulate.hpp"
 
+#include "apps/workflow/user_error.hpp"
 #include "core/blas_threads.hpp"
 #include "core/error.hpp"
 #include "core/process_memory.hpp"
@@ -160,11 +161,8 @@ int main(int argc, char** argv) {
       return apps::run_extract_vessels(extract_vessels_args, std::cout);
     if (extract_footprint->parsed())
       return apps::run_extract_footprint(extract_footprint_args, std::cout);
-  } catch (const brainshift::Error& e) {
-    std::cerr << "brainshift: error: " << e.what() << '\n';
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "brainshift: error: " << e.what() << '\n';
+  } catch (const std::exception& e) {  // one line, never the library's own text
+    std::cerr << "brainshift: error: " << brainshift::workflow::user_message(e) << '\n';
     return 1;
   }
   return 1;  // unreachable: require_subcommand(1)

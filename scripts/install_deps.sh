@@ -11,6 +11,7 @@ PACKAGES=(
   libopenblas-pthread-dev  # the BLAS under CHOLMOD: 2-3x ATLAS's speed (cmake/deps/blas.cmake)
   libcgal-dev            # meshing, spatial queries
   libgdcm-dev            # DICOM series in and out (imaging/io/dicom_io.cpp)
+  libgdcm-tools          # gdcminfo, gdcmdump: GDCM's CMake package names them (no warnings)
   dcmtk                  # tests: dcmdump reads our DICOM series back (an independent reader)
   libopencv-dev          # 2-D image work, overlays
   libvtk9-dev            # medical image and mesh I/O

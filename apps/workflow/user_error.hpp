@@ -1,0 +1,21 @@
+#pragma once
+/// @file
+/// @brief The one-line error a command prints for any failure (issue 36 item 2): brainshift's
+/// own errors as they are (they name the file and the problem); the standard library's turned
+/// into the same contract, without its implementation's text (`std::bad_alloc`,
+/// "filesystem error: …").
+
+#include <exception>
+#include <string>
+
+namespace brainshift::workflow {
+
+/// The message after "brainshift: error: " for `e`, one line, at most 300 characters:
+/// - brainshift::Error: its text;
+/// - std::filesystem::filesystem_error: "PATH: PROBLEM" (the operating system's words for the
+///   error code, e.g. "No such file or directory"), with the second path when there is one;
+/// - std::bad_alloc: "out of memory: ..." with what to try;
+/// - anything else: "internal error: TEXT" (a bug to report), newlines folded.
+std::string user_message(const std::exception& e);
+
+}  // namespace brainshift::workflow

@@ -1,0 +1,24 @@
+#pragma once
+/// @file
+/// @brief Checks of a volume file's header before its data are read or allocated (issue 36
+/// item 1): what the header claims against a memory ceiling and against the file itself.
+
+#include <string>
+
+namespace brainshift::imaging {
+
+/// The most bytes of voxel data a header may claim: the environment's BRAINSHIFT_MAX_VOLUME_GB
+/// (GiB, default 4).
+double max_volume_bytes();
+
+/// \throws brainshift::Error naming `file` when the `claimed` bytes of voxel data exceed
+/// max_volume_bytes(), or the file: raw data, the bytes after `offset`; compressed data,
+/// deflate's largest ratio (1032:1) times the file's size.
+void verify_claimed_bytes(const std::string& file, double claimed, double offset, bool compressed);
+
+/// NIfTI-1: the 348-byte header (through zlib for .nii.gz) — dimensions, bitpix, the spacing
+/// (finite, non-zero) and the data it claims — before VTK reads anything. NIfTI-2 is left to VTK.
+/// \throws brainshift::Error, one line naming the file and the field.
+void verify_nifti_header(const std::string& file);
+
+}  // namespace brainshift::imaging
