@@ -12,14 +12,17 @@ namespace {
 std::string one_line(std::string s, std::size_t limit = 300) {
   for (char& c : s)
     if (c == '\n' || c == '\r' || c == '\t') c = ' ';
-  if (s.size() > limit) s = s.substr(0, limit - 3) + "...";
+  if (limit != std::string::npos && s.size() > limit) s = s.substr(0, limit - 3) + "...";
   return s;
 }
 
 }  // namespace
 
 std::string user_message(const std::exception& e) {
-  if (dynamic_cast<const brainshift::Error*>(&e) != nullptr) return one_line(e.what());
+  // Ours name the file and the problem, some with the choices (an unknown key lists the known
+  // ones): whole, on one line.
+  if (dynamic_cast<const brainshift::Error*>(&e) != nullptr)
+    return one_line(e.what(), std::string::npos);
   if (const auto* f = dynamic_cast<const std::filesystem::filesystem_error*>(&e)) {
     std::string where = f->path1().string();
     if (!f->path2().empty()) where += " -> " + f->path2().string();

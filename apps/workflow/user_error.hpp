@@ -10,8 +10,10 @@
 
 namespace brainshift::workflow {
 
-/// The message after "brainshift: error: " for `e`, one line, at most 300 characters:
-/// - brainshift::Error: its text;
+/// The message after "brainshift: error: " for `e`, on one line:
+/// - brainshift::Error: its text, whole (it names the file and the problem, and may list the
+///   valid choices);
+/// and the others at most 300 characters:
 /// - std::filesystem::filesystem_error: "PATH: PROBLEM" (the operating system's words for the
 ///   error code, e.g. "No such file or directory"), with the second path when there is one;
 /// - std::bad_alloc: "out of memory: ..." with what to try;
