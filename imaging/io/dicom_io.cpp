@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "imaging/io/image_frame.hpp"
+#include "imaging/io/text_util.hpp"
 
 #include <algorithm>
 #include <array>
@@ -17,7 +18,6 @@
 #include <gdcmFile.h>
 #include <gdcmImage.h>
 #include <gdcmImageReader.h>
-#include <gdcmReader.h>
 #include <gdcmScanner.h>
 #include <gdcmTag.h>
 #include <gdcmTrace.h>
@@ -31,11 +31,6 @@ namespace brainshift::imaging {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string lower(std::string s) {
-  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 /// A string element's value without DICOM's padding (trailing spaces and NULs); "" if absent.
 std::string text(const gdcm::DataSet& ds, std::uint16_t group, std::uint16_t element) {
@@ -71,7 +66,26 @@ struct Slice {
   std::vector<float> values;
 };
 
-Slice read_slice(const std::string& file) {
+/// The source's identity from one of its files (the series UID comes from the scan).
+void fill_info(const gdcm::DataSet& ds, DicomSeriesInfo& info) {
+  info.patient_name = text(ds, 0x0010, 0x0010);
+  info.patient_id = text(ds, 0x0010, 0x0020);
+  info.patient_birth_date = text(ds, 0x0010, 0x0030);
+  info.patient_sex = text(ds, 0x0010, 0x0040);
+  info.study_instance_uid = text(ds, 0x0020, 0x000d);
+  info.study_date = text(ds, 0x0008, 0x0020);
+  info.study_time = text(ds, 0x0008, 0x0030);
+  info.study_id = text(ds, 0x0020, 0x0010);
+  info.accession_number = text(ds, 0x0008, 0x0050);
+  info.study_description = text(ds, 0x0008, 0x1030);
+  info.frame_of_reference_uid = text(ds, 0x0020, 0x0052);
+  info.series_description = text(ds, 0x0008, 0x103e);
+  info.modality = text(ds, 0x0008, 0x0060);
+  const std::string number = text(ds, 0x0020, 0x0011);
+  info.series_number = number.empty() ? 0 : std::atoi(number.c_str());
+}
+
+Slice read_slice(const std::string& file, DicomSeriesInfo* info = nullptr) {
   // GDCM's own notes (e.g. on the Modality LUT of MR images, which we apply ourselves) would
   // reach stderr; errors still come back as a failed read.
   gdcm::Trace::WarningOff();
@@ -80,6 +94,7 @@ Slice read_slice(const std::string& file) {
   BS_VERIFY(reader.Read(), file << ": not a DICOM image GDCM can decode");
   const gdcm::Image& image = reader.GetImage();
   const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
+  if (info) fill_info(ds, *info);
   Slice s;
   s.file = file;
   BS_VERIFY(image.GetNumberOfDimensions() == 2 ||
@@ -233,7 +248,7 @@ void put_us(gdcm::DataSet& ds, std::uint16_t group, std::uint16_t element, std::
 bool is_dicom_path(const std::filesystem::path& path) {
   std::error_code ec;
   if (fs::is_directory(path, ec)) return true;
-  const std::string ext = lower(path.extension().string());
+  const std::string ext = lower_case(path.extension().string());
   if (ext == ".dcm" || ext == ".ima") return true;
   if (!path.extension().empty()) return false;
   std::ifstream in(path, std::ios::binary);
@@ -246,7 +261,8 @@ VolumeF read_dicom_series(const std::filesystem::path& path, DicomSeriesInfo* in
   const std::vector<std::string> files = series_files(path, info);
   std::vector<Slice> slices;
   slices.reserve(files.size());
-  for (const std::string& f : files) slices.push_back(read_slice(f));
+  for (const std::string& f : files)
+    slices.push_back(read_slice(f, slices.empty() ? info : nullptr));
 
   const Slice& first = slices.front();
   const Vector3d row(first.orientation[0], first.orientation[1], first.orientation[2]);
@@ -300,27 +316,6 @@ VolumeF read_dicom_series(const std::filesystem::path& path, DicomSeriesInfo* in
     std::copy(slices[k].values.begin(), slices[k].values.end(),
               volume.data.begin() + std::ptrdiff_t(k * per_slice));
 
-  if (info) {
-    gdcm::Reader reader;
-    reader.SetFileName(slices.front().file.c_str());
-    BS_VERIFY(reader.Read(), slices.front().file << ": cannot read the DICOM header");
-    const gdcm::DataSet& ds = reader.GetFile().GetDataSet();
-    info->patient_name = text(ds, 0x0010, 0x0010);
-    info->patient_id = text(ds, 0x0010, 0x0020);
-    info->patient_birth_date = text(ds, 0x0010, 0x0030);
-    info->patient_sex = text(ds, 0x0010, 0x0040);
-    info->study_instance_uid = text(ds, 0x0020, 0x000d);
-    info->study_date = text(ds, 0x0008, 0x0020);
-    info->study_time = text(ds, 0x0008, 0x0030);
-    info->study_id = text(ds, 0x0020, 0x0010);
-    info->accession_number = text(ds, 0x0008, 0x0050);
-    info->study_description = text(ds, 0x0008, 0x1030);
-    info->frame_of_reference_uid = text(ds, 0x0020, 0x0052);
-    info->series_description = text(ds, 0x0008, 0x103e);
-    info->modality = text(ds, 0x0008, 0x0060);
-    const std::string number = text(ds, 0x0020, 0x0011);
-    info->series_number = number.empty() ? 0 : std::atoi(number.c_str());
-  }
   return volume;
 }
 

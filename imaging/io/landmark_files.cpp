@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/text_util.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -22,21 +23,9 @@ namespace {
 /// A landmark file is a few kB; anything near this is not one (and is not read into memory).
 constexpr std::uintmax_t max_landmark_file_bytes = 64ULL << 20;
 
-std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return s;
-}
-
 bool ends_with(const std::string& s, std::string_view suffix) {
   return s.size() >= suffix.size() &&
          s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
-std::string_view trim(std::string_view s) {
-  const auto first = s.find_first_not_of(" \t\r\n");
-  if (first == std::string_view::npos) return {};
-  return s.substr(first, s.find_last_not_of(" \t\r\n") - first + 1);
 }
 
 std::string read_text(const std::filesystem::path& path) {
@@ -299,7 +288,7 @@ Landmarks read_fcsv(const std::filesystem::path& path) {
       const std::string_view body = trim(l.substr(1));
       const auto eq = body.find('=');
       if (eq == std::string_view::npos) continue;
-      const std::string key = lower(std::string(trim(body.substr(0, eq))));
+      const std::string key = lower_case(std::string(trim(body.substr(0, eq))));
       const std::string_view value = trim(body.substr(eq + 1));
       if (key == "coordinatesystem") {
         BS_VERIFY(value == "LPS" || value == "RAS" || value == "0" || value == "1",
@@ -342,13 +331,13 @@ Landmarks read_fcsv(const std::filesystem::path& path) {
 }  // namespace
 
 bool is_landmark_file(const std::filesystem::path& path) {
-  const std::string name = lower(path.filename().string());
+  const std::string name = lower_case(path.filename().string());
   return ends_with(name, ".csv") || ends_with(name, ".tag") || ends_with(name, ".mrk.json") ||
          ends_with(name, ".fcsv");
 }
 
 Landmarks read_landmark_file(const std::filesystem::path& path, TagVolume volume) {
-  const std::string name = lower(path.filename().string());
+  const std::string name = lower_case(path.filename().string());
   if (ends_with(name, ".csv")) return read_landmarks(path);
   if (ends_with(name, ".tag")) return read_tag(path, volume);
   if (ends_with(name, ".mrk.json")) return read_markups_json(path);

@@ -1,6 +1,7 @@
 #include "imaging/io/plus_sequence.hpp"
 
 #include "core/error.hpp"
+#include "imaging/io/text_util.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -16,18 +17,6 @@
 
 namespace brainshift::imaging {
 namespace {
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t\r\n");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t\r\n");
-  return s.substr(b, e - b + 1);
-}
-
-std::string lower_case(std::string s) {
-  for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 std::vector<double> parse_numbers(const std::string& text, const std::string& file,
                                   const std::string& field) {
@@ -111,8 +100,8 @@ SequenceHeader metaimage_header(std::istream& in, const std::string& file) {
               file << ": not a MetaImage sequence header (line " << n + 1 << ": '"
                    << line.substr(0, 60) << "')");
     if (eq == std::string::npos) continue;
-    const std::string key = trim(line.substr(0, eq));
-    const std::string value = trim(line.substr(eq + 1));
+    const std::string key = std::string(trim(line.substr(0, eq)));
+    const std::string value = std::string(trim(line.substr(eq + 1)));
     if (n == 0)
       BS_VERIFY(key == "ObjectType" || key == "NDims",
                 file << ": not a MetaImage file (first line '" << line.substr(0, 60) << "')");
@@ -191,13 +180,14 @@ SequenceHeader nrrd_header(std::istream& in, const std::string& file) {
     }
     if (line[0] == '#') continue;
     if (const auto kv = line.find(":="); kv != std::string::npos) {
-      h.fields[trim(line.substr(0, kv))] = trim(line.substr(kv + 2));
+      h.fields[std::string(trim(line.substr(0, kv)))] = std::string(trim(line.substr(kv + 2)));
       continue;
     }
     const auto colon = line.find(':');
     BS_VERIFY(colon != std::string::npos,
               file << ": bad NRRD header line " << n + 1 << " '" << line.substr(0, 60) << "'");
-    nrrd[lower_case(trim(line.substr(0, colon)))] = trim(line.substr(colon + 1));
+    nrrd[lower_case(std::string(trim(line.substr(0, colon))))] =
+        std::string(trim(line.substr(colon + 1)));
   }
   BS_VERIFY(ended, file << ": NRRD header ends without data (truncated file)");
   const auto field = [&](const std::string& key) -> const std::string& {

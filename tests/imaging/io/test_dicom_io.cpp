@@ -3,6 +3,7 @@
 // 1e-4 mm").
 #include "expect_error.hpp"
 #include "temp_folder.hpp"
+#include "tests/imaging/io/oblique_grid.hpp"
 
 #include "imaging/io/dicom_io.hpp"
 #include "imaging/io/image_io.hpp"
@@ -33,17 +34,7 @@ using tests::expect_error;
 /// digits (≤ 16 characters), so ~1e-8 mm on coordinates ≲ 1000 mm.
 constexpr double geometry_tolerance = 1e-4;
 
-ImageGeometry oblique_geometry(bool left_handed = false) {
-  ImageGeometry g;
-  g.size = {7, 5, 4};
-  g.spacing = {0.8, 1.1, 2.5};
-  g.origin = {-31.5, 12.25, 70.0};
-  g.direction = (Eigen::AngleAxisd(0.3, Vector3d::UnitZ()) *
-                 Eigen::AngleAxisd(-0.2, Vector3d(1, 1, 0).normalized()))
-                    .toRotationMatrix();
-  if (left_handed) g.direction.col(2) *= -1.0;
-  return g;
-}
+using test_grids::oblique_geometry;
 
 VolumeF random_volume(const ImageGeometry& g, bool integral, unsigned seed = 1) {
   VolumeF v(g, 1);

@@ -1,5 +1,6 @@
 #include "expect_error.hpp"
 #include "temp_folder.hpp"
+#include "tests/imaging/io/oblique_grid.hpp"
 
 #include "imaging/io/image_frame.hpp"
 #include "imaging/io/image_io.hpp"
@@ -28,18 +29,7 @@ using tests::expect_error;
 /// NIfTI stores its sform in float32: ~1e-7 relative, so 1e-5 mm on coordinates ≲ 100 mm.
 constexpr double header_tolerance = 1e-5;
 
-/// An oblique, anisotropic, off-centre grid (so that no axis or sign mix-up can pass).
-ImageGeometry oblique_geometry(bool left_handed = false) {
-  ImageGeometry g;
-  g.size = {7, 5, 4};
-  g.spacing = {0.8, 1.1, 2.5};
-  g.origin = {-31.5, 12.25, 70.0};
-  g.direction = (Eigen::AngleAxisd(0.3, Vector3d::UnitZ()) *
-                 Eigen::AngleAxisd(-0.2, Vector3d(1, 1, 0).normalized()))
-                    .toRotationMatrix();
-  if (left_handed) g.direction.col(2) *= -1.0;
-  return g;
-}
+using test_grids::oblique_geometry;
 
 VolumeF random_volume(const ImageGeometry& g, int components, unsigned seed = 1) {
   VolumeF v(g, components);
