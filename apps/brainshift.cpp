@@ -19,6 +19,11 @@
 //   brainshift replay --model MODEL --sequence DIR
 //                     [--pre-dura P.nii.gz | --pre-dura-pose POSE.json] --out RES
 //       Every DIR/frame_*/ in order, warm-started; latency summary in RES/replay.json.
+//   brainshift serve --model MODEL [--mri M.nii.gz] [--pre-dura-pose POSE.json] --out DIR
+//                    (--listen [PORT] | --connect HOST:PORT)
+//       Registrations over OpenIGTLink: Doppler / BMode / PreDuraDoppler IMAGEs in; STATUS,
+//       TRANSFORM IntraopToPreop, POLYDATA, IMAGE WarpedMRI, STRING BrainshiftReport out;
+//       DIR/frame_NNNN/ as register's RES. Until SIGINT / SIGTERM.
 //   brainshift evaluate --result RES --landmarks-pre A.csv --landmarks-intra B.csv
 //                       [--surface-pre S.vtp --surface-intra T.vtp]
 //       TRE before/after, shift corrected, Hausdorff percentiles; RES/evaluation.json.
@@ -74,6 +79,7 @@
 #include "cmd_reconstruct.hpp"
 #include "cmd_register.hpp"
 #include "cmd_replay.hpp"
+#include "cmd_serve.hpp"
 #include "cmd_simulate.hpp"
 
 #include "apps/workflow/user_error.hpp"
@@ -105,6 +111,8 @@ int main(int argc, char** argv) {
   const CLI::App* pre_dura = apps::add_pre_dura_command(app, pre_dura_args);
   apps::ReplayArgs replay_args;
   const CLI::App* replay = apps::add_replay_command(app, replay_args);
+  apps::ServeArgs serve_args;
+  const CLI::App* serve = apps::add_serve_command(app, serve_args);
   apps::EvaluateArgs evaluate_args;
   const CLI::App* evaluate = apps::add_evaluate_command(app, evaluate_args);
   apps::ExportDicomArgs export_dicom_args;
@@ -139,8 +147,8 @@ int main(int argc, char** argv) {
   // reuse freed memory instead of faulting in fresh pages for each (core/process_memory.hpp).
   // Not for the long or heavy ones (bench, prepare), whose peak heap would be kept.
   // They also run their own two threads on small models: one BLAS thread (core/blas_threads.hpp).
-  if (reg->parsed() || replay->parsed() || pre_dura->parsed() || extract_vessels->parsed() ||
-      extract_footprint->parsed()) {
+  if (reg->parsed() || replay->parsed() || serve->parsed() || pre_dura->parsed() ||
+      extract_vessels->parsed() || extract_footprint->parsed()) {
     (void)brainshift::core::keep_freed_memory_for_reuse();
     (void)brainshift::core::one_blas_thread_unless_set();
   }
@@ -154,6 +162,7 @@ int main(int argc, char** argv) {
     if (export_dicom->parsed()) return apps::run_export_dicom(export_dicom_args, std::cout);
     if (reconstruct->parsed()) return apps::run_reconstruct(reconstruct_args, std::cout);
     if (replay->parsed()) return apps::run_replay(replay_args, std::cout);
+    if (serve->parsed()) return apps::run_serve(serve_args, std::cout);
     if (evaluate->parsed()) return apps::run_evaluate(evaluate_args, std::cout);
     if (bench->parsed()) return apps::run_bench(bench_args, std::cout);
     if (options->parsed()) return apps::run_options(options_args, std::cout);

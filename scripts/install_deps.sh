@@ -21,8 +21,10 @@ PACKAGES=(
   libspdlog-dev libfmt-dev   # logging
   nlohmann-json3-dev     # JSON reports, scenes
   libcli11-dev           # command line
+  libopenigtlink-dev     # brainshift serve: OpenIGTLink server for Slicer, client of PLUS
   zlib1g-dev
   libisal-dev            # optional: ISA-L's igzip, ~4x faster .nii.gz writing than zlib
+  python3                # tests: the OpenIGTLink test client (tests/apps/igtl_client.py), written from the protocol
   calculix-ccx           # independent FEM reference for verification tests
   elastix                # the bench's image-registration peer (bench --elastix; not linked)
   gnuplot-nox            # benchmark plots

@@ -14,8 +14,12 @@ namespace brainshift::tests {
 class TempFolder {
  public:
   TempFolder() {
+    // Outside a test (a suite's SetUpTestSuite) there is no current test: the suite's name.
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    std::string name = std::string("brainshift_") + info->test_suite_name() + "_" + info->name() +
+    const auto* suite = ::testing::UnitTest::GetInstance()->current_test_suite();
+    std::string name = std::string("brainshift_") +
+                       (info ? std::string(info->test_suite_name()) + "_" + info->name()
+                             : std::string(suite ? suite->name() : "setup")) +
                        "_" + std::to_string(::getpid());
     for (char& c : name)
       if (c == '/') c = '_';

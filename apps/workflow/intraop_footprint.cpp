@@ -22,14 +22,18 @@ nlohmann::json number_or_null(double v) {
 
 IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
                                       const std::optional<Vector3d>& direction) {
-  const imaging::VolumeF b = imaging::read_volume(bmode);
-  BS_VERIFY(b.components == 1, bmode.string() << ": expected a scalar B-mode volume, got "
-                                              << b.components << " components");
+  return footprint_from_bmode(imaging::read_volume(bmode), bmode.string(), direction);
+}
+
+IntraopFootprint footprint_from_bmode(const imaging::VolumeF& b, const std::string& bmode,
+                                      const std::optional<Vector3d>& direction) {
+  BS_VERIFY(b.components == 1,
+            bmode << ": expected a scalar B-mode volume, got " << b.components << " components");
   imaging::FreehandFootprint r;
   try {
     r = imaging::extract_freehand_footprint(b, direction);
   } catch (const Error& e) {
-    throw Error(bmode.string() + ": " + e.what(), e.where());
+    throw Error(bmode + ": " + e.what(), e.where());
   }
   IntraopFootprint f;
   f.found = r.footprint.status == imaging::FootprintStatus::OK;
@@ -39,7 +43,7 @@ IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
   const double deepest = r.face_distance_mm.empty() ? 0.0
                                                     : *std::max_element(r.face_distance_mm.begin(),
                                                                         r.face_distance_mm.end());
-  f.report = {{"file", bmode.string()},
+  f.report = {{"file", bmode},
               {"status", f.found ? "ok" : "no_band"},
               {"message", r.footprint.message},
               {"points", r.footprint.points.rows()},

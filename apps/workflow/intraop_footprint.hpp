@@ -7,6 +7,7 @@
 /// do), or the direction is given (from the tracked probe: world RAS, into the tissue).
 
 #include "core/config.hpp"
+#include "imaging/io/volume.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -32,6 +33,9 @@ struct IntraopFootprint {
 /// swept (non-zero) region. No band found is not an error here: no points, and the report says
 /// why (`extract footprint` makes it one).
 IntraopFootprint footprint_from_bmode(const std::filesystem::path& bmode,
+                                      const std::optional<Vector3d>& direction = {});
+/// The same from a volume in memory (e.g. received over OpenIGTLink); `name` stands for the file.
+IntraopFootprint footprint_from_bmode(const imaging::VolumeF& bmode, const std::string& name,
                                       const std::optional<Vector3d>& direction = {});
 
 }  // namespace brainshift::workflow

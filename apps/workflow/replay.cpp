@@ -23,13 +23,22 @@ double latency_percentile(const std::vector<double>& v, double p) {
   return v.empty() ? 0.0 : imaging::percentile(v, p);
 }
 
+/// folder/stem+ext for the first extension present, else with the last one (named in the error).
+std::filesystem::path first_present(const std::filesystem::path& folder, const std::string& stem,
+                                    const std::vector<std::string>& extensions) {
+  for (const std::string& e : extensions)
+    if (std::filesystem::exists(folder / (stem + e))) return folder / (stem + e);
+  return folder / (stem + extensions.back());
+}
+
 }  // namespace
 
 ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress) {
   std::error_code ec;
   BS_VERIFY(std::filesystem::is_directory(args.sequence, ec), args.sequence.string()
                                                                   << ": no such folder");
-  // The sweeps: frame_*/ folders (doppler.nii.gz, or doppler.seq.mha, optional bmode.nii.gz),
+  // The sweeps: frame_*/ folders (doppler.nii.gz, doppler.seq.mha or doppler.nrrd — as `serve`
+  // records what it received — optional bmode.nii.gz or bmode.nrrd),
   // else the folder's PLUS sequence files (*.seq.mha, *.seq.nrrd; one sweep each), in name order.
   std::vector<std::filesystem::path> frames;
   for (const auto& e : std::filesystem::directory_iterator(args.sequence, ec))
@@ -77,11 +86,9 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
       progress.stage(name);
       nlohmann::json entry = {{"frame", name}};
       try {
-        const std::filesystem::path bmode = f / "bmode.nii.gz";
-        const std::filesystem::path doppler = sweep_file ? f
-                                              : std::filesystem::exists(f / "doppler.seq.mha")
-                                                  ? f / "doppler.seq.mha"
-                                                  : f / "doppler.nii.gz";
+        const std::filesystem::path bmode = first_present(f, "bmode", {".nii.gz", ".nrrd"});
+        const std::filesystem::path doppler =
+            sweep_file ? f : first_present(f, "doppler", {".seq.mha", ".nrrd", ".nii.gz"});
         IntraopInputs in = read_intraop(s, doppler,
                                         !sweep_file && std::filesystem::exists(bmode)
                                             ? std::optional<std::filesystem::path>(bmode)

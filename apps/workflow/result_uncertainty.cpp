@@ -11,29 +11,12 @@
 namespace brainshift::workflow {
 namespace {
 
-/// Centroid (mm, model frame) of the tetrahedra whose Young's modulus is the manifest's tumour
-/// modulus (and differs from the brain's); nullopt without such tetrahedra.
+/// Centroid (mm, model frame) of the tumour's tetrahedra (tumour_tets()); nullopt without any.
 std::optional<Vector3d> tumour_centroid(const Session& s) {
-  const nlohmann::json& m = s.loaded.manifest;
-  if (!m.contains("materials") || !m["materials"].contains("tumour")) return std::nullopt;
-  const nlohmann::json& t = m["materials"]["tumour"];
-  if (!t.contains("youngs_modulus_kpa") || !t["youngs_modulus_kpa"].is_number())
-    return std::nullopt;
-  const double e_tumour = t["youngs_modulus_kpa"].get<double>();
-  if (m["materials"].contains("brain") && m["materials"]["brain"].contains("youngs_modulus_kpa") &&
-      m["materials"]["brain"]["youngs_modulus_kpa"].is_number() &&
-      std::abs(m["materials"]["brain"]["youngs_modulus_kpa"].get<double>() - e_tumour) <=
-          1e-9 * std::abs(e_tumour))
-    return std::nullopt;  // the same modulus: the tumour cannot be told apart
   const core::TetMesh& mesh = s.model->mesh();
   Vector3d sum = Vector3d::Zero();
   double volume = 0.0;
-  for (index_t e = 0; e < mesh.num_tets(); ++e) {
-    const double ye = mesh.youngs_modulus()[e];
-    // Stored in kPa or Pa depending on the scene's unit: accept either.
-    if (std::abs(ye - e_tumour) > 1e-6 * std::abs(e_tumour) &&
-        std::abs(ye - 1e3 * e_tumour) > 1e-3 * std::abs(e_tumour))
-      continue;
+  for (const index_t e : tumour_tets(s)) {
     const double v = std::abs(mesh.signed_volume(e));
     sum += v * mesh.tet_nodes(e).colwise().mean().transpose();
     volume += v;
@@ -43,6 +26,29 @@ std::optional<Vector3d> tumour_centroid(const Session& s) {
 }
 
 }  // namespace
+
+std::vector<index_t> tumour_tets(const Session& s) {
+  const nlohmann::json& m = s.loaded.manifest;
+  if (!m.contains("materials") || !m["materials"].contains("tumour")) return {};
+  const nlohmann::json& t = m["materials"]["tumour"];
+  if (!t.contains("youngs_modulus_kpa") || !t["youngs_modulus_kpa"].is_number()) return {};
+  const double e_tumour = t["youngs_modulus_kpa"].get<double>();
+  if (m["materials"].contains("brain") && m["materials"]["brain"].contains("youngs_modulus_kpa") &&
+      m["materials"]["brain"]["youngs_modulus_kpa"].is_number() &&
+      std::abs(m["materials"]["brain"]["youngs_modulus_kpa"].get<double>() - e_tumour) <=
+          1e-9 * std::abs(e_tumour))
+    return {};  // the same modulus: the tumour cannot be told apart
+  const core::TetMesh& mesh = s.model->mesh();
+  std::vector<index_t> tets;
+  for (index_t e = 0; e < mesh.num_tets(); ++e) {
+    const double ye = mesh.youngs_modulus()[e];
+    // Stored in kPa or Pa depending on the scene's unit: accept either.
+    if (std::abs(ye - e_tumour) <= 1e-6 * std::abs(e_tumour) ||
+        std::abs(ye - 1e3 * e_tumour) <= 1e-3 * std::abs(e_tumour))
+      tets.push_back(e);
+  }
+  return tets;
+}
 
 ResultUncertainty compute_result_uncertainty(const Session& s,
                                              const constraints::RegistrationResult& r) {

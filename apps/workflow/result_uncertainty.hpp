@@ -15,7 +15,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include <vector>
+
 namespace brainshift::workflow {
+
+/// The tetrahedra of the tumour: those whose Young's modulus is the manifest's tumour modulus
+/// (model.json → materials.tumour; in kPa or Pa), none when it equals the brain's or is absent.
+std::vector<index_t> tumour_tets(const Session& s);
 
 struct ResultUncertainty {
   bool computed = false;  ///< false: skipped (replay --uncertainty); nothing below is set

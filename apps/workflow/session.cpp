@@ -86,9 +86,18 @@ Session open_session(const std::filesystem::path& model_dir) {
 DopplerExtraction extract_doppler(const std::filesystem::path& doppler,
                                   const imaging::VesselExtractionOptions& vessels) {
   const auto t0 = Clock::now();
+  DopplerExtraction out = extract_doppler(read_doppler(doppler), doppler.string(), vessels);
+  out.seconds = seconds_since(t0);
+  return out;
+}
+
+DopplerExtraction extract_doppler(const imaging::VolumeF& d, const std::string& name,
+                                  const imaging::VesselExtractionOptions& vessels) {
+  const auto t0 = Clock::now();
+  BS_VERIFY(d.components == 1,
+            name << ": expected a scalar Doppler volume, got " << d.components << " components");
   DopplerExtraction out;
-  out.file = doppler;
-  const imaging::VolumeF d = read_doppler(doppler);
+  out.file = name;
   out.geometry = d.geometry;
   try {
     out.vessels = imaging::extract_vessels(d, vessels);
@@ -99,8 +108,9 @@ DopplerExtraction extract_doppler(const std::filesystem::path& doppler,
   return out;
 }
 
-IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
-                           const std::optional<std::filesystem::path>& bmode) {
+/// read_intraop() with the footprint made by `footprint` (null: none), after the Doppler's checks.
+static IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
+                                  const std::function<IntraopFootprint()>& footprint) {
   const auto t0 = Clock::now();
   IntraopInputs in;
   const std::filesystem::path& doppler = d.file;
@@ -117,14 +127,26 @@ IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
       {"threshold_rule", v.threshold_rule}, {"branches", v.branch_count},
       {"length_mm", v.total_length_mm},     {"points", in.data.vessel_points.rows()},
       {"nan_voxels", v.non_finite_voxels},  {"points_at_support_edge", v.points_at_support_edge}};
-  if (bmode) {
-    const IntraopFootprint f = footprint_from_bmode(*bmode);
+  if (footprint) {
+    const IntraopFootprint f = footprint();
     in.data.footprint_points = f.points;
     in.data.footprint_normals = f.normals;
     in.report["bmode"] = f.report;
   }
   in.seconds = d.seconds + seconds_since(t0);
   return in;
+}
+
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
+                           const std::optional<std::filesystem::path>& bmode) {
+  if (!bmode) return read_intraop(s, d, std::function<IntraopFootprint()>());
+  return read_intraop(s, d, [&bmode] { return footprint_from_bmode(*bmode); });
+}
+
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
+                           const imaging::VolumeF* bmode, const std::string& bmode_name) {
+  if (!bmode) return read_intraop(s, d, std::function<IntraopFootprint()>());
+  return read_intraop(s, d, [&] { return footprint_from_bmode(*bmode, bmode_name); });
 }
 
 IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
@@ -145,12 +167,18 @@ IntraopInputs read_intraop(const Session& s, const std::filesystem::path& dopple
 Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::path& doppler,
                                      const constraints::RegistrationOptions& options,
                                      nlohmann::json& report) {
+  return pose_from_pre_dura(s, extract_doppler(doppler), options, report);
+}
+
+Eigen::Isometry3d pose_from_pre_dura(const Session& s, const DopplerExtraction& doppler,
+                                     const constraints::RegistrationOptions& options,
+                                     nlohmann::json& report) {
   const IntraopInputs pre = read_intraop(s, doppler, std::nullopt);
   const MatrixX3d& p = pre.data.vessel_points;
   BS_VERIFY(p.rows() >= options.global_start.min_points,
-            doppler.string() << ": " << p.rows() << " vessel points, fewer than the "
-                             << options.global_start.min_points
-                             << " a pose needs (pre-dura sweep)");
+            doppler.file.string() << ": " << p.rows() << " vessel points, fewer than the "
+                                  << options.global_start.min_points
+                                  << " a pose needs (pre-dura sweep)");
   const constraints::GlobalStartResult g = constraints::pre_dura_pose(*s.model, p, options);
   report = pre.report["doppler"];
   report["accepted"] = g.accepted;

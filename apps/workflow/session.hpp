@@ -13,8 +13,10 @@
 
 #include <exception>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
+#include <string>
 
 namespace brainshift::workflow {
 
@@ -60,11 +62,18 @@ struct DopplerExtraction {
 /// reports it after checking that the volume overlaps the model, as a serial run does).
 DopplerExtraction extract_doppler(const std::filesystem::path& doppler,
                                   const imaging::VesselExtractionOptions& vessels = {});
+/// The same from a volume in memory (e.g. received over OpenIGTLink); `name` stands for the file
+/// in messages and reports. \throws brainshift::Error naming `name` when it is not scalar.
+DopplerExtraction extract_doppler(const imaging::VolumeF& doppler, const std::string& name,
+                                  const imaging::VesselExtractionOptions& vessels = {});
 /// read_intraop() from an extraction made beforehand: the same checks in the same order (overlap
 /// with the model, then the extraction's outcome), the same result; IntraopInputs::seconds
 /// includes DopplerExtraction::seconds.
 IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
                            const std::optional<std::filesystem::path>& bmode);
+/// As above with the B-mode in memory (`bmode_name` stands for its file; null: no B-mode).
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
+                           const imaging::VolumeF* bmode, const std::string& bmode_name);
 
 /// The navigation offset (model ← tracked frame) from the power Doppler of a sweep made on the
 /// dura before it was opened: its vessel points' rigid global start
@@ -72,6 +81,10 @@ IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
 /// navigation is right). `report` gets the file, points, transform and message.
 /// \throws brainshift::Error naming the file when it has too few vessel points for a pose.
 Eigen::Isometry3d pose_from_pre_dura(const Session& s, const std::filesystem::path& doppler,
+                                     const constraints::RegistrationOptions& options,
+                                     nlohmann::json& report);
+/// As above from a pre-dura Doppler already extracted (extract_doppler()).
+Eigen::Isometry3d pose_from_pre_dura(const Session& s, const DopplerExtraction& doppler,
                                      const constraints::RegistrationOptions& options,
                                      nlohmann::json& report);
 
