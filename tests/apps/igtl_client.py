@@ -134,15 +134,19 @@ def read_nifti(path):
     return {"size": dim[1:4], "srow": srow, "scalar": scalar, "data": data}
 
 
+def image_matrix(vol):
+    """The IMAGE matrix of a volume: t, s, n (direction × spacing), then the centre position."""
+    s = vol["srow"]
+    cols = [[s[r][c] for r in range(3)] for c in range(3)]
+    centre = [s[r][3] + sum(cols[c][r] * (vol["size"][c] - 1) / 2.0 for c in range(3))
+              for r in range(3)]
+    return cols[0] + cols[1] + cols[2] + centre
+
+
 def image_body(vol, scalar=None, size=None, matrix=None, data=None, version=1):
     """IMAGE body: the image header (big-endian), then the voxels (little-endian as read)."""
     size = list(vol["size"]) if size is None else size
-    if matrix is None:
-        s = vol["srow"]
-        cols = [[s[r][c] for r in range(3)] for c in range(3)]  # t, s, n: direction × spacing
-        centre = [s[r][3] + sum(cols[c][r] * (vol["size"][c] - 1) / 2.0 for c in range(3))
-                  for r in range(3)]
-        matrix = cols[0] + cols[1] + cols[2] + centre
+    matrix = image_matrix(vol) if matrix is None else matrix
     head = struct.pack(">HBBBB3H12f3H3H", version, 1, vol["scalar"] if scalar is None else scalar,
                        2, 1, *size, *matrix, 0, 0, 0, *size)
     return head + (vol["data"] if data is None else data)
@@ -188,6 +192,9 @@ def session(a):
     sent = c.send(message("IMAGE", "Doppler", image_body(read_nifti(a.doppler))))
     out["status"] = c.until_status()
     out["messages"] = c.log
+    if a.mri:  # what the warped MRI's IMAGE should say: the MRI's own grid
+        mri = read_nifti(a.mri)
+        out["expected_warped_mri"] = {"size": list(mri["size"]), "matrix": image_matrix(mri)}
     for m in c.log:
         if m["type"] == "TRANSFORM" and "latency_to_transform_s" not in out:
             out["latency_to_transform_s"] = m["at"] - sent
@@ -285,6 +292,7 @@ def main():
     p.add_argument("--doppler", required=True)
     p.add_argument("--bmode")
     p.add_argument("--pre-dura")
+    p.add_argument("--mri")
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--out", required=True)
     a = p.parse_args()

@@ -105,7 +105,8 @@ TEST_F(Serve, ASessionOverOpenIGTLinkMatchesRegisterOnTheSameInputs) {
   ASSERT_EQ(run_client(*dir, "session --port " + std::to_string(server.port()) + " --pre-dura " +
                                  q(ph / "intraop/predura/doppler.nii.gz") + " --bmode " +
                                  q(ph / "intraop/bmode.nii.gz") + " --doppler " +
-                                 q(ph / "intraop/doppler.nii.gz") + " --out " + q(result)),
+                                 q(ph / "intraop/doppler.nii.gz") + " --mri " +
+                                 q(ph / "preop/mri.nii.gz") + " --out " + q(result)),
             0)
       << read_all(*dir / "client.err") << server.err();
   const auto s = read_json(result);
@@ -185,10 +186,13 @@ TEST_F(Serve, ASessionOverOpenIGTLinkMatchesRegisterOnTheSameInputs) {
     }
   EXPECT_NEAR(served["max_displacement_mm"].get<double>(), reg["max_displacement_mm"].get<double>(),
               1e-6);
-  // The warped MRI travels on the MRI's grid.
+  // The warped MRI travels on the MRI's grid, as the client reads it from the MRI's file itself:
+  // the same size and IMAGE matrix (t, s, n, centre; float32: 1e-4 mm).
+  const auto& want = s["expected_warped_mri"];
+  EXPECT_EQ(image["size"], want["size"]);
+  for (int i = 0; i < 12; ++i)
+    EXPECT_NEAR(image["matrix"][i].get<double>(), want["matrix"][i].get<double>(), 1e-4) << i;
   const imaging::VolumeF mri = imaging::read_volume(ph / "preop/mri.nii.gz");
-  EXPECT_EQ(image["size"][0], mri.geometry.size[0]);
-  EXPECT_EQ(image["size"][2], mri.geometry.size[2]);
   EXPECT_EQ(image["data_bytes"].get<long long>(), 4 * mri.geometry.voxel_count());
 
   // SIGINT: a clean stop (exit 0), no temporary folder left.

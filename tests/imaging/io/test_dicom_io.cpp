@@ -128,8 +128,8 @@ TEST(DicomSeries, ReadsBackTheVolumeWithinHalfAStoredStep) {
     SCOPED_TRACE(p.string());
     const VolumeF r = read_volume(p);  // a folder or one file of the series
     ASSERT_EQ(r.geometry.size, v.geometry.size);
-    for (const Vector3d ijk : {Vector3d(0, 0, 0), Vector3d(6, 0, 0), Vector3d(0, 4, 0),
-                               Vector3d(0, 0, 3), Vector3d(6, 4, 3)})
+    for (const Vector3d& ijk : {Vector3d(0, 0, 0), Vector3d(6, 0, 0), Vector3d(0, 4, 0),
+                                Vector3d(0, 0, 3), Vector3d(6, 4, 3)})
       EXPECT_LT((r.geometry.index_to_world(ijk) - v.geometry.index_to_world(ijk)).norm(),
                 geometry_tolerance);
     // Values span [-100, 100] in 65535 steps: each within half a step (+ float rounding).
