@@ -86,6 +86,7 @@
 #include "core/blas_threads.hpp"
 #include "core/error.hpp"
 #include "core/process_memory.hpp"
+#include "imaging/io/output_guard.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -132,6 +133,9 @@ int main(int argc, char** argv) {
   const CLI::App* extract_footprint =
       apps::add_extract_footprint_command(*extract, extract_footprint_args);
 
+  // A run ended by SIGINT / SIGTERM / SIGHUP leaves no temporary behind (`serve` handles them
+  // itself, finishing the frame in progress).
+  brainshift::imaging::remove_temporaries_on_signal();
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -4,6 +4,7 @@
 #include "core/error.hpp"
 #include "imaging/io/dicom_io.hpp"
 #include "imaging/io/image_io.hpp"
+#include "imaging/io/output_guard.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -33,6 +34,7 @@ CLI::App* add_export_dicom_command(CLI::App& app, ExportDicomArgs& args) {
 
 int run_export_dicom(const ExportDicomArgs& args, std::ostream& out) {
   workflow::verify_output_folder(args.out);
+  const imaging::OutputLock lock(args.out);  // one run writes DIR at a time
   const std::string description =
       args.description.empty() ? imaging::corrected_series_description : args.description;
   BS_VERIFY(

@@ -86,6 +86,7 @@ nlohmann::json read_json(const std::filesystem::path& p) {
 FrameRegistrar::FrameRegistrar(const ServeOptions& o, const workflow::Progress& progress)
     : m_options(o), m_progress(progress) {
   workflow::verify_output_folder(o.out);
+  m_lock = std::make_unique<imaging::OutputLock>(o.out);
   std::error_code ec;
   std::filesystem::create_directories(o.out / "received", ec);
   BS_VERIFY(std::filesystem::is_directory(o.out / "received"),

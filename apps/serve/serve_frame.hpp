@@ -8,6 +8,7 @@
 #include "apps/serve/server.hpp"
 #include "apps/workflow/session.hpp"
 #include "core/mesh/boundary.hpp"
+#include "imaging/io/output_guard.hpp"
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -47,6 +48,7 @@ class FrameRegistrar {
 
   const ServeOptions& m_options;
   const workflow::Progress& m_progress;
+  std::unique_ptr<imaging::OutputLock> m_lock;  ///< one server writes DIR at a time
   workflow::Session m_session;
   std::optional<imaging::VolumeF> m_mri;
   std::optional<Eigen::Isometry3d> m_pose;

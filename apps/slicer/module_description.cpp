@@ -1,6 +1,7 @@
 #include "module_description.hpp"
 
 #include "core/error.hpp"
+#include "imaging/io/output_guard.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -128,6 +129,8 @@ std::string to_xml(const ModuleDescription& m) {
 int run_module(int argc, char** argv, const std::string& executable,
                const ModuleDescription& module,
                const std::function<int(const Values&, const ProgressReport&)>& body) {
+  // Slicer cancels a module with SIGTERM: no temporary output is left behind.
+  imaging::remove_temporaries_on_signal();
   for (int a = 1; a < argc; ++a) {
     if (std::string(argv[a]) == "--xml") {
       std::cout << to_xml(module);

@@ -3,9 +3,12 @@
 #include "core/error.hpp"
 #include "core/hash.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/output_guard.hpp"
 
+#include <fcntl.h>
 #include <fstream>
 #include <random>
+#include <stdio.h>  // renameat2
 #include <system_error>
 
 namespace brainshift::workflow {
@@ -129,27 +132,41 @@ void write_folder_atomically(const std::filesystem::path& dir,
   std::string base = ".";
   base.append(target.filename().string());
   const std::filesystem::path tmp = parent / (base + ".tmp-" + tag);
-  const std::filesystem::path old = parent / (base + ".old-" + tag);
   std::filesystem::create_directory(tmp, ec);
   BS_VERIFY(!ec, dir.string() << ": cannot create a temporary folder: " << ec.message());
+  const imaging::TemporaryGuard guard(tmp);  // removed if a signal ends the run meanwhile
   try {
     fill(tmp);
   } catch (...) {
     std::filesystem::remove_all(tmp, ec);
     throw;
   }
-  const bool existed = std::filesystem::exists(target, ec);
-  if (existed) {
+  // An existing folder is exchanged with the new one in one step (renameat2 RENAME_EXCHANGE):
+  // `dir` is never absent or partial, and the old content, now under the temporary name, goes.
+  if (std::filesystem::exists(target, ec)) {
+    if (::renameat2(AT_FDCWD, tmp.c_str(), AT_FDCWD, target.c_str(), RENAME_EXCHANGE) == 0) {
+      std::filesystem::remove_all(tmp, ec);
+      return;
+    }
+    // A file system without the exchange: move the old folder aside first.
+    const std::filesystem::path old = parent / (base + ".old-" + tag);
+    const imaging::TemporaryGuard old_guard(old);
     std::filesystem::rename(target, old, ec);
     BS_VERIFY(!ec, dir.string() << ": cannot replace the existing folder: " << ec.message());
+    std::filesystem::rename(tmp, target, ec);
+    if (ec) {
+      std::filesystem::rename(old, target, ec);
+      std::filesystem::remove_all(tmp, ec);
+      BS_VERIFY(false, dir.string() << ": cannot move the result into place");
+    }
+    std::filesystem::remove_all(old, ec);
+    return;
   }
   std::filesystem::rename(tmp, target, ec);
   if (ec) {
-    if (existed) std::filesystem::rename(old, target, ec);
     std::filesystem::remove_all(tmp, ec);
     BS_VERIFY(false, dir.string() << ": cannot move the result into place");
   }
-  if (existed) std::filesystem::remove_all(old, ec);
 }
 
 }  // namespace brainshift::workflow

@@ -9,6 +9,7 @@
 #include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/mesh_io.hpp"
+#include "imaging/io/output_guard.hpp"
 #include "imaging/io/skeleton_io.hpp"
 #include "imaging/io/surface_io.hpp"
 #include "imaging/meshing/boundary_surface.hpp"
@@ -218,6 +219,7 @@ nlohmann::json input_entry(const std::filesystem::path& p) {
 
 PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   verify_output_folder(o.out);
+  const imaging::OutputLock lock(o.out);  // one run writes MODEL at a time
   // The scene options first: a typo must not cost a meshing run (and nothing is written).
   if (o.scene_options) workflow::check_scene_options(*o.scene_options);
   progress.stage("reading the label volume");

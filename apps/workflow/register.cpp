@@ -8,6 +8,7 @@
 #include "imaging/evaluation/metrics.hpp"
 #include "imaging/io/image_io.hpp"
 #include "imaging/io/landmark_files.hpp"
+#include "imaging/io/output_guard.hpp"
 
 #include <exception>
 #include <future>
@@ -57,6 +58,7 @@ RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& 
   BS_VERIFY(!(args.pre_dura && args.pre_dura_pose),
             args.pre_dura_pose->string() << ": give a pre-dura sweep or a stored pose, not both");
   verify_output_folder(args.out);
+  const imaging::OutputLock lock(args.out);  // one run writes RES at a time
   progress.stage("loading the model " + args.model.string());
   // The images do not need the model: the Doppler is read and its vessels extracted, and the MRI
   // read, on a second thread while the model loads. Errors come in a serial run's order: the

@@ -6,6 +6,7 @@
 #include "apps/workflow/session.hpp"
 #include "core/error.hpp"
 #include "imaging/evaluation/metrics.hpp"
+#include "imaging/io/output_guard.hpp"
 #include "imaging/io/plus_sequence.hpp"
 
 #include <algorithm>
@@ -54,6 +55,7 @@ ReplayResult replay_sequence(const ReplayOptions& args, const Progress& progress
   BS_VERIFY(!(args.pre_dura && args.pre_dura_pose),
             args.pre_dura_pose->string() << ": give a pre-dura sweep or a stored pose, not both");
   verify_output_folder(args.out);
+  const imaging::OutputLock lock(args.out);  // one run writes RES at a time
   progress.stage("loading the model " + args.model.string());
   Session s = open_session(args.model);
 

@@ -1,6 +1,7 @@
 #include "imaging/io/atomic_write.hpp"
 
 #include "core/error.hpp"
+#include "imaging/io/output_guard.hpp"
 
 #include <atomic>
 #include <cerrno>
@@ -59,6 +60,7 @@ void write_atomically(const std::filesystem::path& target,
                       const std::function<void(const std::filesystem::path&)>& write) {
   const std::filesystem::path temporary = temporary_name(target);
   create_temporary(target, temporary);
+  const TemporaryGuard guard(temporary);  // removed if a signal ends the run meanwhile
   try {
     write(temporary);
     std::error_code ec;
