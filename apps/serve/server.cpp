@@ -134,6 +134,9 @@ class Server {
       }
       take(*c, *in);
     }
+    // Stopping: the frame in progress is finished and answered before the connection closes;
+    // what still waits is dropped.
+    if (m_stop.load() && c->open()) finish_current();
     c->close();
     m_frames.set_connection(nullptr);
     const std::lock_guard<std::mutex> lock(m_mutex);
@@ -172,7 +175,7 @@ class Server {
         return;
       }
       if (slot->has_value())
-        logger().info("{} replaces {}, which was still waiting", p.name, (*slot)->name);
+        m_progress.stage(p.name + " replaces " + (*slot)->name + ", which was still waiting");
       *slot = std::move(p);
     }
     m_wake.notify_all();
@@ -192,14 +195,31 @@ class Server {
         job = std::move(pre_dura ? m_pre_dura : m_doppler);
         (pre_dura ? m_pre_dura : m_doppler).reset();
         bmode = m_bmode;
+        m_busy = true;
       }
       const bool ok = pre_dura ? m_frames.measure_pose(job->volume, job->name)
                                : m_frames.register_frame(job->volume, job->name,
                                                          bmode.get() ? &bmode->volume : nullptr,
                                                          bmode ? bmode->name : "", job->received);
-      const std::lock_guard<std::mutex> lock(m_mutex);
-      if (!pre_dura) ++(ok ? m_summary.frames : m_summary.failed);
+      {
+        const std::lock_guard<std::mutex> lock(m_mutex);
+        if (!pre_dura) ++(ok ? m_summary.frames : m_summary.failed);
+        m_busy = false;
+      }
+      m_wake.notify_all();
     }
+  }
+
+  /// Drops what waits and returns when the worker has finished the job it is on.
+  void finish_current() {
+    std::unique_lock<std::mutex> lock(m_mutex);
+    for (std::optional<Pending>* waiting : {&m_doppler, &m_pre_dura})
+      if (waiting->has_value()) {
+        m_progress.stage("stopping: " + (*waiting)->name + " is not registered");
+        waiting->reset();
+      }
+    if (m_busy) m_progress.stage("stopping after the frame in progress");
+    m_wake.wait(lock, [this] { return !m_busy; });
   }
 
   const ServeOptions& m_options;
@@ -212,6 +232,7 @@ class Server {
   std::mutex m_mutex;  // guards what follows
   std::condition_variable m_wake;
   bool m_done = false;
+  bool m_busy = false;  ///< the worker is on a job
   std::optional<Pending> m_doppler, m_pre_dura;
   std::shared_ptr<const Pending> m_bmode;
   std::shared_ptr<Connection> m_connection;

@@ -10,6 +10,7 @@ specification defines it (the mean of the first and last voxel centres).
   igtl_client.py session   --port P --pre-dura PD.nii.gz --bmode B.nii.gz --doppler D.nii.gz --out R.json
   igtl_client.py malformed --port P --doppler D.nii.gz --out R.json
   igtl_client.py latency   --port P --doppler D.nii.gz [--repeat 5] --out R.json   (docs/BENCHMARKS.md)
+  igtl_client.py queue     --port P --doppler D.nii.gz --out R.json   (the latest volume wins)
   igtl_client.py plus      --port-file F --doppler D.nii.gz --out R.json   (a PLUS server's role)
 
 Writes what it received (types, devices, statuses, the transform, polydata counts, the report
@@ -266,6 +267,17 @@ def latency(a):
     dump(rows, a.out)
 
 
+def queue(a):
+    """Three Doppler volumes back to back: the first is registered, the third replaces the second
+    while it waits; the two final statuses are collected (the test stops the server meanwhile)."""
+    c = Client(a.port)
+    raw = message("IMAGE", "Doppler", image_body(read_nifti(a.doppler)))
+    for _ in range(3):
+        c.send(raw)
+    finals = [c.until_status(), c.until_status()]
+    dump({"finals": finals, "messages": c.log}, a.out)
+
+
 def plus(a):
     """Plays a PLUS server: listens (the port written to --port-file), waits for brainshift to
     connect, sends the reconstructed Doppler volume under PLUS's device name RecVol_Reference."""
@@ -286,7 +298,7 @@ def plus(a):
 
 def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("scenario", choices=["session", "malformed", "latency", "plus"])
+    p.add_argument("scenario", choices=["session", "malformed", "latency", "queue", "plus"])
     p.add_argument("--port", type=int, default=0)
     p.add_argument("--port-file")
     p.add_argument("--doppler", required=True)
@@ -296,7 +308,8 @@ def main():
     p.add_argument("--repeat", type=int, default=5)
     p.add_argument("--out", required=True)
     a = p.parse_args()
-    {"session": session, "malformed": malformed, "latency": latency, "plus": plus}[a.scenario](a)
+    {"session": session, "malformed": malformed, "latency": latency, "queue": queue,
+     "plus": plus}[a.scenario](a)
     return 0
 
 

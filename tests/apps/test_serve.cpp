@@ -252,6 +252,43 @@ TEST_F(Serve, MalformedMessagesAreAnsweredAndTheServerGoesOn) {
   EXPECT_TRUE(server.interrupt()) << server.err();
 }
 
+TEST_F(Serve, VolumesQueueTheLatestWinsAndSigintFinishesTheFrameInProgress) {
+  const auto out = *dir / "served_queue";
+  Server server(*dir, "queue", "--model " + q(model) + " --out " + q(out));
+  ASSERT_GT(server.port(), 0) << server.err();
+  const auto result = *dir / "queue.json";
+  ASSERT_EQ(run_client(*dir,
+                       "queue --port " + std::to_string(server.port()) + " --doppler " +
+                           q(ph / "intraop/doppler.nii.gz") + " --out " + q(result),
+                       " &"),
+            0);
+  // Three volumes arrive while the first is registered: the third replaces the second. SIGINT
+  // while the second frame is being registered: it is finished, answered and written.
+  bool second = false;
+  for (int i = 0; i < 1200 && !second; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    second =
+        server.err().find("frame_0002: extracting vessels from Doppler #3") != std::string::npos;
+  }
+  ASSERT_TRUE(second) << server.err();
+  ASSERT_TRUE(server.interrupt()) << server.err();
+  for (int i = 0; i < 600 && !std::filesystem::exists(result); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  ASSERT_TRUE(std::filesystem::exists(result)) << read_all(*dir / "client.err") << server.err();
+  const auto s = read_json(result);
+  ASSERT_EQ(s["finals"].size(), 2u);
+  EXPECT_NE(s["finals"][0]["text"].get<std::string>().find("frame_0001"), std::string::npos);
+  EXPECT_NE(s["finals"][1]["text"].get<std::string>().find("frame_0002"), std::string::npos);
+  const std::string log = server.err();
+  EXPECT_NE(log.find("Doppler #3 replaces Doppler #2"), std::string::npos) << log;
+  EXPECT_NE(log.find("stopping after the frame in progress"), std::string::npos) << log;
+  for (const char* f : {"frame_0001", "frame_0002"})
+    EXPECT_TRUE(std::filesystem::exists(out / f / "report.json")) << f;
+  EXPECT_FALSE(std::filesystem::exists(out / "frame_0003"));
+  for (const auto& e : std::filesystem::directory_iterator(out))
+    EXPECT_NE(e.path().filename().string()[0], '.') << e.path();  // no temporary, no lock
+}
+
 TEST_F(Serve, AsAClientOfAPlusServerItRegistersTheReconstructedVolume) {
   // The client plays PLUS: it listens, brainshift connects, the volume arrives as
   // RecVol_Reference (PLUS's default device name of a reconstructed volume).
