@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "core/logger.hpp"
+#include "imaging/io/header_checks.hpp"
 #include "imaging/io/image_frame.hpp"
 
 #include <algorithm>
@@ -314,6 +315,8 @@ VolumeF read_nrrd(const std::filesystem::path& path) {
   const std::size_t count = std::size_t(g.voxel_count()) * std::size_t(components);
   const std::size_t bytes = count * std::size_t(type.bytes);
   const std::string encoding = field("encoding");
+  // What the header claims against the memory ceiling and the file, before any allocation.
+  verify_claimed_bytes(file, double(bytes), double(in.tellg()), encoding != "raw");
   std::vector<unsigned char> raw;
   if (encoding == "raw") {
     raw.resize(bytes);

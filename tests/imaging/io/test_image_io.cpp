@@ -331,6 +331,19 @@ TEST(ImageIoErrors, HostileHeadersAreRefusedBeforeAnyAllocation) {
              "MET_FLOAT\nElementDataFile = LOCAL\n" +
                  std::string(1024, 'x'));
   expect_error([&] { read_volume(dir / "short.mha"); }, {"short.mha", "truncated"});
+  // NRRD (our own reader): the same two claims, raw and gzip.
+  const std::string nrrd =
+      "NRRD0004\ntype: float\ndimension: 3\nspace: left-posterior-superior\n"
+      "space directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (0,0,0)\n";
+  write_text(dir / "huge.nrrd",
+             nrrd + "sizes: 2048 2048 2048\nencoding: raw\n\n" + std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "huge.nrrd"); }, {"huge.nrrd", "claims", "GiB"});
+  write_text(dir / "short.nrrd",
+             nrrd + "sizes: 64 64 64\nencoding: raw\n\n" + std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "short.nrrd"); }, {"short.nrrd", "truncated", "claims"});
+  write_text(dir / "bomb.nrrd",
+             nrrd + "sizes: 1024 1024 1024\nencoding: gzip\n\n" + std::string(1024, 'x'));
+  expect_error([&] { read_volume(dir / "bomb.nrrd"); }, {"bomb.nrrd", "deflate"});
 }
 
 TEST(ImageIoHeaders, SinglePrecisionDirectionIsReorthonormalisedAndNoted) {
