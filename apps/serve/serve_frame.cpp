@@ -162,6 +162,22 @@ bool FrameRegistrar::measure_pose(const imaging::VolumeF& doppler, const std::st
   }
 }
 
+void FrameRegistrar::prepare_footprint(const imaging::VolumeF& bmode, const std::string& name) {
+  if (m_footprint && m_footprint_of == name) return;
+  try {
+    const auto t0 = Clock::now();
+    m_footprint = workflow::footprint_from_bmode(bmode, name);
+    m_footprint_of = name;
+    m_progress.stage("probe footprint of " + name + ": " +
+                     std::to_string(m_footprint->points.rows()) + " points (" +
+                     std::to_string(seconds_since(t0)).substr(0, 4) + " s)");
+  } catch (const std::exception& e) {
+    m_footprint.reset();
+    m_footprint_of.clear();
+    fail(name, e);
+  }
+}
+
 bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::string& name,
                                     const imaging::VolumeF* bmode, const std::string& bmode_name,
                                     Clock::time_point received) {
@@ -171,8 +187,11 @@ bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::
   try {
     progress(5, frame + ": extracting vessels from " + name +
                     (bmode ? " and the probe footprint from " + bmode_name : std::string()));
-    workflow::IntraopInputs in =
-        workflow::read_intraop(s, workflow::extract_doppler(doppler, name), bmode, bmode_name);
+    // The footprint of the B-mode: extracted once for every Doppler volume that uses it.
+    if (bmode) prepare_footprint(*bmode, bmode_name);
+    const bool with_footprint = bmode && m_footprint && m_footprint_of == bmode_name;
+    workflow::IntraopInputs in = workflow::read_intraop(s, workflow::extract_doppler(doppler, name),
+                                                        with_footprint ? &*m_footprint : nullptr);
     if (m_pose) {
       in.data.pose = m_pose;
       in.report["pre_dura"] = m_pose_report;

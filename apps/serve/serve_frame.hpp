@@ -34,6 +34,11 @@ class FrameRegistrar {
   /// False (answered with an error STATUS) when it cannot be measured.
   bool measure_pose(const imaging::VolumeF& doppler, const std::string& name);
 
+  /// Extracts the probe footprint of a B-mode volume and keeps it for the Doppler volumes that
+  /// follow (done while no Doppler waits, so that a frame does not pay for it). A B-mode without
+  /// a footprint is kept too (its report says why); an unreadable one is answered with an error.
+  void prepare_footprint(const imaging::VolumeF& bmode, const std::string& name);
+
   /// Registers a Doppler volume (with the latest B-mode, may be null), answers, writes the frame.
   /// `received`: when its last byte arrived (the latency's start). False (answered with an error
   /// STATUS) when it cannot be registered; nothing is written then.
@@ -54,6 +59,8 @@ class FrameRegistrar {
   std::optional<Eigen::Isometry3d> m_pose;
   nlohmann::json m_pose_report;
   core::TriangleMatrix m_tumour_faces;  ///< mesh node indices
+  std::string m_footprint_of;           ///< the B-mode whose footprint m_footprint is
+  std::optional<workflow::IntraopFootprint> m_footprint;
   int m_next_frame = 1;
 
   std::mutex m_mutex;

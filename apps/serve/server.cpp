@@ -167,16 +167,16 @@ class Server {
                      std::to_string(p.volume.geometry.size[2]) + ")");
     {
       const std::lock_guard<std::mutex> lock(m_mutex);
-      std::optional<Pending>* slot = in.device == m_options.doppler_device    ? &m_doppler
-                                     : in.device == m_options.pre_dura_device ? &m_pre_dura
-                                                                              : nullptr;
-      if (!slot) {
+      if (in.device == m_options.bmode_device) {
         m_bmode = std::make_shared<const Pending>(std::move(p));
-        return;
+        m_bmode_new = true;
+      } else {
+        std::optional<Pending>& slot =
+            in.device == m_options.doppler_device ? m_doppler : m_pre_dura;
+        if (slot.has_value())
+          m_progress.stage(p.name + " replaces " + slot->name + ", which was still waiting");
+        slot = std::move(p);
       }
-      if (slot->has_value())
-        m_progress.stage(p.name + " replaces " + (*slot)->name + ", which was still waiting");
-      *slot = std::move(p);
     }
     m_wake.notify_all();
   }
@@ -189,12 +189,24 @@ class Server {
       std::shared_ptr<const Pending> bmode;
       {
         std::unique_lock<std::mutex> lock(m_mutex);
-        m_wake.wait(lock, [this] { return m_done || m_pre_dura || m_doppler; });
+        m_wake.wait(lock, [this] { return m_done || m_pre_dura || m_doppler || m_bmode_new; });
         if (m_done) return;
+        if (!m_pre_dura && !m_doppler) {  // only a new B-mode: its footprint, while idle
+          m_bmode_new = false;
+          bmode = m_bmode;
+          m_busy = true;
+          lock.unlock();
+          m_frames.prepare_footprint(bmode->volume, bmode->name);
+          lock.lock();
+          m_busy = false;
+          m_wake.notify_all();
+          continue;
+        }
         pre_dura = m_pre_dura.has_value();
         job = std::move(pre_dura ? m_pre_dura : m_doppler);
         (pre_dura ? m_pre_dura : m_doppler).reset();
         bmode = m_bmode;
+        if (!pre_dura) m_bmode_new = false;  // the frame extracts it if not done yet
         m_busy = true;
       }
       const bool ok = pre_dura ? m_frames.measure_pose(job->volume, job->name)
@@ -232,7 +244,8 @@ class Server {
   std::mutex m_mutex;  // guards what follows
   std::condition_variable m_wake;
   bool m_done = false;
-  bool m_busy = false;  ///< the worker is on a job
+  bool m_busy = false;       ///< the worker is on a job
+  bool m_bmode_new = false;  ///< a B-mode arrived whose footprint is not extracted yet
   std::optional<Pending> m_doppler, m_pre_dura;
   std::shared_ptr<const Pending> m_bmode;
   std::shared_ptr<Connection> m_connection;

@@ -149,6 +149,12 @@ IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
   return read_intraop(s, d, [&] { return footprint_from_bmode(*bmode, bmode_name); });
 }
 
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& d,
+                           const IntraopFootprint* footprint) {
+  if (!footprint) return read_intraop(s, d, std::function<IntraopFootprint()>());
+  return read_intraop(s, d, [footprint] { return *footprint; });
+}
+
 IntraopInputs read_intraop(const Session& s, const std::filesystem::path& doppler,
                            const std::optional<std::filesystem::path>& bmode,
                            const imaging::VesselExtractionOptions& vessels) {

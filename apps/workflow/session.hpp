@@ -4,6 +4,7 @@
 /// inputs read from the images, in the model's (pre-operative) frame: what `register`, `replay`,
 /// `bench` and the Slicer module BrainshiftRegister share. Positions in mm, world RAS.
 
+#include "apps/workflow/intraop_footprint.hpp"
 #include "apps/workflow/model_folder.hpp"
 #include "constraints/registration/registration.hpp"
 #include "imaging/io/volume.hpp"
@@ -74,6 +75,10 @@ IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
 /// As above with the B-mode in memory (`bmode_name` stands for its file; null: no B-mode).
 IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
                            const imaging::VolumeF* bmode, const std::string& bmode_name);
+/// As above with the B-mode's footprint already extracted (footprint_from_bmode(); null: none),
+/// e.g. once for several Doppler volumes registered with the same B-mode.
+IntraopInputs read_intraop(const Session& s, const DopplerExtraction& doppler,
+                           const IntraopFootprint* footprint);
 
 /// The navigation offset (model ← tracked frame) from the power Doppler of a sweep made on the
 /// dura before it was opened: its vessel points' rigid global start

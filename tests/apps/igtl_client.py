@@ -9,7 +9,7 @@ specification defines it (the mean of the first and last voxel centres).
 
   igtl_client.py session   --port P --pre-dura PD.nii.gz --bmode B.nii.gz --doppler D.nii.gz --out R.json
   igtl_client.py malformed --port P --doppler D.nii.gz --out R.json
-  igtl_client.py latency   --port P --doppler D.nii.gz [--repeat 5] --out R.json   (docs/BENCHMARKS.md)
+  igtl_client.py latency   --port P --doppler D.nii.gz [--bmode B.nii.gz] [--repeat 5] --out R.json   (docs/BENCHMARKS.md)
   igtl_client.py queue     --port P --doppler D.nii.gz --out R.json   (the latest volume wins)
   igtl_client.py plus      --port-file F --doppler D.nii.gz --out R.json   (a PLUS server's role)
 
@@ -249,6 +249,9 @@ def latency(a):
     """The same Doppler volume `--repeat` times (packed once): the server's latency from the last
     byte received to the TRANSFORM sent (its report), and the client's from the last byte sent."""
     c = Client(a.port)
+    if a.bmode:  # one B-mode first: its footprint is extracted while the server waits
+        c.send(message("IMAGE", "BMode", image_body(read_nifti(a.bmode))))
+        time.sleep(2.0)
     raw = message("IMAGE", "Doppler", image_body(read_nifti(a.doppler)))
     rows = []
     for _ in range(a.repeat):
