@@ -67,7 +67,7 @@ CLI::App* add_serve_command(CLI::App& app, ServeArgs& args) {
                 "DIR/received/ (replayable), DIR/pre_dura_pose.json")
       ->required();
   auto* listen = c->add_option("--listen", args.listen_port,
-                               "listen on PORT for 3D Slicer (OpenIGTLinkIF, header version 1); "
+                               "listen on PORT for 3D Slicer (OpenIGTLinkIF client connector); "
                                "0 picks a free port (printed)")
                      ->expected(0, 1)
                      ->default_str("18944");

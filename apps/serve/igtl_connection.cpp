@@ -125,45 +125,79 @@ std::optional<Incoming> Connection::receive(
     in.ignored = in.problem.empty();
     return in;
   };
-  if (version != 1)
+  if (version != 1 && version != 2)
     return skip_with(what + ": header version " + std::to_string(version) +
-                         " (brainshift reads version 1, OpenIGTLink protocol 2: set the "
-                         "connector's header version to 1)",
+                         " (brainshift reads versions 1 and 2: OpenIGTLink protocols 2 and 3)",
                      igtl::StatusMessage::STATUS_UNKNOWN_VERSION);
   if (!known_type(in.type))
     return skip_with(what + ": unknown message type",
                      igtl::StatusMessage::STATUS_UNKNOWN_INSTRUCTION);
-  if (!wanted(in.type, in.device)) return skip_with("", 0);
-  if (in.type == "IMAGE" && in.body_bytes < image_header_bytes)
+  if (!wanted(in.type, in.device) || in.type != "IMAGE") return skip_with("", 0);
+  if (version == 1 && in.body_bytes < image_header_bytes)
     return skip_with(what + ": a body of " + std::to_string(in.body_bytes) +
                          " bytes, shorter than the IMAGE header (72)",
                      igtl::StatusMessage::STATUS_CONFIG_ERROR);
+  auto refuse = [&](std::string problem, int code) {
+    in.problem = std::move(problem);
+    in.status_code = code;
+    return std::optional<Incoming>(in);
+  };
+  const std::uint64_t crc = big_endian(h.data() + 50, 8);
+  const char* crc_problem = ": the body's CRC64 does not match the header's (damaged message)";
 
+  // Header version 2 (protocol 3, Slicer's default): the body is an extended header, the content
+  // (a version-1 body), a metadata header and the metadata. The CRC covers the whole body.
+  std::vector<unsigned char> whole;
+  std::uint64_t begin = 0;
+  if (version == 2) {
+    whole.resize(in.body_bytes);
+    if (read_fully(whole.data(), in.body_bytes, stop) != Read::DONE) return std::nullopt;
+    in.complete = std::chrono::steady_clock::now();
+    if (crc64(whole.data(), in.body_bytes, 0) != crc)
+      return refuse(what + crc_problem, igtl::StatusMessage::STATUS_CHECKSUM_ERROR);
+    const std::uint64_t ext = in.body_bytes >= 12 ? big_endian(whole.data(), 2) : 0;
+    const std::uint64_t meta =
+        in.body_bytes >= 12 ? big_endian(whole.data() + 2, 2) + big_endian(whole.data() + 4, 4) : 0;
+    if (ext < 12 || ext + meta > in.body_bytes)
+      return refuse(what + ": header version 2 with an extended header of " + std::to_string(ext) +
+                        " bytes and " + std::to_string(meta) + " bytes of metadata in a body of " +
+                        std::to_string(in.body_bytes),
+                    igtl::StatusMessage::STATUS_CONFIG_ERROR);
+    begin = ext;
+    in.body_bytes -= ext + meta;  // the content's
+    if (in.body_bytes < image_header_bytes)
+      return refuse(what + ": content of " + std::to_string(in.body_bytes) +
+                        " bytes, shorter than the IMAGE header (72)",
+                    igtl::StatusMessage::STATUS_CONFIG_ERROR);
+  }
+  // libopenigtlink 1.11 reads version-1 messages: the header says so, with the content's size.
+  std::array<unsigned char, header_bytes> h1 = h;
+  h1[0] = 0;
+  h1[1] = 1;
+  for (int b = 0; b < 8; ++b) h1[std::size_t(42 + b)] = (in.body_bytes >> (56 - 8 * b)) & 0xff;
   auto header = igtl::MessageHeader::New();
   header->InitPack();
-  std::memcpy(header->GetPackPointer(), h.data(), h.size());
+  std::memcpy(header->GetPackPointer(), h1.data(), h1.size());
   header->Unpack();
   igtl::MessageBase::Pointer message;
-  if (in.type == "IMAGE") message = igtl::ImageMessage::New();
-  if (!message) return skip_with("", 0);  // only IMAGE is unpacked
+  message = igtl::ImageMessage::New();
   message->SetMessageHeader(header);
   message->AllocatePack();
-  if (read_fully(message->GetPackBodyPointer(), in.body_bytes, stop) != Read::DONE)
-    return std::nullopt;
-  in.complete = std::chrono::steady_clock::now();
   auto* body = static_cast<unsigned char*>(message->GetPackBodyPointer());
-  if (crc64(body, in.body_bytes, 0) != big_endian(h.data() + 50, 8)) {
-    in.problem = what + ": the body's CRC64 does not match the header's (damaged message)";
-    in.status_code = igtl::StatusMessage::STATUS_CHECKSUM_ERROR;
-    return in;
+  if (version == 2) {
+    std::memcpy(body, whole.data() + begin, in.body_bytes);
+    whole = {};
+  } else {
+    if (read_fully(body, in.body_bytes, stop) != Read::DONE) return std::nullopt;
+    in.complete = std::chrono::steady_clock::now();
+    if (crc64(body, in.body_bytes, 0) != crc)
+      return refuse(what + crc_problem, igtl::StatusMessage::STATUS_CHECKSUM_ERROR);
   }
   const int unpacked = message->Unpack(0);  // the CRC is checked above
-  if (!(unpacked & igtl::MessageHeader::UNPACK_BODY)) {
-    in.problem = what + ": the body could not be unpacked (IMAGE header version " +
-                 std::to_string(big_endian(body, 2)) + "; brainshift reads version 1)";
-    in.status_code = igtl::StatusMessage::STATUS_UNKNOWN_VERSION;
-    return in;
-  }
+  if (!(unpacked & igtl::MessageHeader::UNPACK_BODY))
+    return refuse(what + ": the body could not be unpacked (IMAGE header version " +
+                      std::to_string(big_endian(body, 2)) + "; brainshift reads version 1)",
+                  igtl::StatusMessage::STATUS_UNKNOWN_VERSION);
   in.message = message;
   return in;
 }

@@ -3,15 +3,16 @@
 /// @brief One OpenIGTLink connection (a TCP socket of libopenigtlink): messages received whole and
 /// checked before anything is allocated or trusted, messages sent from any thread.
 ///
-/// Reception reads the 58-byte header (protocol 2, header version 1), then the body it
-/// announces. What comes back (Incoming):
+/// Reception reads the 58-byte header, then the body it announces: header version 1 (protocol 2,
+/// PLUS) or 2 (protocol 3, Slicer's default), whose extended header and metadata are dropped and
+/// whose content is read as a version-1 body. What comes back (Incoming):
 /// - IMAGE of a device the caller wants: unpacked with its CRC checked (the voxels are checked
 ///   by volume_from_image());
 /// - a message the caller does not need (another device's IMAGE, TRANSFORM, STATUS, ...): its body
 ///   skipped, `ignored` set;
 /// - a bad message whose body could be skipped (unknown type, a CRC that does not match, a header
-///   version brainshift does not read, an IMAGE shorter than its own header): `problem` set, the
-///   connection stays usable;
+///   version other than 1 and 2, inconsistent extended-header sizes, an IMAGE shorter than its
+///   own header): `problem` set, the connection stays usable;
 /// - a body larger than the volume ceiling (BRAINSHIFT_MAX_VOLUME_GB): `problem` and `fatal` set:
 ///   nothing is allocated and the connection must be closed (the stream cannot be resynchronised
 ///   cheaply).

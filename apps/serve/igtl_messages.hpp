@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief OpenIGTLink messages (protocol 2, the 58-byte header of Debian's libopenigtlink 1.11)
+/// @brief OpenIGTLink messages (the 58-byte header, version 1, of Debian's libopenigtlink 1.11)
 /// to and from brainshift's types, with the checks a server needs before trusting a peer.
 ///
 /// IMAGE geometry, as OpenIGTLink defines it (and Slicer's OpenIGTLinkIO and PLUS use it): the

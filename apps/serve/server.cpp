@@ -80,7 +80,7 @@ class Server {
     BS_VERIFY(server->CreateServer(*m_options.listen) >= 0,
               "--listen " << *m_options.listen << ": cannot open the port (in use?)");
     m_progress.stage("listening on port " + std::to_string(server->GetServerPort()) +
-                     " (OpenIGTLink, header version 1)");
+                     " (OpenIGTLink)");
     while (!m_stop.load()) {
       igtl::ClientSocket::Pointer client = server->WaitForConnection(200);
       if (client.IsNull()) continue;

@@ -63,6 +63,20 @@ def message(mtype, device, body, version=1, crc=None, body_size=None):
     return HEADER.pack(version, mtype.encode(), device.encode(), 0, size, crc) + body
 
 
+def message_v2(mtype, device, content, metadata=None, ext_size=12, msg_id=7):
+    """Header version 2 (protocol 3, what Slicer sends by default): extended header (its size,
+    the metadata header's size, the metadata's size, a message id), the content, the metadata
+    header (count, then per entry key size, value encoding, value size) and the metadata."""
+    metadata = metadata or {}
+    meta_header = struct.pack(">H", len(metadata))
+    meta_body = b""
+    for k, v in metadata.items():
+        meta_header += struct.pack(">HHI", len(k), 3, len(v))  # 3: US-ASCII
+        meta_body += k.encode() + v.encode()
+    ext = struct.pack(">HHII", ext_size, len(meta_header), len(meta_body), msg_id)
+    return message(mtype, device, ext + content + meta_header + meta_body, version=2)
+
+
 def recv_exactly(sock, n):
     chunks = []
     while n > 0:
@@ -224,10 +238,13 @@ def malformed(a):
               s[0][2], s[1][2], s[2][2], s[0][3], s[1][3], s[2][3]]  # j not orthogonal to i
     answer("sheared_matrix", message("IMAGE", "Doppler", image_body(small, matrix=matrix)))
     answer("zero_size", message("IMAGE", "Doppler", image_body(small, size=[0, 4, 4], data=b"")))
-    answer("header_version_2", message("IMAGE", "Doppler", image_body(small), version=2))
+    answer("header_version_3", message("IMAGE", "Doppler", image_body(small), version=3))
+    answer("v2_bad_extended_header",
+           message_v2("IMAGE", "Doppler", image_body(small), ext_size=60000))
     answer("short_body", message("IMAGE", "Doppler", b"\0" * 10))
-    # After all that, a good volume is still registered.
-    c.send(message("IMAGE", "Doppler", image_body(vol)))
+    # After all that, a good volume is still registered: sent with header version 2 and metadata,
+    # as Slicer sends by default.
+    c.send(message_v2("IMAGE", "Doppler", image_body(vol), {"Modality": "US", "Sweep": "1"}))
     out["answers"]["valid_after"] = c.until_status()
     # A body claimed far above any volume: refused without allocating, connection closed.
     c.send(message("IMAGE", "Doppler", b"", body_size=1 << 50))

@@ -221,7 +221,8 @@ TEST_F(Serve, MalformedMessagesAreAnsweredAndTheServerGoesOn) {
   const auto s = read_json(result);
   const auto& a = s["answers"];
   // Each bad message: an error STATUS (code ≠ 1) whose text says what was wrong. Codes from the
-  // specification: 12 unknown instruction, 9 checksum, 17 unknown version, 8 overflow.
+  // specification: 12 unknown instruction, 9 checksum, 17 unknown version, 8 overflow, 10
+  // configuration (what the volume or its header says).
   const std::map<std::string, std::pair<int, std::string>> want = {
       {"unknown_type", {12, "unknown message type"}},
       {"bad_crc", {9, "CRC64"}},
@@ -229,7 +230,8 @@ TEST_F(Serve, MalformedMessagesAreAnsweredAndTheServerGoesOn) {
       {"scalar_type_13", {10, "scalar type 13"}},
       {"sheared_matrix", {10, "matrix"}},
       {"zero_size", {10, "0x4x4"}},
-      {"header_version_2", {17, "header version 2"}},
+      {"header_version_3", {17, "header version 3"}},
+      {"v2_bad_extended_header", {10, "extended header of 60000 bytes"}},
       {"short_body", {10, "shorter than the IMAGE header"}},
       {"huge_body", {8, "BRAINSHIFT_MAX_VOLUME_GB"}},
       {"new_client", {12, "unknown message type"}},
@@ -240,8 +242,8 @@ TEST_F(Serve, MalformedMessagesAreAnsweredAndTheServerGoesOn) {
     EXPECT_NE(a[name]["text"].get<std::string>().find(w.second), std::string::npos)
         << name << ": " << a[name].dump();
   }
-  // A good volume after all of them is still registered, and the connection is closed after a
-  // body too large to read.
+  // A good volume after all of them is still registered (sent with header version 2 and metadata,
+  // as Slicer sends by default), and the connection is closed after a body too large to read.
   EXPECT_TRUE(a["valid_after"]["code"] == 1 || a["valid_after"]["code"] == 2)
       << a["valid_after"].dump();
   EXPECT_NE(a["valid_after"]["text"].get<std::string>().find("frame_0001"), std::string::npos)
