@@ -87,10 +87,6 @@ FrameRegistrar::FrameRegistrar(const ServeOptions& o, const workflow::Progress& 
     : m_options(o), m_progress(progress) {
   workflow::verify_output_folder(o.out);
   m_lock = std::make_unique<imaging::OutputLock>(o.out);
-  std::error_code ec;
-  std::filesystem::create_directories(o.out / "received", ec);
-  BS_VERIFY(std::filesystem::is_directory(o.out / "received"),
-            o.out.string() << ": cannot create the folder (" << ec.message() << ")");
   m_progress.stage("loading the model " + o.model.string());
   m_session = workflow::open_session(o.model);
   if (o.mri) m_mri = workflow::read_preop_mri(m_session, *o.mri);
@@ -104,6 +100,14 @@ FrameRegistrar::FrameRegistrar(const ServeOptions& o, const workflow::Progress& 
   }
   m_tumour_faces = tumour_surface(m_session);
   m_next_frame = next_frame_number(o.out);
+}
+
+void FrameRegistrar::make_folders() const {
+  // Made at the first result, not at start: a server that fails to start leaves nothing.
+  std::error_code ec;
+  std::filesystem::create_directories(m_options.out / "received", ec);
+  BS_VERIFY(std::filesystem::is_directory(m_options.out / "received"),
+            m_options.out.string() << ": cannot create the folder (" << ec.message() << ")");
 }
 
 void FrameRegistrar::set_connection(std::shared_ptr<Connection> connection) {
@@ -140,6 +144,7 @@ bool FrameRegistrar::measure_pose(const imaging::VolumeF& doppler, const std::st
     const Eigen::Isometry3d pose = workflow::pose_from_pre_dura(
         s, workflow::extract_doppler(doppler, name), s.loaded.scene.options, report);
     report["source"] = "measured";
+    make_folders();
     const std::filesystem::path file = m_options.out / workflow::pose_file_name;
     workflow::write_pose_file(file, workflow::pose_json(s, pose, report));
     m_pose = pose;
@@ -214,6 +219,7 @@ bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::
     }
 
     progress(70, frame + ": writing " + dir.string());
+    make_folders();
     const auto t_fields = Clock::now();
     const workflow::ResultFields fields =
         workflow::compute_result_fields(s, r, m_mri ? &*m_mri : nullptr);

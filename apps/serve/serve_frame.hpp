@@ -23,8 +23,9 @@ namespace brainshift::serve {
 
 class FrameRegistrar {
  public:
-  /// Opens the model, reads the MRI and the stored pose, creates DIR and numbers new frames
-  /// after those already in it. \throws brainshift::Error, one line, naming what is wrong.
+  /// Opens the model, reads the MRI and the stored pose, and numbers new frames after those
+  /// already in DIR (created with the first result). \throws brainshift::Error, one line, naming
+  /// what is wrong.
   FrameRegistrar(const ServeOptions& options, const workflow::Progress& progress);
 
   /// Where replies go (null: nowhere; results are still written).
@@ -47,6 +48,7 @@ class FrameRegistrar {
                       std::chrono::steady_clock::time_point received);
 
  private:
+  void make_folders() const;
   void send(igtl::MessageBase* message);
   void progress(int percent, const std::string& what);
   void fail(const std::string& name, const std::exception& e);

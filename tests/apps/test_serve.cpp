@@ -291,6 +291,23 @@ TEST_F(Serve, VolumesQueueTheLatestWinsAndSigintFinishesTheFrameInProgress) {
     EXPECT_NE(e.path().filename().string()[0], '.') << e.path();  // no temporary, no lock
 }
 
+TEST_F(Serve, StartErrorsAreOneLineAndLeaveNothing) {
+  const auto out = *dir / "never";
+  expect_one_line_error(
+      run_brainshift(*dir, "serve --listen 0 --model " + q(model) + " --mri " +
+                               q(ph / "intraop/doppler.nii.gz") + " --out " + q(out)),
+      "not on the grid of the model's labels");
+  expect_one_line_error(
+      run_brainshift(*dir, "serve --model " + q(model) + " --connect nohost --out " + q(out)),
+      "expected HOST:PORT");
+  expect_one_line_error(
+      run_brainshift(*dir, "serve --listen 0 --model " + q(ph) + " --out " + q(out)),
+      "not a brainshift model folder");
+  EXPECT_FALSE(std::filesystem::exists(out));
+  for (const auto& e : std::filesystem::directory_iterator(dir->path()))
+    EXPECT_NE(e.path().filename().string().rfind(".never", 0), 0u) << e.path();  // no lock left
+}
+
 TEST_F(Serve, AsAClientOfAPlusServerItRegistersTheReconstructedVolume) {
   // The client plays PLUS: it listens, brainshift connects, the volume arrives as
   // RecVol_Reference (PLUS's default device name of a reconstructed volume).
