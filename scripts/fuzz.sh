@@ -26,7 +26,11 @@ for t in "${targets[@]}"; do
   if build-fuzz/tests/fuzz/fuzz_"$t" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
       -artifact_prefix="$crashes"/ "$corpus" >"$log" 2>&1; then status=clean; else status=CRASH; failed=1; fi
   stats=$(grep -E "^#[0-9]+.*(DONE|pulse|NEW)" "$log" | tail -1 | sed -E 's/^#([0-9]+)\s+\w+\s+cov: ([0-9]+) ft: ([0-9]+).*/\1 executions, coverage \2 edges (\3 features)/')
-  echo "fuzz $t: $status, ${seconds} s: $stats"
+  if [ "$status" = clean ]; then
+    echo "fuzz $t: clean for ${seconds} s: $stats"
+  else
+    echo "fuzz $t: CRASH (libFuzzer stops at the first): $stats before it"
+  fi
   if [ "$status" = CRASH ]; then
     mkdir -p tests/fuzz/crashes/"$t"
     cp "$crashes"/* tests/fuzz/crashes/"$t"/ 2>/dev/null || true

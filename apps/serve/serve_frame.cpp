@@ -90,12 +90,19 @@ FrameRegistrar::FrameRegistrar(const ServeOptions& o, const workflow::Progress& 
   m_progress.stage("loading the model " + o.model.string());
   m_session = workflow::open_session(o.model);
   if (o.mri) m_mri = workflow::read_preop_mri(m_session, *o.mri);
-  if (o.pre_dura_pose) {
-    const workflow::StoredPose p = workflow::read_pose_file(*o.pre_dura_pose, &m_session);
+  // A restarted server resumes its session: the pose it measured before, unless one is given.
+  const std::filesystem::path stored = o.out / workflow::pose_file_name;
+  std::optional<std::filesystem::path> pose_file = o.pre_dura_pose;
+  if (!pose_file && std::filesystem::exists(stored)) {
+    pose_file = stored;
+    m_progress.stage("resuming with the pose stored in " + stored.string());
+  }
+  if (pose_file) {
+    const workflow::StoredPose p = workflow::read_pose_file(*pose_file, &m_session);
     m_pose = p.model_from_intraop;
     m_pose_report = p.pre_dura.is_object() ? p.pre_dura : nlohmann::json::object();
     m_pose_report["source"] = "pose_file";
-    m_pose_report["pose_file"] = o.pre_dura_pose->string();
+    m_pose_report["pose_file"] = pose_file->string();
     m_pose_report["model_from_intraop"] = workflow::matrix_json(p.model_from_intraop.matrix());
   }
   m_tumour_faces = tumour_surface(m_session);

@@ -20,6 +20,9 @@
 /// message gets STATUS `BrainshiftStatus` with an error code and a one-line reason, and the server
 /// goes on.
 ///
+/// A server started again on the same DIR resumes: frames numbered after those there, and the pose
+/// DIR/pre_dura_pose.json reused unless --pre-dura-pose is given.
+///
 /// Written: DIR/frame_NNNN/ as `register` writes RES (report.json, the fields, the Slicer
 /// transforms; atomically), and what was received as DIR/received/frame_NNNN/doppler.nrrd (and
 /// bmode.nrrd): `brainshift replay --sequence DIR/received` registers the session again.

@@ -111,6 +111,8 @@ void check_scene_options(const std::filesystem::path& path) {
     j = json::parse(in);
   } catch (const json::parse_error& e) {
     BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
+  } catch (const json::exception&) {  // e.g. a number beyond double's range
+    BS_VERIFY(false, file << ": not valid JSON (a number out of range)");
   }
   constraints::RegistrationOptions o;
   constraints::ComplianceOptions c;
@@ -139,6 +141,8 @@ Scene read_scene(const std::filesystem::path& path) {
     j = json::parse(in);
   } catch (const json::parse_error& e) {
     BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
+  } catch (const json::exception&) {  // e.g. a number beyond double's range
+    BS_VERIFY(false, file << ": not valid JSON (a number out of range)");
   }
   std::set<std::string> top = kSceneFileKeys;
   for (const auto& k : scene_option_keys()) top.insert(k);

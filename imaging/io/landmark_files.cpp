@@ -194,6 +194,8 @@ Landmarks read_markups_json(const std::filesystem::path& path) {
     j = nlohmann::json::parse(read_text(path));
   } catch (const nlohmann::json::parse_error& e) {
     BS_THROW(file << ": not valid JSON (at byte " << e.byte << ")");
+  } catch (const nlohmann::json::exception&) {  // e.g. a number beyond double's range (fuzzing)
+    BS_THROW(file << ": not valid JSON (a number out of range)");
   }
   BS_VERIFY(j.is_object() && j.contains("markups") && j["markups"].is_array(),
             file << ": not a Slicer markups file (no 'markups' list)");

@@ -201,6 +201,14 @@ TEST_F(Serve, ASessionOverOpenIGTLinkMatchesRegisterOnTheSameInputs) {
   EXPECT_EQ(log.find("brainshift: error"), std::string::npos) << log;
   for (const auto& e : std::filesystem::recursive_directory_iterator(out))
     EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
+  // Started again on the same folder, the server resumes with the pose it stored.
+  {
+    Server again(*dir, "session_again", "--model " + q(model) + " --out " + q(out));
+    ASSERT_GT(again.port(), 0) << again.err();
+    EXPECT_NE(again.err().find("resuming with the pose stored in"), std::string::npos)
+        << again.err();
+    EXPECT_TRUE(again.interrupt());
+  }
   // The recording replays (`replay --sequence DIR/received`).
   const CliRun rr =
       run_brainshift(*dir, "replay --model " + q(model) + " --sequence " + q(out / "received") +

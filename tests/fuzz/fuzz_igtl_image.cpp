@@ -2,12 +2,12 @@
 // fields as the connection reads them, then an IMAGE body unpacked by libopenigtlink and checked
 // by volume_from_image(). The body size is the input's, as the connection reads exactly the
 // bytes announced (a header that announces more than arrives is a closed connection there).
-#include "apps/serve/igtl_messages.hpp"
 #include "fuzz_input.hpp"
 
-#include <igtlMessageHeader.h>
+#include "apps/serve/igtl_messages.hpp"
 
 #include <cstring>
+#include <igtlMessageHeader.h>
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   constexpr std::size_t header = 58;

@@ -7,14 +7,13 @@
 
 #include "core/error.hpp"
 
-#include <unistd.h>
-
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <unistd.h>
 
 namespace brainshift::fuzz {
 
@@ -23,8 +22,8 @@ inline std::filesystem::path as_file(const std::uint8_t* data, std::size_t size,
                                      const std::string& name) {
   // The folder of this process, removed at exit.
   struct Folder {
-    std::filesystem::path path = std::filesystem::temp_directory_path() /
-                                 ("brainshift_fuzz_" + std::to_string(::getpid()));
+    std::filesystem::path path =
+        std::filesystem::temp_directory_path() / ("brainshift_fuzz_" + std::to_string(::getpid()));
     Folder() { std::filesystem::create_directories(path); }
     ~Folder() {
       std::error_code ec;

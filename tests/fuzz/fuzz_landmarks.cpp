@@ -1,6 +1,7 @@
 // Landmark files (imaging/io/landmark_files.cpp, csv.cpp): MNI .tag, Slicer .fcsv and .mrk.json,
 // CSV. The first byte chooses the format; the rest is the file.
 #include "fuzz_input.hpp"
+
 #include "imaging/io/landmark_files.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -1,6 +1,7 @@
 // The NIfTI-1 header check (imaging/io/header_checks.cpp) that runs before VTK reads a file:
 // plain and gzip-compressed.
 #include "fuzz_input.hpp"
+
 #include "imaging/io/header_checks.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

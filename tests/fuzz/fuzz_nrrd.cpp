@@ -1,5 +1,6 @@
 // NRRD files (imaging/io/nrrd_io.cpp, our own parser): header fields, raw and gzip data.
 #include "fuzz_input.hpp"
+
 #include "imaging/io/nrrd_io.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -181,6 +181,10 @@ TEST(LandmarkFiles, BadFilesGiveOneLineNamingTheFile) {
                {"f.tag", "no landmarks"});
   expect_error([&] { read_landmark_file(write_text(dir, "a.mrk.json", "{\"markups\": [")); },
                {"a.mrk.json", "not valid JSON"});
+  // Found by fuzzing (tests/fuzz/crashes/landmarks): a number beyond double's range escaped as
+  // the JSON library's own exception.
+  expect_error([&] { read_landmark_file(write_text(dir, "n.mrk.json", "{\"x\": 1e999}")); },
+               {"n.mrk.json", "not valid JSON", "out of range"});
   expect_error([&] { read_landmark_file(write_text(dir, "b.mrk.json", "{\"points\": []}")); },
                {"b.mrk.json", "not a Slicer markups file"});
   expect_error(
