@@ -15,7 +15,6 @@
 #include "imaging/io/nrrd_io.hpp"
 
 #include <cstdio>
-#include <fstream>
 #include <regex>
 
 namespace brainshift::serve {
@@ -74,11 +73,6 @@ void compact(const MatrixX3d& positions, const core::TriangleMatrix& faces, Matr
   points.resize(Eigen::Index(used.size()), 3);
   for (std::size_t v = 0; v < used.size(); ++v)
     points.row(Eigen::Index(v)) = positions.row(used[v]);
-}
-
-nlohmann::json read_json(const std::filesystem::path& p) {
-  std::ifstream in(p);
-  return nlohmann::json::parse(in, nullptr, false);
 }
 
 }  // namespace
@@ -249,7 +243,6 @@ bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::
     ++m_next_frame;
     if (fields.warped_mri) send(image_message(*fields.warped_mri, "WarpedMRI"));
 
-    const nlohmann::json report = read_json(dir / "report.json");
     const std::string stop = constraints::to_string(r.stop);
     nlohmann::json summary = {
         {"frame", frame},
@@ -264,10 +257,11 @@ bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::
         {"latency_s", seconds_since(received)},
         {"max_displacement_mm", max_displacement},
         {"model_from_intraop", workflow::matrix_json(r.rigid.transform.matrix())}};
-    if (report.is_object() && report.contains("uncertainty") && report["uncertainty"].is_object()) {
+    if (fields.uncertainty.computed) {  // as report.json has it, without reading it back
+      const nlohmann::json u = workflow::uncertainty_report(s, fields.uncertainty, in.data);
       nlohmann::json e = nlohmann::json::object();
       for (const char* k : {"median_mm", "p95_mm", "at_tumour_mm"})
-        if (report["uncertainty"].contains(k)) e[k] = report["uncertainty"][k];
+        if (u.contains(k)) e[k] = u[k];
       summary["predicted_error_mm"] = e;
     }
     send(string_message(summary.dump(), "BrainshiftReport"));
