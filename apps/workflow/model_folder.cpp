@@ -125,6 +125,7 @@ void write_folder_atomically(const std::filesystem::path& dir,
   const std::filesystem::path target = std::filesystem::absolute(dir).lexically_normal();
   const std::filesystem::path parent = target.parent_path();
   std::error_code ec;
+  imaging::resume_interruption();  // a signal held since the previous output ends the run now
   verify_output_folder(dir);
   std::mt19937_64 rng(std::random_device{}());
   const std::string tag = std::to_string(rng() % 1000000000ULL);
@@ -141,6 +142,9 @@ void write_folder_atomically(const std::filesystem::path& dir,
     std::filesystem::remove_all(tmp, ec);
     throw;
   }
+  // From here the result is put in place: a signal no longer interrupts (output_guard.hpp), so a
+  // run ended by a signal has left `dir` as it was, and one that was not has written it whole.
+  const imaging::CommitSection commit(true);
   // An existing folder is exchanged with the new one in one step (renameat2 RENAME_EXCHANGE):
   // `dir` is never absent or partial, and the old content, now under the temporary name, goes.
   if (std::filesystem::exists(target, ec)) {

@@ -64,6 +64,7 @@ void write_atomically(const std::filesystem::path& target,
   try {
     write(temporary);
     std::error_code ec;
+    const CommitSection commit(false);  // a signal meanwhile ends the run after the rename
     std::filesystem::rename(temporary, target, ec);
     BS_VERIFY(!ec, "cannot write " << target.string() << ": " << ec.message());
   } catch (...) {

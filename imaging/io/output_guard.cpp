@@ -29,6 +29,18 @@ struct Slot {
 };
 std::array<Slot, slots> g_slots;
 
+/// Who holds the signals: RUNNING (a signal ends the run), HOLDING (an output is being or has
+/// been put in place: a signal is held in g_held), ENDING (a handler removes the temporaries).
+enum Phase : int { RUNNING = 0, HOLDING = 1, ENDING = 2 };
+std::atomic<int> g_phase{RUNNING};
+std::atomic<int> g_held{0};
+static_assert(std::atomic<int>::is_always_lock_free);
+
+/// The process is ending by another thread's handler: wait for it.
+[[noreturn]] void wait_for_the_end() {
+  for (;;) ::pause();
+}
+
 /// linux_dirent64, as getdents64(2) returns it.
 struct DirEntry {
   std::uint64_t inode;
@@ -61,6 +73,14 @@ bool remove_tree(int at, const char* name, int depth) {
 }
 
 extern "C" void on_signal(int signal) {
+  int phase = RUNNING;
+  if (!g_phase.compare_exchange_strong(phase, ENDING)) {
+    if (phase == HOLDING) {
+      g_held = signal;  // an output is going into place: the section's end decides
+      return;
+    }
+    wait_for_the_end();  // another thread's handler is at work
+  }
   // The other threads go on while this runs: one may still move a finished file into a folder
   // being removed. Passes until every temporary is gone, 2 s at most.
   for (int pass = 0; pass < 100; ++pass) {
@@ -85,6 +105,26 @@ void remove_temporaries_on_signal() {
   for (const int s : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(s, &action, nullptr);
 }
 
+CommitSection::CommitSection(bool final) : m_final(final) {
+  int phase = RUNNING;
+  m_resume = g_phase.compare_exchange_strong(phase, HOLDING);
+  if (!m_resume && phase == ENDING) wait_for_the_end();
+}
+
+CommitSection::~CommitSection() {
+  if (m_final || !m_resume) return;  // held until the next output, or by the enclosing hold
+  const int held = g_held.exchange(0);
+  g_phase = RUNNING;
+  if (held != 0) on_signal(held);
+}
+
+void resume_interruption() {
+  int phase = HOLDING;
+  if (!g_phase.compare_exchange_strong(phase, RUNNING)) return;
+  const int held = g_held.exchange(0);
+  if (held != 0) on_signal(held);
+}
+
 TemporaryGuard::TemporaryGuard(const std::filesystem::path& temporary) {
   const std::string p = std::filesystem::absolute(temporary).string();
   if (p.size() >= path_bytes) return;
@@ -103,6 +143,7 @@ TemporaryGuard::~TemporaryGuard() {
 }
 
 OutputLock::OutputLock(const std::filesystem::path& target) {
+  resume_interruption();
   const std::filesystem::path absolute = std::filesystem::absolute(target).lexically_normal();
   std::filesystem::path name = absolute.filename();
   if (name.empty()) name = absolute.parent_path().filename();  // "RES/"

@@ -6,7 +6,13 @@
 ///   fill before renaming them into place) are registered while they exist, and a SIGINT, SIGTERM
 ///   or SIGHUP removes them before the process ends with that signal;
 /// - an output is written by one run at a time: OutputLock holds a lock beside it for the whole
-///   run, and a second run writing the same output stops at once, saying so.
+///   run, and a second run writing the same output stops at once, saying so;
+/// - the step that puts a finished output in place is indivisible for the handlers (a
+///   CommitSection): a signal that arrives while an output is renamed into place, or after a
+///   command's output folder is in place, no longer interrupts what is done. The run then ends
+///   with its own exit code and the new, complete result — or, when it goes on to write another
+///   output, it ends by that signal as it starts the next one. So a run that exits by a signal
+///   (128 + n) has left its output as it was.
 
 #include <filesystem>
 #include <memory>
@@ -32,6 +38,29 @@ class TemporaryGuard {
  private:
   int m_slot = -1;
 };
+
+/// Makes the rename of a finished output into place (and the removal of what it replaced)
+/// indivisible for the handlers: a signal meanwhile is held. When the section ends, a held signal
+/// ends the process for an intermediate file (`final` false: the temporaries are removed as
+/// usual); for a command's output (`final` true) it stays held until the next output begins
+/// (resume_interruption()) or the process ends normally. If a handler is already removing the
+/// temporaries as the section begins, the process is ending: the section waits for it.
+class CommitSection {
+ public:
+  explicit CommitSection(bool final);
+  ~CommitSection();
+  CommitSection(const CommitSection&) = delete;
+  CommitSection& operator=(const CommitSection&) = delete;
+
+ private:
+  bool m_final;
+  bool m_resume;  ///< the section began outside a final commit's hold
+};
+
+/// Begins a new output: a signal held since a command's output was put in place now ends the
+/// process (the previous output is complete; nothing of this one is written yet). OutputLock and
+/// write_folder_atomically() call it first.
+void resume_interruption();
 
 /// An exclusive lock on the output `target` (a file or folder, existing or not) for this run: a
 /// lock file `.NAME.lock` beside it, held with flock() and removed when released.

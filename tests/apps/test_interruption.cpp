@@ -75,6 +75,7 @@ TEST_F(Interruption, RegisterInterruptedLeavesNoTraceOrThePreviousResult) {
   const std::string previous = read_all(res / "report.json");
   ASSERT_FALSE(previous.empty());
   int interrupted = 0;
+  std::string codes;  // the exit statuses in order, for the message below
   for (const double fraction : {0.1, 0.3, 0.5, 0.7, 0.85, 0.95}) {
     for (const bool existed : {false, true}) {
       if (!existed) std::filesystem::remove_all(res);
@@ -86,6 +87,7 @@ TEST_F(Interruption, RegisterInterruptedLeavesNoTraceOrThePreviousResult) {
       const int code = run_and_signal(*dir, register_args(res), fraction * seconds,
                                       fraction < 0.5 ? SIGTERM : SIGINT);
       SCOPED_TRACE(std::to_string(fraction) + (existed ? " over a previous result" : ""));
+      codes += " " + std::to_string(code);
       // Ended by the signal (128 + n), or finished first (0, 2).
       EXPECT_TRUE(code == 143 || code == 130 || code == 0 || code == 2) << code;
       EXPECT_EQ(hidden_entries(parent), std::vector<std::string>{});
@@ -101,8 +103,11 @@ TEST_F(Interruption, RegisterInterruptedLeavesNoTraceOrThePreviousResult) {
       }
     }
   }
-  EXPECT_GE(interrupted, 6) << "most signals should land while the run is going (run " << seconds
-                            << " s)";
+  // The signals at 0.1 and 0.3 of the measured run land before the result is written even when
+  // the machine's load (CTest runs two tests at once) makes one run 3x faster than the measured
+  // one; the later ones may come after the commit, when the run ends with its own code.
+  EXPECT_GE(interrupted, 4) << "the early signals should land while the run is going (run "
+                            << seconds << " s; exit statuses" << codes << ")";
 }
 
 TEST_F(Interruption, ReplayInterruptedLeavesNoTrace) {
