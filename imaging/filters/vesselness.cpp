@@ -1,6 +1,7 @@
 #include "imaging/filters/vesselness.hpp"
 
 #include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/order_statistic.hpp"
 #include "imaging/filters/parallel.hpp"
 
 #include <Eigen/Eigenvalues>
@@ -98,14 +99,10 @@ VolumeF frangi_vesselness(const VolumeF& image, const VesselnessOptions& options
     const Vector3d inv_h = h.spacing.cwiseInverse();
     const double normalise = sigma * sigma;  // γ = 1 scale normalisation of second derivatives
     // Bright tubes are brighter than the image's median after smoothing: skip the rest.
-    std::vector<float> sorted;
-    sorted.reserve(s.data.size());
-    for (const float x : s.data)
-      if (std::isfinite(x)) sorted.push_back(x);
-    if (sorted.empty()) continue;
-    const auto mid = sorted.begin() + std::ptrdiff_t(sorted.size() / 2);
-    std::nth_element(sorted.begin(), mid, sorted.end());
-    const float median = *mid;
+    const auto finite_median = median_where(
+        s.data.size(), [](std::size_t) { return true; }, [&s](std::size_t v) { return s.data[v]; });
+    if (!finite_median) continue;
+    const float median = finite_median->value;
     // Pass 1: Hessian norm (for c) where the trace is negative (bright ridges).
     std::vector<float> norm(s.data.size(), -1.0F);
     std::vector<double> largest_of(std::size_t(h.size[2]), 0.0);

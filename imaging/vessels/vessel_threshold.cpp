@@ -2,6 +2,7 @@
 
 #include "core/parallel.hpp"
 #include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/order_statistic.hpp"
 
 #include <algorithm>
 #include <array>
@@ -19,9 +20,10 @@ double median_of(std::vector<float>& values) {
 }
 
 /// The passes over every voxel below run on this many contiguous ranges, two threads: each
-/// range's results are kept apart and combined in range order, so minima and counts are those
-/// of one pass and gathered values come in one pass's order: the results are the same, to the
-/// bit, as a single-threaded pass.
+/// range's results are kept apart (in the range's own variables, written back once: no cache
+/// line shared by the threads in the loop) and combined in range order, so minima and counts
+/// are those of one pass and gathered values come in one pass's order: the results are the
+/// same, to the bit, as a single-threaded pass.
 constexpr std::size_t ranges = 8;
 
 /// body(begin, end, r) on the ranges r of [0, n).
@@ -29,22 +31,6 @@ template <typename F>
 void for_ranges(std::size_t n, F&& body) {
   core::parallel_chunks(ranges, /*threads=*/2,
                         [&](std::size_t r) { body(n * r / ranges, n * (r + 1) / ranges, r); });
-}
-
-/// The values value(v) of the voxels v in [0, n) for which keep(v), gathered by for_ranges().
-template <typename Keep, typename Value>
-std::vector<float> gather(std::size_t n, Keep&& keep, Value&& value) {
-  std::vector<std::vector<float>> part(ranges);
-  for_ranges(n, [&](std::size_t b, std::size_t e, std::size_t r) {
-    for (std::size_t v = b; v < e; ++v)
-      if (keep(v)) part[r].push_back(value(v));
-  });
-  std::size_t total = 0;
-  for (const auto& p : part) total += p.size();
-  std::vector<float> out;
-  out.reserve(total);
-  for (const auto& p : part) out.insert(out.end(), p.begin(), p.end());
-  return out;
 }
 
 }  // namespace
@@ -97,19 +83,26 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
     std::array<std::int64_t, ranges> finite_of{}, at_low_of{};
     low_of.fill(std::numeric_limits<float>::infinity());
     const std::size_t n = image.data.size();
+    const float* data = image.data.data();
     for_ranges(n, [&](std::size_t b, std::size_t e, std::size_t r) {
+      std::int64_t count = 0;
+      float least = std::numeric_limits<float>::infinity();
       for (std::size_t v = b; v < e; ++v)
-        if (std::isfinite(image.data[v])) {
-          ++finite_of[r];
-          low_of[r] = std::min(low_of[r], image.data[v]);
+        if (std::isfinite(data[v])) {
+          ++count;
+          least = std::min(least, data[v]);
         }
+      finite_of[r] = count;
+      low_of[r] = least;
     });
     for (std::size_t r = 0; r < ranges; ++r) {
       finite += finite_of[r];
       low = std::min(low, low_of[r]);
     }
     for_ranges(n, [&](std::size_t b, std::size_t e, std::size_t r) {
-      for (std::size_t v = b; v < e; ++v) at_low_of[r] += image.data[v] == low ? 1 : 0;
+      std::int64_t count = 0;
+      for (std::size_t v = b; v < e; ++v) count += data[v] == low ? 1 : 0;
+      at_low_of[r] = count;
     });
     for (const std::int64_t a : at_low_of) at_low += a;
   }
@@ -143,9 +136,13 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
     if (near[v] == 1 && out.vesselness.data[v] < tubular_level && std::isfinite(mean.data[v]))
       values.push_back(mean.data[v]);
   const bool local = values.size() >= 16;
-  if (!local)
-    values = gather(image.data.size(), reference, [&](std::size_t v) { return filtered.data[v]; });
-  double background = values.empty() ? double(low) : median_of(values);
+  const auto filtered_at = [&](std::size_t v) { return filtered.data[v]; };
+  double background = double(low);
+  if (local) {
+    background = median_of(values);
+  } else if (const auto m = filters::median_where(image.data.size(), reference, filtered_at)) {
+    background = m->value;
+  }
 
   // Noise: 1.4826 × MAD of the differences between reference voxels `lag` apart (≈ 3 mm, beyond
   // the correlation of reconstructed noise and the pre-filter), over √2, in the cells around the
@@ -191,15 +188,18 @@ VesselContrast vessel_contrast_threshold(const VolumeF& image, const VolumeF& fi
   // suppressed, and what is left is the vessels themselves.
   double reference_median = background;
   if (masked) {
-    values = gather(image.data.size(), reference, [&](std::size_t v) { return filtered.data[v]; });
-    reference_median = values.empty() ? double(low) : median_of(values);
+    const auto m = filters::median_where(image.data.size(), reference, filtered_at);
+    reference_median = m ? double(m->value) : double(low);
   }
   const double low_filtered = [&] {
     std::array<float, ranges> m;
     m.fill(std::numeric_limits<float>::infinity());
+    const float* data = filtered.data.data();
     for_ranges(filtered.data.size(), [&](std::size_t b, std::size_t e, std::size_t r) {
+      float least = std::numeric_limits<float>::infinity();
       for (std::size_t v = b; v < e; ++v)
-        if (std::isfinite(filtered.data[v])) m[r] = std::min(m[r], filtered.data[v]);
+        if (std::isfinite(data[v])) least = std::min(least, data[v]);
+      m[r] = least;
     });
     return double(*std::min_element(m.begin(), m.end()));
   }();

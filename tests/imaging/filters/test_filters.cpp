@@ -3,11 +3,14 @@
 #include "expect_error.hpp"
 
 #include "imaging/filters/gaussian.hpp"
+#include "imaging/filters/order_statistic.hpp"
 #include "imaging/filters/vesselness.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 namespace brainshift::imaging::filters {
@@ -131,6 +134,44 @@ TEST(GaussianFilter, DownsampleOnThreadsEqualsOnePassToTheBit) {
     }
     EXPECT_EQ(differing, 0);
   }
+}
+
+TEST(OrderStatistic, MedianWhereIsTheValueNthElementSelects) {
+  // The histogram selection must give exactly the ⌊m/2⌋-th smallest of the kept finite values,
+  // as std::nth_element does on the gathered values: negatives, ±0, ties in one histogram bin,
+  // NaN and ±∞ (left out), and a subset chosen by the predicate.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-1000.0F, 1000.0F);
+  for (const int variant : {0, 1, 2}) {
+    SCOPED_TRACE("variant " + std::to_string(variant));
+    std::vector<float> x(100003);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      x[i] = variant == 0   ? u(rng)
+             : variant == 1 ? float(int(u(rng)) % 3) * 0.0F + (i % 2 == 0 ? -0.0F : 0.0F)
+                            : 1.0F + 1e-6F * float(i % 50);  // all in a few bins
+      if (i % 101 == 0) x[i] = std::nanf("");
+      if (i % 211 == 0)
+        x[i] = i % 2 == 0 ? std::numeric_limits<float>::infinity()
+                          : -std::numeric_limits<float>::infinity();
+    }
+    const auto keep = [](std::size_t v) { return v % 7 != 3; };
+    std::vector<float> kept;
+    for (std::size_t v = 0; v < x.size(); ++v)
+      if (keep(v) && std::isfinite(x[v])) kept.push_back(x[v]);
+    const auto mid = kept.begin() + std::ptrdiff_t(kept.size() / 2);
+    std::nth_element(kept.begin(), mid, kept.end());
+    const auto got = median_where(x.size(), keep, [&x](std::size_t v) { return x[v]; });
+    ASSERT_TRUE(got.has_value());
+    EXPECT_EQ(got->value, *mid);
+    EXPECT_EQ(got->count, kept.size());
+  }
+  // Nothing kept, or nothing finite: no median.
+  const std::vector<float> nan_only(10, std::nanf(""));
+  EXPECT_FALSE(median_where(
+      nan_only.size(), [](std::size_t) { return true; },
+      [&](std::size_t v) { return nan_only[v]; }));
+  EXPECT_FALSE(median_where(
+      std::size_t(0), [](std::size_t) { return true; }, [](std::size_t) { return 0.0F; }));
 }
 
 TEST(Vesselness, TubesRespondPlatesAndBlobsDoNot) {
