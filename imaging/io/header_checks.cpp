@@ -8,6 +8,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <string>
 #include <system_error>
 #include <zlib.h>
 
@@ -38,6 +40,75 @@ void verify_claimed_bytes(const std::string& file, double claimed, double offset
     BS_VERIFY(claimed + offset <= size, file << ": truncated: the header claims " << claimed
                                              << " bytes of voxels after byte " << offset
                                              << ", the file holds " << size);
+}
+
+void verify_vtk_xml_header(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  BS_VERIFY(in, file << ": cannot open");
+  std::string head(std::size_t(1) << 20, '\0');
+  in.read(head.data(), std::streamsize(head.size()));
+  head.resize(std::size_t(in.gcount()));
+  if (const auto appended = head.find("<AppendedData"); appended != std::string::npos)
+    head.resize(appended);
+  const bool compressed = head.find("compressor=") != std::string::npos;
+  // Bytes in memory per item (Float64 points; cells: a type, an offset and four ids) and the
+  // values each takes on disk, at one byte per value at the least.
+  struct Count {
+    const char* name;
+    double memory, values;
+  };
+  constexpr Count counts[] = {{"NumberOfPoints", 24, 3}, {"NumberOfCells", 41, 3},
+                              {"NumberOfVerts", 16, 2},  {"NumberOfLines", 32, 3},
+                              {"NumberOfStrips", 40, 4}, {"NumberOfPolys", 40, 4}};
+  double memory = 0.0, values = 0.0;
+  for (std::size_t piece = head.find("<Piece"); piece != std::string::npos;
+       piece = head.find("<Piece", piece + 6)) {
+    const std::size_t end = std::min(head.find('>', piece), head.size());
+    const std::string tag = head.substr(piece, end - piece);
+    for (const Count& c : counts) {
+      const std::string key = std::string(" ") + c.name + "=\"";
+      const std::size_t at = tag.find(key);
+      if (at == std::string::npos) continue;
+      const char* text = tag.c_str() + at + key.size();
+      char* stop = nullptr;
+      const double n = std::strtod(text, &stop);
+      BS_VERIFY(stop != text && *stop == '"' && std::isfinite(n) && n >= 0.0 && n == std::floor(n),
+                file << ": " << c.name << " \""
+                     << std::string(text, std::strcspn(text, "\"")).substr(0, 32)
+                     << "\" is not a count");
+      memory += n * c.memory;
+      values += n * c.values;
+    }
+  }
+  // Image data: the voxels of WholeExtent="x0 x1 y0 y1 z0 z1" (read as float, one value each).
+  if (const std::size_t at = head.find(" WholeExtent=\""); at != std::string::npos) {
+    const char* text = head.c_str() + at + 14;
+    double voxels = 1.0;
+    for (int a = 0; a < 3; ++a) {
+      char* stop = nullptr;
+      const double lo = std::strtod(text, &stop);
+      const char* mid = stop;
+      const double hi = std::strtod(mid, &stop);
+      BS_VERIFY(stop != mid && mid != text && std::isfinite(lo) && std::isfinite(hi) &&
+                    lo == std::floor(lo) && hi == std::floor(hi) && hi >= lo - 1.0,
+                file << ": WholeExtent is not three integer ranges");
+      voxels *= hi - lo + 1.0;
+      text = stop;
+    }
+    memory += 4.0 * voxels;
+    values += voxels;
+  }
+  BS_VERIFY(memory <= max_volume_bytes(),
+            file << ": the header claims " << memory / double(1ULL << 30)
+                 << " GiB of points, cells or voxels, over the "
+                 << max_volume_bytes() / double(1ULL << 30)
+                 << " GiB this tool reads (BRAINSHIFT_MAX_VOLUME_GB)");
+  std::error_code ec;
+  const double size = double(std::filesystem::file_size(file, ec));
+  BS_VERIFY(values <= (compressed ? 1032.0 * size + 1024.0 : size),
+            file << ": the header claims " << values
+                 << " values of points, cells or voxels, more than a " << size << "-byte "
+                 << (compressed ? "compressed " : "") << "file can hold (corrupt header)");
 }
 
 void verify_nifti_header(const std::string& file) {

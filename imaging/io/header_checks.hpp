@@ -16,6 +16,14 @@ double max_volume_bytes();
 /// deflate's largest ratio (1032:1) times the file's size.
 void verify_claimed_bytes(const std::string& file, double claimed, double offset, bool compressed);
 
+/// VTK XML (.vtu, .vtp, .vti): the sizes every `<Piece>` claims (NumberOfPoints, NumberOfCells,
+/// NumberOfVerts/Lines/Strips/Polys) and an image's WholeExtent, before VTK allocates them: whole
+/// numbers, what they would take in memory under max_volume_bytes(), and at least one byte per
+/// value on disk (any encoding; deflate's 1032:1 for a compressed file). The header is read up to
+/// the appended data (at most 1 MiB). \throws brainshift::Error, one line naming the file and the
+/// attribute.
+void verify_vtk_xml_header(const std::string& file);
+
 /// NIfTI-1: the 348-byte header (through zlib for .nii.gz) — dimensions, bitpix, the spacing
 /// (finite, non-zero) and the data it claims — before VTK reads anything. NIfTI-2 is left to VTK.
 /// \throws brainshift::Error, one line naming the file and the field.

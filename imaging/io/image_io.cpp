@@ -219,6 +219,7 @@ VolumeF read_vti(const std::filesystem::path& path) {
   const VtkErrorCapture errors;
   vtkNew<vtkXMLImageDataReader> reader;
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a VTK XML image data file");
+  verify_vtk_xml_header(file);
   reader->SetFileName(file.c_str());
   reader->Update();
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());

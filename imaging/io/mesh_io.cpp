@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 #include "core/units.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/header_checks.hpp"
 #include "imaging/io/vtk_error_capture.hpp"
 
 #include <climits>
@@ -62,6 +63,7 @@ vtkSmartPointer<vtkUnstructuredGrid> read_grid(const std::filesystem::path& path
   vtkNew<vtkXMLUnstructuredGridReader> reader;
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0,
             file << ": not a VTK XML unstructured grid (.vtu) file");
+  verify_vtk_xml_header(file);
   reader->SetFileName(file.c_str());
   reader->Update();
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());

@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/header_checks.hpp"
 #include "imaging/io/vtk_error_capture.hpp"
 
 #include <vtkNew.h>
@@ -21,6 +22,7 @@ vtkSmartPointer<vtkPolyData> read_polydata(const std::filesystem::path& path) {
   const VtkErrorCapture errors;
   vtkNew<vtkXMLPolyDataReader> reader;
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a VTK XML polydata (.vtp) file");
+  verify_vtk_xml_header(file);
   reader->SetFileName(file.c_str());
   reader->Update();
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());

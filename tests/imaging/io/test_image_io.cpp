@@ -4,6 +4,8 @@
 
 #include "imaging/io/image_frame.hpp"
 #include "imaging/io/image_io.hpp"
+#include "imaging/io/mesh_io.hpp"
+#include "imaging/io/skeleton_io.hpp"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
@@ -344,6 +346,42 @@ TEST(ImageIoErrors, HostileHeadersAreRefusedBeforeAnyAllocation) {
   write_text(dir / "bomb.nrrd",
              nrrd + "sizes: 1024 1024 1024\nencoding: gzip\n\n" + std::string(1024, 'x'));
   expect_error([&] { read_volume(dir / "bomb.nrrd"); }, {"bomb.nrrd", "deflate"});
+}
+
+TEST(ImageIoErrors, HostileVtkXmlHeadersAreRefusedBeforeVtkAllocates) {
+  // Issue 36 item 1: a .vtu claiming 9·10¹¹ points made VTK allocate until std::bad_alloc (the
+  // message named no file). The counts of every <Piece> and an image's WholeExtent are checked
+  // against the memory ceiling and the file's size before VTK reads a byte of data.
+  const tests::TempFolder dir;
+  const auto vtu = [](const std::string& points) {
+    return "<VTKFile type=\"UnstructuredGrid\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+           "<UnstructuredGrid><Piece NumberOfPoints=\"" +
+           points +
+           "\" NumberOfCells=\"1\">\n<Points><DataArray type=\"Float64\" "
+           "NumberOfComponents=\"3\" format=\"ascii\">0 0 0 1 0 0 0 1 0 0 0 1</DataArray>"
+           "</Points>\n<Cells><DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
+           "0 1 2 3</DataArray><DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">4"
+           "</DataArray><DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">10</DataArray>"
+           "</Cells>\n</Piece></UnstructuredGrid></VTKFile>\n";
+  };
+  write_text(dir / "good.vtu", vtu("4"));
+  EXPECT_EQ(read_tet_mesh(dir / "good.vtu").num_nodes(), 4);  // the check passes a valid file
+  write_text(dir / "huge.vtu", vtu("900000000000"));
+  expect_error([&] { read_tet_mesh(dir / "huge.vtu"); }, {"huge.vtu", "claims", "GiB"});
+  write_text(dir / "short.vtu", vtu("4000000"));  // 96 MB in memory, 12 M values from 700 bytes
+  expect_error([&] { read_tet_mesh(dir / "short.vtu"); }, {"short.vtu", "claims", "corrupt"});
+  write_text(dir / "negative.vtu", vtu("-4"));
+  expect_error([&] { read_tet_mesh(dir / "negative.vtu"); },
+               {"negative.vtu", "NumberOfPoints", "not a count"});
+  write_text(dir / "lines.vtp",
+             "<VTKFile type=\"PolyData\" version=\"0.1\"><PolyData><Piece NumberOfPoints=\"2\" "
+             "NumberOfLines=\"1e15\"></Piece></PolyData></VTKFile>\n");
+  expect_error([&] { read_skeleton_vtp(dir / "lines.vtp"); }, {"lines.vtp", "claims", "GiB"});
+  write_text(dir / "huge.vti",
+             "<VTKFile type=\"ImageData\" version=\"0.1\"><ImageData WholeExtent=\"0 99999 0 "
+             "99999 0 99999\" Origin=\"0 0 0\" Spacing=\"1 1 1\"><Piece Extent=\"0 99999 0 99999 0 "
+             "99999\"></Piece></ImageData></VTKFile>\n");
+  expect_error([&] { read_volume(dir / "huge.vti"); }, {"huge.vti", "claims", "GiB"});
 }
 
 TEST(ImageIoHeaders, SinglePrecisionDirectionIsReorthonormalisedAndNoted) {
