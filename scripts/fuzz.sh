@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Fuzzes each reader of hostile input (tests/fuzz) with clang's libFuzzer under ASan + UBSan.
 # Usage: scripts/fuzz.sh [SECONDS_PER_TARGET (default 60)] [TARGET...]
-#   targets: nrrd landmarks plus_sequence nifti_header igtl_image (default: all)
+#   targets: nrrd landmarks plus_sequence nifti_header igtl_image volume vtk_xml scene
+#            model_manifest compliance_cache (default: all)
 # Builds into build-fuzz/ (clang, -DBS_FUZZ=ON, RelWithDebInfo), runs each target from its seed
 # corpus (tests/fuzz/corpus/<target>, copied to build-fuzz/corpus/<target> where the fuzzer adds
 # what it finds), copies any crash to tests/fuzz/crashes/<target>/ (a regression input for CTest),
@@ -11,10 +12,11 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(nrrd landmarks plus_sequence nifti_header igtl_image)
+[ ${#targets[@]} -eq 0 ] && targets=(nrrd landmarks plus_sequence nifti_header igtl_image volume vtk_xml
+                                      scene model_manifest compliance_cache)
 scripts/install_deps.sh
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DBS_FUZZ=ON -DBS_BUILD_TESTS=OFF -DBS_BUILD_APPS=OFF -DBS_BUILD_BENCH=OFF >/dev/null
+  -DBS_FUZZ=ON -DBS_BUILD_TESTS=OFF -DBS_BUILD_APPS=ON -DBS_BUILD_BENCH=OFF >/dev/null
 cmake --build build-fuzz -j "${BS_JOBS:-$(nproc)}" --target "${targets[@]/#/fuzz_}"
 export ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1
 failed=0

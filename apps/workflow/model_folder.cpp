@@ -3,6 +3,8 @@
 #include "core/error.hpp"
 #include "core/hash.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/header_checks.hpp"
+#include "imaging/io/image_frame.hpp"
 #include "imaging/io/output_guard.hpp"
 
 #include <fcntl.h>
@@ -84,22 +86,41 @@ LoadedModel load_model(const std::filesystem::path& dir) {
   try {
     std::ifstream in(manifest_path);
     m.manifest = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    BS_VERIFY(false, manifest_path.string() << ": unreadable manifest (" << e.what() << ")");
+  } catch (const nlohmann::json::parse_error& e) {
+    BS_VERIFY(false, manifest_path.string()
+                         << ": unreadable manifest (not valid JSON at byte " << e.byte << ")");
+  } catch (const nlohmann::json::exception&) {  // e.g. a number beyond double's range
+    BS_VERIFY(false, manifest_path.string() << ": unreadable manifest (a number out of range)");
   }
-  BS_VERIFY(m.manifest.value("format", "") == model_format,
-            manifest_path.string()
-                << ": not a brainshift model (format '" << m.manifest.value("format", "") << "')");
-  const int version = m.manifest.value("version", 0);
+  BS_VERIFY(m.manifest.is_object(), manifest_path.string()
+                                        << ": not a brainshift model manifest (not a JSON object)");
+  const auto text = [&](const char* key) {
+    const auto it = m.manifest.find(key);
+    return it != m.manifest.end() && it->is_string() ? it->get<std::string>() : std::string();
+  };
+  BS_VERIFY(text("format") == model_format, manifest_path.string()
+                                                << ": not a brainshift model (format '"
+                                                << text("format").substr(0, 40) << "')");
+  const auto version_it = m.manifest.find("version");
+  const int version = version_it != m.manifest.end() && version_it->is_number_integer()
+                          ? version_it->get<int>()
+                          : 0;
   BS_VERIFY(version == model_version, manifest_path.string()
                                           << ": model version " << version
                                           << ", this brainshift reads version " << model_version
                                           << "; run brainshift prepare again");
   try {
     m.preop_grid = grid_from_json(m.manifest.at("preop_grid"));
-  } catch (const nlohmann::json::exception& e) {
-    BS_VERIFY(false, manifest_path.string() << ": bad 'preop_grid' (" << e.what() << ")");
+  } catch (const nlohmann::json::exception&) {
+    BS_VERIFY(false, manifest_path.string()
+                         << ": bad 'preop_grid' (needs size, origin_mm, spacing_mm: 3 numbers "
+                            "each; direction: 3 rows of 3)");
   }
+  // The result fields are allocated on this grid (3 floats a voxel, several fields).
+  imaging::verify_geometry(m.preop_grid, manifest_path.string() + ": preop_grid");
+  BS_VERIFY(12.0 * m.preop_grid.size.cast<double>().prod() <= imaging::max_volume_bytes(),
+            manifest_path.string() << ": preop_grid claims " << m.preop_grid.size.transpose()
+                                   << " voxels, over BRAINSHIFT_MAX_VOLUME_GB for its fields");
   m.scene = workflow::read_scene(dir / "scene.json");
   return m;
 }

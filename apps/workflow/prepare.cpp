@@ -310,8 +310,10 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
     BS_VERIFY(in.good(), o.scene_options->string() << ": cannot open");
     try {
       scene.merge_patch(nlohmann::json::parse(in));
-    } catch (const nlohmann::json::exception& e) {
-      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (" << e.what() << ")");
+    } catch (const nlohmann::json::parse_error& e) {
+      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (at byte " << e.byte << ")");
+    } catch (const nlohmann::json::exception&) {  // e.g. a number beyond double's range
+      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (a number out of range)");
     }
   }
   nlohmann::json manifest = {

@@ -110,7 +110,7 @@ void check_scene_options(const std::filesystem::path& path) {
   try {
     j = json::parse(in);
   } catch (const json::parse_error& e) {
-    BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
+    BS_VERIFY(false, file << ": not valid JSON (at byte " << e.byte << ")");
   } catch (const json::exception&) {  // e.g. a number beyond double's range
     BS_VERIFY(false, file << ": not valid JSON (a number out of range)");
   }
@@ -140,7 +140,7 @@ Scene read_scene(const std::filesystem::path& path) {
   try {
     j = json::parse(in);
   } catch (const json::parse_error& e) {
-    BS_VERIFY(false, file << ": not valid JSON (" << e.what() << ")");
+    BS_VERIFY(false, file << ": not valid JSON (at byte " << e.byte << ")");
   } catch (const json::exception&) {  // e.g. a number beyond double's range
     BS_VERIFY(false, file << ": not valid JSON (a number out of range)");
   }

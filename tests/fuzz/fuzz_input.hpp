@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -44,7 +45,11 @@ void expect_refusal_or_success(Read&& read) {
     read();
   } catch (const Error& e) {
     if (std::string(e.what()).empty()) std::abort();  // a refusal must say why
+    // BS_FUZZ_VERBOSE=1: each refusal on stderr (to check that the seeds of a corpus are read).
+    if (std::getenv("BS_FUZZ_VERBOSE") != nullptr) std::fprintf(stderr, "refused: %s\n", e.what());
+    return;
   }
+  if (std::getenv("BS_FUZZ_VERBOSE") != nullptr) std::fprintf(stderr, "read\n");
 }
 
 }  // namespace brainshift::fuzz
