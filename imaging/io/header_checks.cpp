@@ -111,58 +111,136 @@ void verify_vtk_xml_header(const std::string& file) {
                  << (compressed ? "compressed " : "") << "file can hold (corrupt header)");
 }
 
+void verify_metaimage_header(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  BS_VERIFY(in, file << ": cannot open");
+  const auto trim = [](std::string t) {
+    const auto b = t.find_first_not_of(" \t\r");
+    const auto e = t.find_last_not_of(" \t\r");
+    return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
+  };
+  std::string line;
+  for (int lines = 0; lines < 1000 && std::getline(in, line); ++lines) {
+    const auto eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
+    const auto whole = [&](long lo, long hi) {
+      char* end = nullptr;
+      const long v = std::strtol(value.c_str(), &end, 10);
+      return !value.empty() && *end == '\0' && v >= lo && v <= hi;
+    };
+    if (key == "NDims")
+      BS_VERIFY(whole(2, 3),
+                file << ": MetaImage NDims \"" << value.substr(0, 24) << "\" (2 or 3 supported)");
+    if (key == "ElementNumberOfChannels")
+      BS_VERIFY(whole(1, 16), file << ": MetaImage ElementNumberOfChannels \""
+                                   << value.substr(0, 24) << "\" (1 to 16)");
+    if (key == "ElementDataFile") {  // the data follow: LOCAL, or one file beside the header
+      BS_VERIFY(value == "LOCAL" || (!value.empty() && value.find('%') == std::string::npos &&
+                                     value.rfind("LIST", 0) != 0),
+                file << ": MetaImage ElementDataFile \"" << value.substr(0, 24)
+                     << "\" (LOCAL or one data file; file patterns and lists are not read)");
+      break;
+    }
+  }
+}
+
 void verify_nifti_header(const std::string& file) {
-  unsigned char h[348] = {};
+  unsigned char h[540] = {};
   gzFile in = gzopen(file.c_str(), "rb");
   BS_VERIFY(in != nullptr, file << ": cannot open");
   const int got = gzread(in, h, sizeof h);
   const bool compressed = gzdirect(in) == 0;
   gzclose(in);
-  BS_VERIFY(got == int(sizeof h),
-            file << ": not a NIfTI-1 file (shorter than its 348-byte header)");
+  BS_VERIFY(got >= 348, file << ": not a NIfTI file (shorter than a 348-byte header)");
   std::int32_t sizeof_hdr = 0;
   std::memcpy(&sizeof_hdr, h, 4);
   const bool swap = sizeof_hdr != 348 && sizeof_hdr != 540;
   if (swap) sizeof_hdr = std::int32_t(__builtin_bswap32(std::uint32_t(sizeof_hdr)));
-  if (sizeof_hdr == 540) return;  // NIfTI-2: VTK's reader checks it
-  BS_VERIFY(sizeof_hdr == 348, file << ": not a NIfTI-1 file (header size " << sizeof_hdr << ")");
-  const auto i16 = [&](int at) {
-    std::uint16_t v = 0;
-    std::memcpy(&v, h + at, 2);
-    return std::int16_t(swap ? __builtin_bswap16(v) : v);
+  BS_VERIFY(sizeof_hdr == 348 || sizeof_hdr == 540,
+            file << ": not a NIfTI file (header size " << sizeof_hdr << ")");
+  const bool two = sizeof_hdr == 540;  // NIfTI-2: 64-bit dimensions, double spacing
+  BS_VERIFY(!two || got == 540, file << ": not a NIfTI-2 file (shorter than its 540-byte header)");
+  const auto bytes = [&](int at, int n) {
+    std::uint64_t v = 0;
+    std::memcpy(&v, h + at, std::size_t(n));
+    if (swap) v = __builtin_bswap64(v) >> (64 - 8 * n);
+    return v;
   };
+  const auto i16 = [&](int at) { return double(std::int16_t(bytes(at, 2))); };
+  const auto i64 = [&](int at) { return double(std::int64_t(bytes(at, 8))); };
   const auto f32 = [&](int at) {
-    std::uint32_t v = 0;
-    std::memcpy(&v, h + at, 4);
-    if (swap) v = __builtin_bswap32(v);
+    const auto v = std::uint32_t(bytes(at, 4));
     float f = 0;
     std::memcpy(&f, &v, 4);
     return double(f);
   };
-  const int ndim = i16(40);
-  BS_VERIFY(ndim >= 1 && ndim <= 7, file << ": NIfTI dim[0] = " << ndim << " (1 to 7)");
+  const auto f64 = [&](int at) {
+    const std::uint64_t v = bytes(at, 8);
+    double d = 0;
+    std::memcpy(&d, &v, 8);
+    return d;
+  };
+  // Field offsets: NIfTI-1 | NIfTI-2.
+  const auto dim = [&](int a) { return two ? i64(16 + 8 * a) : i16(40 + 2 * a); };
+  const auto pixdim = [&](int a) { return two ? f64(104 + 8 * a) : f32(76 + 4 * a); };
+  const char* version = two ? "NIfTI-2" : "NIfTI";
+  const double ndim = dim(0);
+  BS_VERIFY(ndim >= 1 && ndim <= 7, file << ": " << version << " dim[0] = " << ndim << " (1 to 7)");
   double voxels = 1;
-  for (int a = 1; a <= ndim; ++a) {
-    const int d = i16(40 + 2 * a);
-    BS_VERIFY(d >= 1, file << ": NIfTI dim[" << a << "] = " << d << " (must be >= 1)");
-    voxels *= double(d);
+  for (int a = 1; a <= int(ndim); ++a) {
+    const double d = dim(a);
+    BS_VERIFY(d >= 1, file << ": " << version << " dim[" << a << "] = " << d << " (must be >= 1)");
+    voxels *= d;
   }
-  const int bitpix = i16(72);
+  // The scalar types that VTK's reader takes (an unknown code crashed it: fuzzing) and their
+  // bits; complex and 128-bit types are refused.
+  const int datatype = int(i16(two ? 12 : 70));
+  int datatype_bits = 0;
+  switch (datatype) {
+    case 2:
+    case 256:
+      datatype_bits = 8;
+      break;  // uint8, int8
+    case 4:
+    case 512:
+      datatype_bits = 16;
+      break;  // int16, uint16
+    case 8:
+    case 16:
+    case 768:
+    case 2304:
+      datatype_bits = 32;
+      break;  // int32, float32, uint32, RGBA
+    case 64:
+    case 1024:
+    case 1280:
+      datatype_bits = 64;
+      break;  // float64, int64, uint64
+    case 128:
+      datatype_bits = 24;
+      break;  // RGB24
+    default:
+      break;
+  }
+  BS_VERIFY(datatype_bits > 0, file << ": " << version << " datatype " << datatype
+                                    << " is not a scalar type this tool reads (integers of 8 to 64 "
+                                       "bits, float32, float64, RGB)");
+  const int bitpix = int(i16(two ? 14 : 72));
   BS_VERIFY(bitpix > 0 && bitpix % 8 == 0 && bitpix <= 128,
-            file << ": NIfTI bitpix " << bitpix << " is not a whole number of bytes");
-  for (int a = 1; a <= std::min(ndim, 3); ++a) {
-    const double p = f32(76 + 4 * a);
-    BS_VERIFY(std::isfinite(p) && p != 0.0, file << ": NIfTI pixdim[" << a << "] = " << p
-                                                 << " (spacing must be finite, non-zero)");
+            file << ": " << version << " bitpix " << bitpix << " is not a whole number of bytes");
+  for (int a = 1; a <= std::min(int(ndim), 3); ++a) {
+    const double p = pixdim(a);
+    BS_VERIFY(std::isfinite(p) && p != 0.0, file << ": " << version << " pixdim[" << a << "] = "
+                                                 << p << " (spacing must be finite, non-zero)");
   }
-  const double offset = std::max(352.0, f32(108));
-  const bool single_file = std::memcmp(h + 344, "n+1", 4) == 0;  // else a .hdr with its .img
-  if (single_file)
-    verify_claimed_bytes(file, voxels * bitpix / 8.0, offset, compressed);
-  else  // the ceiling alone
-    BS_VERIFY(voxels * bitpix / 8.0 <= max_volume_bytes(),
-              file << ": the header claims " << voxels * bitpix / 8.0
-                   << " bytes of voxels, over BRAINSHIFT_MAX_VOLUME_GB");
+  const double offset = std::max(two ? 544.0 : 352.0, two ? i64(168) : f32(108));
+  // brainshift reads .nii and .nii.gz, single files: the magic is "n+1" ("n+2"). (A .hdr/.img
+  // pair's "ni1" in a .nii let VTK allocate what the header claims before it found no .img.)
+  BS_VERIFY(two ? std::memcmp(h + 4, "n+2", 4) == 0 : std::memcmp(h + 344, "n+1", 4) == 0,
+            file << ": not a single-file " << version << " (magic is not \""
+                 << (two ? "n+2" : "n+1") << "\"; .hdr/.img pairs are not read)");
+  verify_claimed_bytes(file, voxels * std::max(bitpix, datatype_bits) / 8.0, offset, compressed);
 }
 
 }  // namespace brainshift::imaging

@@ -24,8 +24,16 @@ void verify_claimed_bytes(const std::string& file, double claimed, double offset
 /// attribute.
 void verify_vtk_xml_header(const std::string& file);
 
-/// NIfTI-1: the 348-byte header (through zlib for .nii.gz) — dimensions, bitpix, the spacing
-/// (finite, non-zero) and the data it claims — before VTK reads anything. NIfTI-2 is left to VTK.
+/// MetaImage (.mha, .mhd): the text header's NDims (2 or 3), ElementNumberOfChannels (1 to 16)
+/// and ElementDataFile (LOCAL or one file: no patterns, whose step 0 divided by zero in MetaIO, no
+/// lists) before MetaIO parses it (MetaIO reads NDims² numbers for TransformMatrix: a huge NDims
+/// hung it, NDims = 0 divided by zero — fuzzing). \throws brainshift::Error, one line naming the
+/// file and the field.
+void verify_metaimage_header(const std::string& file);
+
+/// NIfTI-1 and NIfTI-2: the 348- or 540-byte header (through zlib for .nii.gz) — dimensions, the
+/// scalar type and bitpix, the spacing (finite, non-zero), a single file's magic and the data it
+/// claims — before VTK reads anything.
 /// \throws brainshift::Error, one line naming the file and the field.
 void verify_nifti_header(const std::string& file);
 

@@ -3,12 +3,14 @@
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "imaging/io/atomic_write.hpp"
+#include "imaging/io/cerr_capture.hpp"
 #include "imaging/io/dicom_io.hpp"
 #include "imaging/io/gzip_file.hpp"
 #include "imaging/io/header_checks.hpp"
 #include "imaging/io/image_frame.hpp"
 #include "imaging/io/nrrd_io.hpp"
 #include "imaging/io/vtk_error_capture.hpp"
+#include "imaging/io/vtk_read_checks.hpp"
 
 #include <vtkDataArray.h>
 #include <vtkFloatArray.h>
@@ -90,7 +92,7 @@ VolumeF read_nifti(const std::filesystem::path& path) {
   vtkNew<vtkNIFTIImageReader> reader;
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a NIfTI-1 file");
   reader->SetFileName(file.c_str());
-  reader->Update();
+  update_reader(reader, file);
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
   vtkImageData* image = reader->GetOutput();
   vtkNIFTIImageHeader* header = reader->GetNIFTIHeader();
@@ -135,30 +137,9 @@ VolumeF read_nifti(const std::filesystem::path& path) {
   return volume;
 }
 
-/// While alive, std::cerr goes to a string: metaio reports problems there (several lines, and
-/// some, like truncated data, without failing the read). Not for concurrent use of std::cerr.
-class CerrCapture {
- public:
-  CerrCapture() : m_previous(std::cerr.rdbuf(m_text.rdbuf())) {}
-  ~CerrCapture() { std::cerr.rdbuf(m_previous); }
-  CerrCapture(const CerrCapture&) = delete;
-  CerrCapture& operator=(const CerrCapture&) = delete;
-  /// The last line written, trimmed; empty when nothing was.
-  [[nodiscard]] std::string last_line() const {
-    std::istringstream in(m_text.str());
-    std::string last;
-    for (std::string line; std::getline(in, line);)
-      if (line.find_first_not_of(" \t\r") != std::string::npos) last = line;
-    return last;
-  }
-
- private:
-  std::ostringstream m_text;
-  std::streambuf* m_previous;
-};
-
 VolumeF read_metaimage(const std::filesystem::path& path) {
   const std::string file = path.string();
+  verify_metaimage_header(file);
   vtkmetaio::MetaImage meta;
   {  // The header alone first: its claims checked before the data are allocated and read.
     const CerrCapture messages;
@@ -166,7 +147,10 @@ VolumeF read_metaimage(const std::filesystem::path& path) {
     const std::string problem = messages.last_line();
     BS_VERIFY(read && problem.empty(), file << ": not a readable MetaImage ("
                                             << (problem.empty() ? "bad header" : problem) << ")");
-    double voxels = std::max(1, meta.ElementNumberOfChannels());
+    BS_VERIFY(meta.NDims() >= 2 && meta.ElementNumberOfChannels() >= 1,  // NDims 0: MetaIO's ÷ 0
+              file << ": MetaImage with NDims " << meta.NDims() << ", channels "
+                   << meta.ElementNumberOfChannels());
+    double voxels = meta.ElementNumberOfChannels();
     for (int a = 0; a < meta.NDims(); ++a) {
       BS_VERIFY(meta.DimSize(a) >= 1, file << ": MetaImage DimSize " << meta.DimSize(a));
       voxels *= double(meta.DimSize(a));
@@ -221,7 +205,7 @@ VolumeF read_vti(const std::filesystem::path& path) {
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a VTK XML image data file");
   verify_vtk_xml_header(file);
   reader->SetFileName(file.c_str());
-  reader->Update();
+  update_reader(reader, file);
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
   vtkImageData* image = reader->GetOutput();
   int dims[3];

@@ -5,8 +5,10 @@
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/header_checks.hpp"
 #include "imaging/io/vtk_error_capture.hpp"
+#include "imaging/io/vtk_read_checks.hpp"
 
 #include <climits>
+#include <vtkCellArray.h>
 #include <vtkCellData.h>
 #include <vtkCellType.h>
 #include <vtkCellTypes.h>
@@ -17,6 +19,7 @@
 #include <vtkPointData.h>
 #include <vtkPoints.h>
 #include <vtkSmartPointer.h>
+#include <vtkUnsignedCharArray.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLUnstructuredGridReader.h>
 #include <vtkXMLUnstructuredGridWriter.h>
@@ -65,10 +68,15 @@ vtkSmartPointer<vtkUnstructuredGrid> read_grid(const std::filesystem::path& path
             file << ": not a VTK XML unstructured grid (.vtu) file");
   verify_vtk_xml_header(file);
   reader->SetFileName(file.c_str());
-  reader->Update();
+  update_reader(reader, file);
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
   vtkSmartPointer<vtkUnstructuredGrid> grid = reader->GetOutput();
   BS_VERIFY(grid != nullptr, file << ": cannot read the unstructured grid");
+  verify_cells(grid->GetCells(), grid->GetNumberOfPoints(), file, "cell");
+  const vtkUnsignedCharArray* types = grid->GetCellTypesArray();
+  BS_VERIFY(grid->GetCells() == nullptr ||
+                (types != nullptr && types->GetNumberOfTuples() == grid->GetNumberOfCells()),
+            file << ": " << grid->GetNumberOfCells() << " cells but not as many cell types");
   return grid;
 }
 
@@ -97,6 +105,8 @@ core::TetMesh read_tet_mesh(const std::filesystem::path& path) {
                                       << type << "); only tetrahedra (VTK_TETRA = " << VTK_TETRA
                                       << ") are supported");
     grid->GetCellPoints(c, ids);
+    BS_VERIFY(ids->GetNumberOfIds() == 4,
+              file << ": tetrahedron " << c << " has " << ids->GetNumberOfIds() << " points");
     for (int k = 0; k < 4; ++k) tets(c, k) = static_cast<index_t>(ids->GetId(k));
   }
   core::TetMesh mesh(std::move(nodes), std::move(tets),

@@ -4,7 +4,9 @@
 #include "imaging/io/atomic_write.hpp"
 #include "imaging/io/header_checks.hpp"
 #include "imaging/io/vtk_error_capture.hpp"
+#include "imaging/io/vtk_read_checks.hpp"
 
+#include <vtkCellArray.h>
 #include <vtkNew.h>
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
@@ -24,10 +26,15 @@ vtkSmartPointer<vtkPolyData> read_polydata(const std::filesystem::path& path) {
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a VTK XML polydata (.vtp) file");
   verify_vtk_xml_header(file);
   reader->SetFileName(file.c_str());
-  reader->Update();
+  update_reader(reader, file);
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
   vtkSmartPointer<vtkPolyData> poly = reader->GetOutput();
   BS_VERIFY(poly != nullptr, file << ": cannot read: no polydata");
+  const vtkIdType points = poly->GetNumberOfPoints();
+  verify_cells(poly->GetVerts(), points, file, "vertex");
+  verify_cells(poly->GetLines(), points, file, "line");
+  verify_cells(poly->GetPolys(), points, file, "polygon");
+  verify_cells(poly->GetStrips(), points, file, "strip");
   return poly;
 }
 

@@ -304,6 +304,14 @@ TEST(ImageIoErrors, HostileHeadersAreRefusedBeforeAnyAllocation) {
   expect_error([&] { read_volume(dir / "huge.nii"); }, {"huge.nii", "claims", "GiB"});
   write_text(dir / "short.nii", nifti_header({64, 64, 64}, 1.0f) + std::string(1024, 'x'));
   expect_error([&] { read_volume(dir / "short.nii"); }, {"short.nii", "truncated", "claims"});
+  {  // Found by fuzzing: VTK's reader crashed on an unknown datatype code.
+    std::string h = nifti_header({2, 2, 2}, 1.0f);
+    const std::int16_t datatype = 24080;
+    std::memcpy(h.data() + 70, &datatype, 2);
+    write_text(dir / "datatype.nii", h + std::string(64, '\0'));
+  }
+  expect_error([&] { read_volume(dir / "datatype.nii"); },
+               {"datatype.nii", "NIfTI datatype 24080", "not a scalar type"});
   const std::string zeros(4 << 20, '\0');  // 4 MiB of voxels: 64 × 128 × 128 floats
   {
     gzFile z = gzopen((dir / "zero_spacing.nii.gz").c_str(), "wb");
@@ -382,6 +390,16 @@ TEST(ImageIoErrors, HostileVtkXmlHeadersAreRefusedBeforeVtkAllocates) {
              "99999 0 99999\" Origin=\"0 0 0\" Spacing=\"1 1 1\"><Piece Extent=\"0 99999 0 99999 0 "
              "99999\"></Piece></ImageData></VTKFile>\n");
   expect_error([&] { read_volume(dir / "huge.vti"); }, {"huge.vti", "claims", "GiB"});
+  // Found by fuzzing: a line whose point id lies beyond the points was walked out of bounds.
+  write_text(dir / "bad_id.vtp",
+             "<VTKFile type=\"PolyData\" version=\"0.1\"><PolyData><Piece NumberOfPoints=\"2\" "
+             "NumberOfLines=\"1\"><Points><DataArray type=\"Float32\" NumberOfComponents=\"3\" "
+             "format=\"ascii\">0 0 0 1 0 0</DataArray></Points><Lines><DataArray type=\"Int64\" "
+             "Name=\"connectivity\" format=\"ascii\">0 7</DataArray><DataArray type=\"Int64\" "
+             "Name=\"offsets\" format=\"ascii\">2</DataArray></Lines></Piece></PolyData>"
+             "</VTKFile>\n");
+  expect_error([&] { read_skeleton_vtp(dir / "bad_id.vtp"); },
+               {"bad_id.vtp", "line point id 7", "outside the 2 points"});
 }
 
 TEST(ImageIoHeaders, SinglePrecisionDirectionIsReorthonormalisedAndNoted) {
