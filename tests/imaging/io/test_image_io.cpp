@@ -341,6 +341,17 @@ TEST(ImageIoErrors, HostileHeadersAreRefusedBeforeAnyAllocation) {
              "MET_FLOAT\nElementDataFile = LOCAL\n" +
                  std::string(1024, 'x'));
   expect_error([&] { read_volume(dir / "short.mha"); }, {"short.mha", "truncated"});
+  // Found by fuzzing: MetaIO hung on a huge NDims (it reads NDims² matrix entries) and divided by
+  // zero on NDims 0 and on a data-file pattern; the text header is checked before MetaIO sees it.
+  const std::string mha = "ObjectType = Image\nDimSize = 2 2 2\nElementType = MET_FLOAT\n";
+  write_text(dir / "ndims.mha", mha + "NDims = 33333333333333333333\nElementDataFile = LOCAL\n");
+  expect_error([&] { read_volume(dir / "ndims.mha"); },
+               {"ndims.mha", "MetaImage NDims \"33333333333333333333\"", "2 or 3"});
+  write_text(dir / "zero.mha", mha + "NDims = 0\nElementDataFile = LOCAL\n");
+  expect_error([&] { read_volume(dir / "zero.mha"); }, {"zero.mha", "NDims \"0\""});
+  write_text(dir / "pattern.mhd", mha + "NDims = 3\nElementDataFile = slice%03d.raw 1 2 0\n");
+  expect_error([&] { read_volume(dir / "pattern.mhd"); },
+               {"pattern.mhd", "ElementDataFile", "patterns and lists are not read"});
   // NRRD (our own reader): the same two claims, raw and gzip.
   const std::string nrrd =
       "NRRD0004\ntype: float\ndimension: 3\nspace: left-posterior-superior\n"
