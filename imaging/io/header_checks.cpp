@@ -3,6 +3,7 @@
 #include "core/error.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
@@ -119,11 +120,22 @@ void verify_metaimage_header(const std::string& file) {
     const auto e = t.find_last_not_of(" \t\r");
     return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
   };
+  // Every line "Key = value" (MetaIO copies keys and values into 255-byte buffers and reads a
+  // key up to the next '=', across lines: a long one overflowed there — fuzzing).
   std::string line;
-  for (int lines = 0; lines < 1000 && std::getline(in, line); ++lines) {
+  bool data = false;
+  for (int n = 1; n <= 1000 && !data && std::getline(in, line); ++n) {
+    if (trim(line).empty()) continue;
     const auto eq = line.find('=');
-    if (eq == std::string::npos) continue;
-    const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
+    const std::string key = eq == std::string::npos ? std::string() : trim(line.substr(0, eq));
+    const bool word = !key.empty() && key.size() <= 64 &&
+                      std::all_of(key.begin(), key.end(),
+                                  [](unsigned char c) { return std::isalnum(c) != 0 || c == '_'; });
+    BS_VERIFY(word && line.size() <= 250, file << ": MetaImage header line " << n
+                                               << " is not 'Key = value' (a word, '=', at "
+                                               << "most 250 characters)");
+    const std::string value = trim(line.substr(eq + 1));
+    data = key == "ElementDataFile";
     const auto whole = [&](long lo, long hi) {
       char* end = nullptr;
       const long v = std::strtol(value.c_str(), &end, 10);
@@ -135,14 +147,14 @@ void verify_metaimage_header(const std::string& file) {
     if (key == "ElementNumberOfChannels")
       BS_VERIFY(whole(1, 16), file << ": MetaImage ElementNumberOfChannels \""
                                    << value.substr(0, 24) << "\" (1 to 16)");
-    if (key == "ElementDataFile") {  // the data follow: LOCAL, or one file beside the header
+    if (data) {  // the data follow: LOCAL, or one file beside the header
       BS_VERIFY(value == "LOCAL" || (!value.empty() && value.find('%') == std::string::npos &&
                                      value.rfind("LIST", 0) != 0),
                 file << ": MetaImage ElementDataFile \"" << value.substr(0, 24)
                      << "\" (LOCAL or one data file; file patterns and lists are not read)");
-      break;
     }
   }
+  BS_VERIFY(data, file << ": MetaImage header without an ElementDataFile line");
 }
 
 void verify_nifti_header(const std::string& file) {

@@ -349,6 +349,9 @@ TEST(ImageIoErrors, HostileHeadersAreRefusedBeforeAnyAllocation) {
                {"ndims.mha", "MetaImage NDims \"33333333333333333333\"", "2 or 3"});
   write_text(dir / "zero.mha", mha + "NDims = 0\nElementDataFile = LOCAL\n");
   expect_error([&] { read_volume(dir / "zero.mha"); }, {"zero.mha", "NDims \"0\""});
+  write_text(dir / "long_key.mha", "ObjectType = Image\n" + std::string(300, 'L') + "\n = 3\n");
+  expect_error([&] { read_volume(dir / "long_key.mha"); },
+               {"long_key.mha", "header line 2 is not 'Key = value'"});
   write_text(dir / "pattern.mhd", mha + "NDims = 3\nElementDataFile = slice%03d.raw 1 2 0\n");
   expect_error([&] { read_volume(dir / "pattern.mhd"); },
                {"pattern.mhd", "ElementDataFile", "patterns and lists are not read"});
