@@ -197,6 +197,7 @@ constexpr RetiredKey kRetired[] = {
     {"global_start.solver_iterations", kInternal},
     {"global_start.convergence_mm", kInternal},
     {"global_start.bulk_min_mm", kInternal},
+    {"global_start.bulk_sinks", kInternal},
     {"shift_search.coarse_step_mm", kInternal},
     {"shift_search.coarse_kernel_mm", kInternal},
     {"shift_search.fine_kernel_mm", kInternal},

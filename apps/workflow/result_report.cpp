@@ -123,6 +123,13 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
       {"spread_mm", {r.start.spread_mm(0), r.start.spread_mm(1), r.start.spread_mm(2)}},
       {"gain_z", r.start.gain_z},
       {"gain_blocks", r.start.gain_blocks}};
+  // The pose against the navigation's stated accuracy (global_start.navigation_accuracy_mm):
+  // its distance from the identity in the prior's standard deviations; beyond 3 the data moved
+  // the pose, and the fixed base with it, further than the navigation's accuracy allows.
+  j["rigid"]["navigation_prior"] = {
+      {"z", r.start.prior_z},
+      {"beyond", r.start.prior_z > 3.0},
+      {"bulk_shift_mm", {r.start.bulk_shift(0), r.start.bulk_shift(1), r.start.bulk_shift(2)}}};
   j["timing"] = {{"rigid", r.seconds.rigid},
                  {"pairing", r.seconds.pairing},
                  {"free_motion", r.seconds.free_motion},

@@ -197,6 +197,7 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const DopplerExtraction& 
   report["ambiguity"] = g.ambiguity;
   report["gain_z"] = g.gain_z;
   report["gain_blocks"] = g.gain_blocks;
+  report["navigation_prior_z"] = g.prior_z;
   report["model_from_intraop"] = matrix_json(g.transform.matrix());
   return g.transform;
 }

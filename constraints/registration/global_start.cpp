@@ -24,43 +24,23 @@
 
 namespace brainshift::constraints {
 
-std::string GlobalStartOptions::validate() const {
-  std::ostringstream os;
-  if (!(max_translation_mm >= 0 && max_translation_mm <= 200))
-    os << "max_translation_mm must be in [0, 200]; ";
-  if (!(max_rotation_deg >= 0 && max_rotation_deg <= 30))
-    os << "max_rotation_deg must be in [0, 30]; ";
-  if (!(coarse_kernel_mm > 0 && coarse_step_mm > 0 && coarse_step_mm <= coarse_kernel_mm))
-    os << "need 0 < coarse_step_mm ≤ coarse_kernel_mm; ";
-  if (!(fine_kernel_mm > 0 && fine_kernel_mm <= coarse_kernel_mm))
-    os << "need 0 < fine_kernel_mm ≤ coarse_kernel_mm; ";
-  if (!(refine_distance_mm > 0 && refine_distance_mm <= coarse_kernel_mm))
-    os << "need 0 < refine_distance_mm ≤ coarse_kernel_mm; ";
-  if (!(voxel_mm > 0)) os << "voxel_mm must be > 0; ";
-  if (coarse_points < 1 || max_points < 1 || candidates < 1)
-    os << "coarse_points, max_points, candidates must be ≥ 1; ";
-  if (min_points < 3) os << "min_points must be ≥ 3; ";
-  if (!(min_gain >= 1)) os << "min_gain must be ≥ 1; ";
-  if (!(significance_z >= 0) || !(significance_block_mm > 0))
-    os << "significance_z must be ≥ 0 and significance_block_mm > 0; ";
-  if (!(loss_scale_mm > 0) || !(convergence_mm > 0))
-    os << "loss_scale_mm and convergence_mm must be > 0; ";
-  if (refine_iterations < 0 || solver_iterations < 1)
-    os << "refine_iterations ≥ 0 and solver_iterations ≥ 1 needed; ";
-  if (!(bulk_prior_mm > 0) || !(bulk_min_mm >= 0))
-    os << "bulk_prior_mm must be > 0 and bulk_min_mm ≥ 0; ";
-  if (!(ambiguity_ratio > 0) || !(ambiguity_distance_mm > 0) || !(min_spread_mm >= 0))
-    os << "ambiguity_ratio and ambiguity_distance_mm must be > 0, min_spread_mm ≥ 0; ";
-  const std::string s = os.str();
-  return s.empty() ? s : "global start: " + s.substr(0, s.size() - 2);
-}
-
 namespace {
 
 using core::Clock;
 using core::seconds_since;
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kMaxVoxels = 4.0e6;
+/// The lever of the navigation's rotation prior (mm): a rotation of a / kNavigationLeverMm rad
+/// costs as much as a translation of a. RESECT's 22 navigation offsets: RMS 6.6 mm and 7.3°
+/// (0.127 rad), so 52 mm (GlobalStartOptions::navigation_accuracy_mm).
+constexpr double kNavigationLeverMm = 52.0;
+/// The sag's prior with a navigation prior (RMS length, mm): brain shift after the dura is opened
+/// is 5–25 mm (seed 002 and the phantoms' cases alike), so 15 mm. Near the probe a sag and a
+/// translation move the points alike, and the split between them is the ratio of the priors'
+/// variances (global_start.hpp).
+constexpr double kSagPriorMm = 15.0;
+/// A pose farther than this many standard deviations of the navigation prior is reported.
+constexpr double kBeyondPriorZ = 3.0;
 
 Matrix3d rotation(const Vector3d& w) {
   const double a = w.norm();
@@ -246,13 +226,39 @@ struct LineResidual {
   }
 };
 
-/// Weak prior on the bulk shift: r = k s.
-struct BulkPrior {
+/// Gaussian prior on one parameter block of three: r = k x (k = σ_data / σ per axis).
+struct Prior {
   double k;
   template <typename T>
-  bool operator()(const T* s, T* r) const {
-    for (int i = 0; i < 3; ++i) r[i] = T(k) * s[i];
+  bool operator()(const T* x, T* r) const {
+    for (int i = 0; i < 3; ++i) r[i] = T(k) * x[i];
     return true;
+  }
+};
+
+/// The priors' weights k = loss_scale_mm / σ per axis of the translation, the rotation (rad) and
+/// the bulk shift (global_start.hpp, step 3). With a navigation prior (`map`): Gaussian priors
+/// on all three, the bulk shift's of RMS length kSagPriorMm, and candidates compared by their
+/// posterior. Without (a free pose): no prior on the pose, the bulk shift's weight grows with the
+/// pairs (bulk_prior_mm, applied in refine()) and candidates compared by their data score.
+struct PriorWeights {
+  double t = 0, w = 0, s = 0;
+  bool map = false;
+  explicit PriorWeights(const GlobalStartOptions& o) {
+    const double a = o.navigation_accuracy_mm / std::sqrt(3.0);
+    if (!(a > 0)) return;
+    map = true;
+    t = o.loss_scale_mm / a;
+    w = o.loss_scale_mm / (a / kNavigationLeverMm);
+    s = o.loss_scale_mm / (kSagPriorMm / std::sqrt(3.0));
+  }
+  /// The priors' cost in the units of the fine score: a point at a small distance d loses
+  /// d²/τ² of its kernel, and costs d²/loss² in the data's units. 0 without a navigation prior.
+  [[nodiscard]] double penalty(const Vector3d& pt, const Vector3d& pw, const Vector3d& ps,
+                               double fine_kernel_mm) const {
+    const double r2 =
+        t * t * pt.squaredNorm() + w * w * pw.squaredNorm() + s * s * ps.squaredNorm();
+    return r2 / (fine_kernel_mm * fine_kernel_mm);
   }
 };
 
@@ -287,10 +293,17 @@ Pose refine(const Search& S, Pose p, bool bulk, int& rounds, index_t& pairs) {
     }
     if (n < 3) break;  // too few pairs to refine: keep the searched pose
     pairs = n;
+    const PriorWeights k(o);
+    if (k.t > 0) {
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Prior, 3, 3>(new Prior{k.t}),
+                               nullptr, p.t.data());
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<Prior, 3, 3>(new Prior{k.w}),
+                               nullptr, p.w.data());
+    }
     if (bulk && !S.basis.empty())
       problem.AddResidualBlock(
-          new ceres::AutoDiffCostFunction<BulkPrior, 3, 3>(
-              new BulkPrior{std::sqrt(static_cast<double>(n)) * o.loss_scale_mm / o.bulk_prior_mm}),
+          new ceres::AutoDiffCostFunction<Prior, 3, 3>(new Prior{
+              k.map ? k.s : std::sqrt(static_cast<double>(n)) * o.loss_scale_mm / o.bulk_prior_mm}),
           nullptr, p.s.data());
     else
       problem.SetParameterBlockConstant(p.s.data());
@@ -435,6 +448,11 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
         S.sinks = true;
       }
     }
+    // Candidates compete by the posterior: the fine score less the priors' cost.
+    const PriorWeights kw(o);
+    const auto posterior = [&](const Pose& q) {
+      return q.score - kw.penalty(q.t, q.w, q.s, o.fine_kernel_mm);
+    };
     const double top = cands.front().score;
     for (std::size_t k = 0; k < cands.size() && k < 3 && cands[k].score >= 0.9 * top; ++k) {
       // Rigid first; then the bulk shift jointly, kept only when it is large enough to report
@@ -452,9 +470,9 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
         }
       }
       p.score = S.score(p);
-      if (p.score < cands[k].score)
-        p = cands[k];  // the refinement lost score: keep the searched pose
-      if (p.score > best.score) {
+      if (posterior(p) < posterior(cands[k]))
+        p = cands[k];  // the refinement lost: keep the searched pose
+      if (posterior(p) > posterior(best)) {
         best = p;
         res.refine_iterations = rounds;
         res.pairs = pairs;
@@ -499,14 +517,15 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
     res.transform.translation() = S.c + best.t - R * S.c;
     res.translation_mm = best.t.norm();
     res.rotation_deg = best.w.norm() / kDeg;
-    best.s = Q * best.s;  // back to the model frame
+    if (const PriorWeights kw(o); kw.map)
+      res.prior_z =
+          std::sqrt(kw.t * kw.t * best.t.squaredNorm() + kw.w * kw.w * best.w.squaredNorm()) /
+          o.loss_scale_mm;
     res.bulk_accepted = !S.basis.empty() && best.s.norm() >= o.bulk_min_mm;
-    if (res.bulk_accepted)
-      res.bulk_shift = best.s;
-    else
-      best.s.setZero();
-    res.score = S.score(best);
+    if (!res.bulk_accepted) best.s.setZero();
+    res.score = S.score(best);  // with s in the frame the basis was rotated to
     res.rms_after_mm = S.rms(best);
+    if (res.bulk_accepted) res.bulk_shift = Q * best.s;  // back to the model frame
     os << "rigid " << res.translation_mm << " mm at the centroid, " << res.rotation_deg
        << " deg; bulk shift ";
     if (res.bulk_accepted)
@@ -528,6 +547,10 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
     res.ambiguity = why.str();
     res.ambiguous = !res.ambiguity.empty();
     if (res.ambiguous) os << "; ambiguous: " << res.ambiguity;
+    if (res.prior_z > kBeyondPriorZ)
+      os << "; the pose is " << res.prior_z
+         << " standard deviations of the navigation's stated accuracy from the identity: the data "
+            "moved the fixed base beyond it";
   } else {
     res.score = res.score_identity;
     res.rms_after_mm = res.rms_before_mm;
@@ -550,42 +573,6 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
       res.message, 1e3 * res.seconds, 1e3 * res.seconds_table, 1e3 * res.seconds_coarse,
       1e3 * res.seconds_fine, 1e3 * res.seconds_refine);
   return res;
-}
-
-Matrix3d load_response_at(const std::array<MatrixX3d, 3>& response, Eigen::Index node) {
-  Matrix3d r;
-  for (Eigen::Index k = 0; k < 3; ++k)
-    r.col(k) = response[static_cast<std::size_t>(k)].row(node).transpose();
-  return r;
-}
-
-Matrix3d mean_load_response(const core::TetMesh& mesh, const std::array<MatrixX3d, 3>& response,
-                            ConstRef<MatrixX3d> points) {
-  Matrix3d mean = Matrix3d::Zero();
-  if (points.rows() == 0) return mean;
-  const NearestNode nearest(mesh.nodes());
-  for (Eigen::Index i = 0; i < points.rows(); ++i)
-    mean += load_response_at(response, nearest.nearest(points.row(i).transpose())) /
-            static_cast<double>(points.rows());
-  return mean;
-}
-
-std::vector<Matrix3d> load_basis(const core::TetMesh& mesh,
-                                 const std::array<MatrixX3d, 3>& response,
-                                 ConstRef<MatrixX3d> points) {
-  if (points.rows() == 0) return {};
-  std::vector<Matrix3d> basis(static_cast<std::size_t>(points.rows()));
-  Matrix3d mean = Matrix3d::Zero();
-  const NearestNode nearest(mesh.nodes());
-  for (Eigen::Index i = 0; i < points.rows(); ++i) {
-    basis[static_cast<std::size_t>(i)] =
-        load_response_at(response, nearest.nearest(points.row(i).transpose()));
-    mean += basis[static_cast<std::size_t>(i)] / static_cast<double>(points.rows());
-  }
-  if (!(std::abs(mean.determinant()) > 1e-9 * std::pow(mean.norm(), 3))) return {};
-  const Matrix3d inv = mean.inverse();
-  for (Matrix3d& b : basis) b = b * inv;
-  return basis;
 }
 
 }  // namespace brainshift::constraints

@@ -41,6 +41,17 @@ TEST(GlobalStart, RecoversA20mmFourDegreeOffsetOfACorticalTree) {
   EXPECT_LT(max_error(r.transform, O.inverse(), intra), tol_mm) << r.message;
   EXPECT_FALSE(r.bulk_accepted);           // no basis given: rigid only
   EXPECT_FALSE(r.ambiguous) << r.message;  // one tree, spread in two directions
+  EXPECT_EQ(r.prior_z, 0.0);               // no navigation prior by default
+  // With RESECT's navigation prior (6.6 mm RMS: σ 3.8 mm per axis, so 20 mm is ≈ 5 σ) the data
+  // still demand the whole offset (the prior shrinks it by ≈ σ_d²/(N σ_t²) ≈ 1e-4 of it), and
+  // the report says that the pose is beyond the prior.
+  GlobalStartOptions with_prior;
+  with_prior.navigation_accuracy_mm = kResectNavigationAccuracyMm;
+  const GlobalStartResult p = global_start(tree, intra, {}, with_prior);
+  ASSERT_TRUE(p.accepted) << p.message;
+  EXPECT_LT(max_error(p.transform, O.inverse(), intra), tol_mm) << p.message;
+  EXPECT_GT(p.prior_z, 3.0) << p.message;
+  EXPECT_NE(p.message.find("beyond"), std::string::npos) << p.message;
 }
 
 TEST(GlobalStart, RecoversA25mmFiveDegreeOffset) {
@@ -76,6 +87,7 @@ TEST(GlobalStart, NoOffsetMeansNoMotion) {
   const double moved = (apply(r.transform, pts) - pts).rowwise().norm().maxCoeff();
   EXPECT_LT(moved, 0.2) << r.message;
   EXPECT_TRUE(r.transform.matrix().allFinite());
+  EXPECT_LT(r.prior_z, 1.0) << r.message;
 }
 
 TEST(GlobalStart, ANavigationOffsetGainsOnEveryBlock) {
@@ -156,6 +168,47 @@ TEST(GlobalStart, TellsADepthGradedBulkShiftFromATranslation) {
   // deepest and highest points (0.6 × |s| ≈ 5.4 mm).
   EXPECT_LT((r.bulk_shift - s).norm(), 1.5) << r.message;
   EXPECT_LT(c.back_to_rest_mm(r), 1.5) << r.message;
+}
+
+TEST(GlobalStart, WhereASagAndAPoseFitAlikeThePriorsSplitTheMotionAsTheClosedFormSays) {
+  // The basis is I at every point: a bulk shift s and a translation t move the points alike,
+  // and the data fix only t − s = −m (m: the points' motion, 8 mm down). The maximum a
+  // posteriori split under isotropic Gaussian priors of RMS lengths a (navigation) and b (sag):
+  // minimise |t|²/a² + |s|²/b² on that line, t = −m a²/(a²+b²), s = m b²/(a²+b²). With
+  // RESECT's navigation prior and the default sag prior (6.6 and 15 mm): 1.30 mm of pose and
+  // 6.70 mm of sag. Tolerance 0.15 mm: the data pin
+  // t − s to ≈ 0.06 mm (tol_mm's floor) and the priors pull it off the line by
+  // ≈ |t|σ²/(a²/3) / N ≈ 1e-4 mm; the rest is the refinement's convergence (0.01 mm a round).
+  const core::Skeleton tree = cortical_tree(1);
+  const MatrixX3d pts = sample(tree, 1.0, 0.3, 9);
+  const Vector3d m(0.0, 0.0, -8.0);
+  const MatrixX3d intra = pts.rowwise() + m.transpose();
+  const BasisAt identity_basis = [](ConstRef<MatrixX3d> x) {
+    return std::vector<Matrix3d>(static_cast<std::size_t>(x.rows()), Matrix3d::Identity());
+  };
+  const Vector3d outward = Vector3d::UnitZ();  // the craniotomy on top: the brain sinks in −z
+  GlobalStartOptions o;
+  o.navigation_accuracy_mm = kResectNavigationAccuracyMm;
+  const double a2 = o.navigation_accuracy_mm * o.navigation_accuracy_mm,
+               b2 = 15.0 * 15.0;  // the sag's prior under a navigation prior (RMS, mm)
+  const GlobalStartResult r = global_start(tree, intra, identity_basis, o, outward);
+  ASSERT_TRUE(r.accepted && r.bulk_accepted) << r.message;
+  const Vector3d cen = intra.colwise().mean().transpose();
+  const Vector3d t = r.transform * cen - cen;  // the pose's translation at the points' centroid
+  EXPECT_LT((t - (-m * a2 / (a2 + b2))).norm(), 0.15) << r.message;
+  EXPECT_LT((r.bulk_shift - m * b2 / (a2 + b2)).norm(), 0.15) << r.message;
+  EXPECT_LT(r.rotation_deg, 0.1) << r.message;
+  EXPECT_LT(r.prior_z, 1.0) << r.message;  // 1.3 mm is 0.34 σ
+
+  // Without the navigation prior (the default) the pose is free and takes the whole motion: the
+  // sag is below bulk_min_mm and not kept.
+  GlobalStartOptions free = o;
+  free.navigation_accuracy_mm = 0.0;
+  const GlobalStartResult f = global_start(tree, intra, identity_basis, free, outward);
+  ASSERT_TRUE(f.accepted) << f.message;
+  EXPECT_FALSE(f.bulk_accepted) << f.message;
+  EXPECT_LT((f.transform * cen - cen - (-m)).norm(), 0.15) << f.message;
+  EXPECT_EQ(f.prior_z, 0.0);
 }
 
 TEST(GlobalStart, TheBulkShiftSinksAwayFromTheCraniotomy) {
