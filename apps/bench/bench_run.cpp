@@ -211,6 +211,8 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
     const auto e = imaging::error_stats(
         imaging::landmark_errors(to_intraop_frame(r, dense_map.apply(r.positions)), c.dense.intra));
     row.dense_error_mean = e.mean;
+    row.dense_before_mean =
+        imaging::error_stats(imaging::landmark_errors(c.dense.pre, c.dense.intra)).mean;
   }
   if (!r.data_rows.empty() && row.method != "prescribed_displacement")
     score_uncertainty(row, model, r, c, data, predicted);

@@ -64,6 +64,9 @@ struct BenchRow {
   /// in the brain, their truth from the phantom's truth field), for every method: the whole
   /// brain, where landmarks near the probe cannot look. Unset without a dense truth.
   std::optional<double> dense_error_mean;
+  /// The same points' mean error with no registration (pre-operative position against the
+  /// truth's intra-operative one, mm): the whole-brain figure a registration must beat.
+  std::optional<double> dense_before_mean;
   double max_displacement_mm = 0.0;
   bool ok = false;  ///< finite answer, no exception
   std::string error;

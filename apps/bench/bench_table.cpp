@@ -94,6 +94,8 @@ nlohmann::json row_json(const BenchRow& r) {
        r.corrected_pct ? nlohmann::json(*r.corrected_pct) : nlohmann::json(nullptr)},
       {"dense_error_mean_mm",
        r.dense_error_mean ? nlohmann::json(*r.dense_error_mean) : nlohmann::json(nullptr)},
+      {"dense_before_mean_mm",
+       r.dense_before_mean ? nlohmann::json(*r.dense_before_mean) : nlohmann::json(nullptr)},
       {"max_displacement_mm", r.max_displacement_mm},
       {"ok", r.ok},
       {"stop_reason", r.stop_reason},

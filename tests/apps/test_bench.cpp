@@ -60,8 +60,9 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
     EXPECT_GT(run["peak_rss_mib"].get<double>(), 1.0);
     EXPECT_GT(run["nodes"].get<int>(), 500);
   }
-  EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "old_loop", "bulk_start_only",
-                                            "rigid_only", "prescribed_displacement", "pre_dura"}));
+  EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "old_loop", "navigation_prior",
+                                            "bulk_start_only", "rigid_only",
+                                            "prescribed_displacement", "pre_dura"}));
   // The pose from the pre-dura sweep keeps the unmoving brain where it is: over 500 points in
   // the whole brain the error is measured 2.9 mm against 9.0 mm with the pose searched after the
   // dura is opened (which absorbs the sag and moves the fixed base); asked: under half.
@@ -93,6 +94,19 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
   EXPECT_NEAR(dense["pre_dura"], dense_pre, 1e-9);
   EXPECT_GE(dense["rigid_only"], dense["constraint_icp"]);
   EXPECT_GT(dense["prescribed_displacement"], 0.0);
+  // With RESECT's navigation prior the model's bulk response, not the pose, carries the sag and
+  // the fixed base stays: measured 4.1 mm over the whole brain against the default's 9.4 (the
+  // 4 mm prior of the literature: 2.1); asked: under 0.6 × the default. No registration (the
+  // same points' pre-operative positions against their truth) is 4.1 mm.
+  EXPECT_LT(dense["navigation_prior"], 0.6 * dense["constraint_icp"]);
+  for (const auto& run : j["runs"])
+    if (run["suite"] == "cases" && run["case"] == "standard") {
+      ASSERT_TRUE(run["dense_before_mean_mm"].is_number()) << run.dump();
+      // The phantom's sag is 7 mm at the landmarks near the craniotomy, less towards the fixed
+      // base: over the whole brain between 1 and 7 mm (measured 4.1).
+      EXPECT_GT(run["dense_before_mean_mm"].get<double>(), 1.0);
+      EXPECT_LT(run["dense_before_mean_mm"].get<double>(), 7.0);
+    }
   EXPECT_EQ(sweeps, (std::set<std::string>{"mesh_size", "start", "vessel_sampling", "compliance",
                                            "pgs_tolerance", "constraint_sets"}));
   // Two mesh sizes give a growth exponent for the registration time.
