@@ -1,5 +1,4 @@
 #include "constraints/registration/global_start.hpp"
-
 #include "constraints/registration/nearest_node.hpp"
 #include "core/mesh/tet_mesh.hpp"
 
