@@ -48,7 +48,7 @@ std::vector<index_t> all_rows(int m) {
   return r;
 }
 
-NoiseOptions wide() {
+NoiseOptions wide_noise_grid() {
   NoiseOptions o;
   o.min_ratio = 1e-4;
   o.max_ratio = 1e3;
@@ -130,14 +130,14 @@ TEST(NoiseCv, WhiteNoisePicksAboutTheTrueRatio) {
       for (Eigen::Index i = 0; i < m; ++i) y[i] += n(rng);
       // The CV minimum itself (the MAP compliance's estimate); the one-standard-error rule then
       // moves to a smoother candidate, never a stiffer one.
-      NoiseOptions at_minimum = wide();
+      NoiseOptions at_minimum = wide_noise_grid();
       at_minimum.one_standard_error = false;
       const NoiseEstimate e = choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4),
                                                        1.0, 0.2, at_minimum);
       ASSERT_TRUE(e.valid) << e.message;
       EXPECT_FALSE(e.keep_start) << e.message;
-      const NoiseEstimate one_se =
-          choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4), 1.0, 0.2, wide());
+      const NoiseEstimate one_se = choose_vessel_compliance(
+          W, y, all_rows(m), consecutive_blocks(m, 4), 1.0, 0.2, wide_noise_grid());
       EXPECT_GE(one_se.ratio, e.ratio) << one_se.message;
       EXPECT_GE(one_se.cv_rms_mm, one_se.cv_best_rms_mm);
       log_err.push_back(std::log10(e.ratio / (sigma * sigma / tau)));
@@ -171,8 +171,9 @@ TEST(NoiseCv, ErrorsCorrelatedWithinABlockAreNotChased) {
       if (i % 12 == 0) c = offset(rng);
       y[i] += c + white(rng);
     }
-    const NoiseEstimate cv = choose_vessel_compliance(W, y, all_rows(m), blocks, 1.0, 0.2, wide());
-    const NoiseEstimate gcv = estimate_vessel_noise(W, y, all_rows(m), 1.0, 0.2, wide());
+    const NoiseEstimate cv =
+        choose_vessel_compliance(W, y, all_rows(m), blocks, 1.0, 0.2, wide_noise_grid());
+    const NoiseEstimate gcv = estimate_vessel_noise(W, y, all_rows(m), 1.0, 0.2, wide_noise_grid());
     ASSERT_TRUE(cv.valid && gcv.valid) << cv.message << " / " << gcv.message;
     // Block CV smooths more than GCV (it does not chase the offsets)...
     EXPECT_GT(cv.ratio, gcv.ratio) << cv.message << " / " << gcv.message;
@@ -198,8 +199,8 @@ TEST(NoiseCv, PureCorrelatedNoiseKeepsTheStart) {
     if (i % 12 == 0) c = offset(rng);
     y[i] = c;
   }
-  const NoiseEstimate e =
-      choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 12), 1.0, 0.2, wide());
+  const NoiseEstimate e = choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 12),
+                                                   1.0, 0.2, wide_noise_grid());
   ASSERT_TRUE(e.valid) << e.message;
   // Either ε → ∞ or a ratio so large that the fit follows fewer than 3 of the 240 degrees of
   // freedom (20 offsets do not average to zero: their smooth trend is fairly fitted; GCV on the
@@ -212,23 +213,24 @@ TEST(NoiseCv, OneBlockOrTooFewRowsKeepTheCurrentCompliance) {
   const int m = 30;
   const Eigen::MatrixXd W = kernel(m, 0.1);
   const Eigen::VectorXd y = Eigen::VectorXd::Ones(m);
-  const NoiseEstimate one =
-      choose_vessel_compliance(W, y, all_rows(m), std::vector<index_t>(m, 0), 1.0, 0.2, wide());
+  const NoiseEstimate one = choose_vessel_compliance(W, y, all_rows(m), std::vector<index_t>(m, 0),
+                                                     1.0, 0.2, wide_noise_grid());
   EXPECT_FALSE(one.valid);
   EXPECT_EQ(one.ratio, 0.2);
-  const NoiseEstimate few = choose_vessel_compliance(W.topLeftCorner(6, 6), y.head(6), all_rows(6),
-                                                     consecutive_blocks(6, 2), 1.0, 0.2, wide());
+  const NoiseEstimate few =
+      choose_vessel_compliance(W.topLeftCorner(6, 6), y.head(6), all_rows(6),
+                               consecutive_blocks(6, 2), 1.0, 0.2, wide_noise_grid());
   EXPECT_FALSE(few.valid);
   EXPECT_EQ(few.ratio, 0.2);
   Eigen::VectorXd bad = y;
   bad[3] = std::numeric_limits<double>::quiet_NaN();
-  const NoiseEstimate nan =
-      choose_vessel_compliance(W, bad, all_rows(m), consecutive_blocks(m, 3), 1.0, 0.2, wide());
+  const NoiseEstimate nan = choose_vessel_compliance(W, bad, all_rows(m), consecutive_blocks(m, 3),
+                                                     1.0, 0.2, wide_noise_grid());
   EXPECT_FALSE(nan.valid);
 }
 
 NoiseOptions paired() {
-  NoiseOptions o = wide();
+  NoiseOptions o = wide_noise_grid();
   o.paired_test = true;
   return o;
 }
@@ -277,7 +279,7 @@ TEST(NoiseCv, PairedTestDeformsWhenThereIsARealDeformation) {
     Eigen::VectorXd y = draw_signal(W, 1.0, rng);
     std::normal_distribution<double> n(0.0, 0.3);
     for (Eigen::Index i = 0; i < m; ++i) y[i] += n(rng);
-    NoiseOptions at_minimum = wide();
+    NoiseOptions at_minimum = wide_noise_grid();
     const NoiseEstimate minimum =
         choose_vessel_compliance(W, y, all_rows(m), consecutive_blocks(m, 4), 1.0, 0.2, at_minimum);
     const NoiseEstimate e =

@@ -10,7 +10,7 @@
 namespace brainshift::constraints {
 namespace {
 
-RegistrationOptions options() {
+RegistrationOptions settle_options() {
   RegistrationOptions o;
   o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
   o.max_iterations = 60;
@@ -41,7 +41,7 @@ TEST(RegistrationSettle, DataThatAlreadyMatchTakeTwoIterationsTheSecondConfirmin
   // On the undeformed vessels (1e-6 mm noise: the normal distribution needs a positive spread):
   // the first step is ~0, but its pairing is new.
   d.vessel_points = sample_deformed(s.skeleton, 1e-6, 1, 0.0);
-  const RegistrationResult r = register_model(*s.model, d, options());
+  const RegistrationResult r = register_model(*s.model, d, settle_options());
   ASSERT_TRUE(r.converged) << r.stop_reason;
   ASSERT_FALSE(r.history.empty());
   EXPECT_TRUE(r.history.front().pairing_changed);  // nothing to compare the first pairing with
@@ -56,7 +56,7 @@ TEST(RegistrationSettle, ASagIsRegisteredUntilThePairingIsStable) {
   Scene s;
   IntraopData d;
   d.vessel_points = sample_deformed(s.skeleton, 0.3, 2);
-  const RegistrationResult r = register_model(*s.model, d, options());
+  const RegistrationResult r = register_model(*s.model, d, settle_options());
   ASSERT_TRUE(r.converged) << r.stop_reason;
   expect_settled_on_a_confirmed_pairing(r);
 }

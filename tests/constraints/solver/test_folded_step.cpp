@@ -14,7 +14,7 @@
 namespace brainshift::constraints {
 namespace {
 
-std::vector<Matrix3d> random_rotations(index_t n, unsigned seed) {
+std::vector<Matrix3d> folded_step_rotations(index_t n, unsigned seed) {
   std::mt19937 rng(seed);
   std::vector<Matrix3d> R(static_cast<std::size_t>(n));
   for (auto& r : R) r = tests::random_rotation(rng);
@@ -48,7 +48,7 @@ TEST(ComplianceOperator, SeveralColumnsAtOnceAndTheBlockCorrectionMatchApply) {
   ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), block);
   const ComplianceOperator& C = model.compliance();
   ASSERT_EQ(C.strategy(), ComplianceStrategy::DENSE_BLOCK);
-  const std::vector<Matrix3d> R = random_rotations(mesh.num_nodes(), 3);
+  const std::vector<Matrix3d> R = folded_step_rotations(mesh.num_nodes(), 3);
   std::mt19937 rng(4);
   std::normal_distribution<double> g;
   const index_t n3 = 3 * mesh.num_nodes();

@@ -23,8 +23,8 @@ namespace {
 
 using tests::expect_error;
 
-std::filesystem::path write_text(const tests::TempFolder& dir, const std::string& name,
-                                 const std::string& text) {
+std::filesystem::path write_landmark_text(const tests::TempFolder& dir, const std::string& name,
+                                          const std::string& text) {
   const auto path = dir / name;
   std::ofstream(path, std::ios::binary) << text;
   return path;
@@ -51,10 +51,11 @@ void expect_same(const Landmarks& got, const Landmarks& want, const std::string&
 TEST(LandmarkFiles, TheSamePointsFromEveryFormat) {
   const tests::TempFolder dir;
   const Landmarks t = truth();
-  expect_same(read_landmark_file(write_text(dir, "l.csv",
-                                            "id,x,y,z\n1,50.164402,-31.719656,34.845306\n"
-                                            "2,-44.5,31.25,-29.970621\n3,0.125,0,0.001\n")),
-              t, "csv");
+  expect_same(
+      read_landmark_file(write_landmark_text(dir, "l.csv",
+                                             "id,x,y,z\n1,50.164402,-31.719656,34.845306\n"
+                                             "2,-44.5,31.25,-29.970621\n3,0.125,0,0.001\n")),
+      t, "csv");
   // A two-volume tag file: the first set is t, the second t + (1, 2, 3); one line carries
   // weight, structure id and patient id, as the format allows.
   const std::string tag =
@@ -62,7 +63,7 @@ TEST(LandmarkFiles, TheSamePointsFromEveryFormat) {
       " 50.164402 -31.719656 34.845306 51.164402 -29.719656 37.845306 \"\"\n"
       " -44.5 31.25 -29.970621 -43.5 33.25 -26.970621 1 0 0 \"\"\n"
       " 0.125 0 0.001 1.125 2 3.001 \"\";\n";
-  const auto tag_path = write_text(dir, "Case.tag", tag);
+  const auto tag_path = write_landmark_text(dir, "Case.tag", tag);
   expect_same(read_landmark_file(tag_path), t, "tag, first volume");
   Landmarks shifted = t;
   shifted.points.rowwise() += Eigen::RowVector3d(1, 2, 3);
@@ -85,12 +86,12 @@ TEST(LandmarkFiles, TheSamePointsFromEveryFormat) {
          "\"positionStatus\": \"undefined\"}]}]}\n";
     return s.str();
   };
-  expect_same(read_landmark_file(write_text(dir, "lps.mrk.json", markups("LPS", -1, -1))), t,
-              "mrk.json LPS");
-  expect_same(read_landmark_file(write_text(dir, "ras.mrk.json", markups("RAS", 1, 1))), t,
+  expect_same(read_landmark_file(write_landmark_text(dir, "lps.mrk.json", markups("LPS", -1, -1))),
+              t, "mrk.json LPS");
+  expect_same(read_landmark_file(write_landmark_text(dir, "ras.mrk.json", markups("RAS", 1, 1))), t,
               "mrk.json RAS");
   // Slicer 4.11's .fcsv (LPS), and an older one that says 0 (RAS).
-  expect_same(read_landmark_file(write_text(
+  expect_same(read_landmark_file(write_landmark_text(
                   dir, "lps.fcsv",
                   "# Markups fiducial file version = 4.11\n# CoordinateSystem = LPS\n"
                   "# columns = id,x,y,z,ow,ox,oy,oz,vis,sel,lock,label,desc,associatedNodeID\n"
@@ -99,7 +100,7 @@ TEST(LandmarkFiles, TheSamePointsFromEveryFormat) {
                   "vtkMRMLMarkupsFiducialNode_1,44.5,-31.25,-29.970621,0,0,0,1,1,1,0,2,,\n"
                   "vtkMRMLMarkupsFiducialNode_2,-0.125,-0,0.001,0,0,0,1,1,1,0,3,,\n")),
               t, "fcsv LPS");
-  expect_same(read_landmark_file(write_text(
+  expect_same(read_landmark_file(write_landmark_text(
                   dir, "ras.fcsv",
                   "# Markups fiducial file version = 4.6\n# CoordinateSystem = 0\n"
                   "# columns = id,x,y,z,ow,ox,oy,oz,vis,sel,lock,label,desc,associatedNodeID\n"
@@ -163,53 +164,64 @@ TEST(LandmarkFiles, ResectTagFilesAgreeWithTheirPublishedSummary) {
 TEST(LandmarkFiles, BadFilesGiveOneLineNamingTheFile) {
   const tests::TempFolder dir;
   expect_error([&] { read_landmark_file(dir / "absent.tag"); }, {"absent.tag", "no such file"});
-  expect_error([&] { read_landmark_file(write_text(dir, "l.txt", "1 2 3\n")); },
+  expect_error([&] { read_landmark_file(write_landmark_text(dir, "l.txt", "1 2 3\n")); },
                {"l.txt", "unknown landmark format"});
-  expect_error([&] { read_landmark_file(write_text(dir, "a.tag", "Points =\n1 2 3;\n")); },
+  expect_error([&] { read_landmark_file(write_landmark_text(dir, "a.tag", "Points =\n1 2 3;\n")); },
                {"a.tag", "not an MNI tag file"});
   const std::string head = "MNI Tag Point File\nVolumes = 1;\nPoints =\n";
-  expect_error([&] { read_landmark_file(write_text(dir, "b.tag", head + " 1 2 3\n 4 5 6\n")); },
-               {"b.tag", "does not end with ';'"});
-  expect_error([&] { read_landmark_file(write_text(dir, "c.tag", head + " 1 2 3\n 4 5;\n")); },
-               {"c.tag:5", "expected 3 coordinates", "got 2"});
-  expect_error([&] { read_landmark_file(write_text(dir, "d.tag", head + " 1 2 nan;\n")); },
-               {"d.tag:4", "finite number", "nan"});
   expect_error(
-      [&] { read_landmark_file(write_text(dir, "e.tag", head + " 1 2 3 \"x\"\n 4 5 6 \"x\";\n")); },
-      {"e.tag:5", "id x is repeated", "e.tag:4"});
-  expect_error([&] { read_landmark_file(write_text(dir, "f.tag", head + ";\n")); },
-               {"f.tag", "no landmarks"});
-  expect_error([&] { read_landmark_file(write_text(dir, "a.mrk.json", "{\"markups\": [")); },
-               {"a.mrk.json", "not valid JSON"});
-  // Found by fuzzing (tests/fuzz/crashes/landmarks): a number beyond double's range escaped as
-  // the JSON library's own exception.
-  expect_error([&] { read_landmark_file(write_text(dir, "n.mrk.json", "{\"x\": 1e999}")); },
-               {"n.mrk.json", "not valid JSON", "out of range"});
-  expect_error([&] { read_landmark_file(write_text(dir, "b.mrk.json", "{\"points\": []}")); },
-               {"b.mrk.json", "not a Slicer markups file"});
+      [&] { read_landmark_file(write_landmark_text(dir, "b.tag", head + " 1 2 3\n 4 5 6\n")); },
+      {"b.tag", "does not end with ';'"});
+  expect_error(
+      [&] { read_landmark_file(write_landmark_text(dir, "c.tag", head + " 1 2 3\n 4 5;\n")); },
+      {"c.tag:5", "expected 3 coordinates", "got 2"});
+  expect_error([&] { read_landmark_file(write_landmark_text(dir, "d.tag", head + " 1 2 nan;\n")); },
+               {"d.tag:4", "finite number", "nan"});
   expect_error(
       [&] {
         read_landmark_file(
-            write_text(dir, "c.mrk.json",
-                       R"({"markups": [{"coordinateSystem": "IJK", "controlPoints": []}]})"));
+            write_landmark_text(dir, "e.tag", head + " 1 2 3 \"x\"\n 4 5 6 \"x\";\n"));
+      },
+      {"e.tag:5", "id x is repeated", "e.tag:4"});
+  expect_error([&] { read_landmark_file(write_landmark_text(dir, "f.tag", head + ";\n")); },
+               {"f.tag", "no landmarks"});
+  expect_error(
+      [&] { read_landmark_file(write_landmark_text(dir, "a.mrk.json", "{\"markups\": [")); },
+      {"a.mrk.json", "not valid JSON"});
+  // Found by fuzzing (tests/fuzz/crashes/landmarks): a number beyond double's range escaped as
+  // the JSON library's own exception.
+  expect_error(
+      [&] { read_landmark_file(write_landmark_text(dir, "n.mrk.json", "{\"x\": 1e999}")); },
+      {"n.mrk.json", "not valid JSON", "out of range"});
+  expect_error(
+      [&] { read_landmark_file(write_landmark_text(dir, "b.mrk.json", "{\"points\": []}")); },
+      {"b.mrk.json", "not a Slicer markups file"});
+  expect_error(
+      [&] {
+        read_landmark_file(write_landmark_text(
+            dir, "c.mrk.json",
+            R"({"markups": [{"coordinateSystem": "IJK", "controlPoints": []}]})"));
       },
       {"c.mrk.json", "markups[0]", "coordinateSystem must be LPS or RAS", "IJK"});
   expect_error(
       [&] {
-        read_landmark_file(write_text(
+        read_landmark_file(write_landmark_text(
             dir, "d.mrk.json",
             R"({"markups": [{"controlPoints": [{"label": "1", "position": [1, "2", 3]}]}]})"));
       },
       {"d.mrk.json", "controlPoints[0]", "three numbers"});
   expect_error(
       [&] {
-        read_landmark_file(write_text(dir, "a.fcsv", "# CoordinateSystem = LPS\nF,1,2,x,0\n"));
+        read_landmark_file(
+            write_landmark_text(dir, "a.fcsv", "# CoordinateSystem = LPS\nF,1,2,x,0\n"));
       },
       {"a.fcsv:2", "finite number for z", "'x'"});
   expect_error(
-      [&] { read_landmark_file(write_text(dir, "b.fcsv", "# CoordinateSystem = 2\nF,1,2,3\n")); },
+      [&] {
+        read_landmark_file(write_landmark_text(dir, "b.fcsv", "# CoordinateSystem = 2\nF,1,2,3\n"));
+      },
       {"b.fcsv:1", "CoordinateSystem", "'2'"});
-  expect_error([&] { read_landmark_file(write_text(dir, "c.fcsv", "# only comments\n")); },
+  expect_error([&] { read_landmark_file(write_landmark_text(dir, "c.fcsv", "# only comments\n")); },
                {"c.fcsv", "no landmarks"});
   expect_error([&] { write_markups_json(dir / "nowhere" / "x.mrk.json", truth()); },
                {"x.mrk.json"});

@@ -57,7 +57,7 @@ struct Sector {
 /// radius and a voxel) of the inner vessel's two ends: the thinned centreline runs into the
 /// rounded end caps of an oblique tube, off its axis, which has nothing to do with the sector
 /// (test_vessel_extraction leaves such regions out too).
-double worst_axis_distance(const VesselGraph& g, const std::vector<AxisSegment>& axes) {
+double worst_support_axis_distance(const VesselGraph& g, const std::vector<AxisSegment>& axes) {
   double worst = 0.0;
   for (const auto& b : g.branches)
     for (const Vector3d& p : b.points)
@@ -88,7 +88,7 @@ TEST(SupportEdge, AVesselCutByTheSectorsSideLeavesNoOffAxisPoints) {
   ASSERT_EQ(before.status, VesselStatus::OK) << before.message;
   // Without the rule the cut vessel's centreline is more than a voxel off its axis (the bias
   // the rule removes: the half of the tube left inside the sector has its centre ≈ r/2 inward).
-  EXPECT_GT(worst_axis_distance(before.graph, axes), 1.0);
+  EXPECT_GT(worst_support_axis_distance(before.graph, axes), 1.0);
 
   const VesselExtractionResult after = extract_vessels(image, doppler_options(true));
   ASSERT_EQ(after.status, VesselStatus::OK) << after.message;
@@ -96,7 +96,7 @@ TEST(SupportEdge, AVesselCutByTheSectorsSideLeavesNoOffAxisPoints) {
   EXPECT_GT(after.points_at_support_edge, 0);
   // Every kept point within 0.6 mm (0.75 voxel) of an axis: a thinned, smoothed centreline of
   // an uncut tube lies within half a voxel of it (test_vessel_extraction), plus the clutter.
-  EXPECT_LE(worst_axis_distance(after.graph, axes), 0.6);
+  EXPECT_LE(worst_support_axis_distance(after.graph, axes), 0.6);
   // The inner vessel is kept whole: 30 mm of axis less at most a radius at each end.
   EXPECT_GT(after.total_length_mm, 30.0 - 2 * 3.0);
 }
