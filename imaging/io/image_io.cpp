@@ -73,11 +73,13 @@ void copy_scalars(vtkImageData* image, VolumeF& volume, const std::string& file)
             file << ": " << scalars->GetNumberOfTuples() << " voxels of data for a "
                  << volume.geometry.voxel_count() << "-voxel grid (truncated file?)");
   volume.components = scalars->GetNumberOfComponents();
-  volume.data.resize(std::size_t(volume.geometry.voxel_count()) * std::size_t(volume.components));
+  const std::size_t values =
+      std::size_t(volume.geometry.voxel_count()) * std::size_t(volume.components);
   if (auto* f = vtkFloatArray::SafeDownCast(scalars)) {
-    std::copy_n(f->GetPointer(0), volume.data.size(), volume.data.begin());
+    volume.data.assign(f->GetPointer(0), f->GetPointer(0) + values);  // one pass, no zero fill
     return;
   }
+  volume.data.resize(values);
   const vtkIdType n = scalars->GetNumberOfTuples();
   const int c = volume.components;
   for (vtkIdType t = 0; t < n; ++t)

@@ -121,17 +121,17 @@ TEST(SeparableFilter, StridedAxesEqualTheContiguousAxisToTheBit) {
   for (std::size_t i = 5; i < data.size(); i += 97) data[i] = std::nanf("");
   for (std::size_t i = 11; i < data.size(); i += 389)
     data[i] = std::numeric_limits<float>::infinity();
-  const std::vector<double> kernel{0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05};
+  const std::vector<double> wide{0.05, 0.1, 0.2, 0.3, 0.2, 0.1, 0.05};
   for (const MissingData missing :
        {MissingData::ZERO, MissingData::CLAMP, MissingData::NAN_RESULT, MissingData::RENORMALISE})
     for (const int axis : {1, 2}) {
       SCOPED_TRACE("policy " + std::to_string(int(missing)) + ", axis " + std::to_string(axis));
       std::vector<float> strided = data;
-      filter_axis(strided, n, axis, kernel, missing);
+      filter_axis(strided, n, axis, wide, missing);
       Eigen::Vector3i m = n;
       std::swap(m[0], m[axis]);
       std::vector<float> contiguous = swap_axes(data, n, 0, axis);
-      filter_axis(contiguous, m, 0, kernel, missing);
+      filter_axis(contiguous, m, 0, wide, missing);
       contiguous = swap_axes(contiguous, m, 0, axis);
       int differing = 0;
       for (std::size_t v = 0; v < data.size(); ++v) {
@@ -140,6 +140,57 @@ TEST(SeparableFilter, StridedAxesEqualTheContiguousAxisToTheBit) {
         differing += same ? 0 : 1;
       }
       EXPECT_EQ(differing, 0);
+    }
+}
+
+TEST(SeparableFilter, LinesOfZerosAreLeftOnlyWhereTheFilterKeepsThemZero) {
+  // Lines (and blocks of 16 lines along y and z) whose samples are all +0.0 are skipped where the
+  // policy filters such a line to +0.0: every line of a volume with zero regions (outside a
+  // block, a whole block, lines mixing zeros and values) must still equal brute force, and under
+  // NAN_RESULT a zero line's ends must come out NaN, not be left at zero.
+  const Eigen::Vector3i n(37, 21, 19);  // x: two full blocks of 16 and a partial one
+  std::vector<float> data(std::size_t(n.prod()), 0.0F);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-5.0F, 40.0F);
+  for (int k = 4; k < 12; ++k)
+    for (int j = 3; j < 14; ++j)
+      for (int i = 18; i < 30; ++i)  // the second block of x only, and part of it
+        data[std::size_t(i + std::int64_t(n[0]) * (j + std::int64_t(n[1]) * k))] = u(rng);
+  data[std::size_t(2 + std::int64_t(n[0]) * (20 + std::int64_t(n[1]) * 18))] = -0.0F;
+  for (const MissingData missing :
+       {MissingData::ZERO, MissingData::CLAMP, MissingData::NAN_RESULT, MissingData::RENORMALISE})
+    for (const int axis : {0, 1, 2}) {
+      SCOPED_TRACE("policy " + std::to_string(int(missing)) + ", axis " + std::to_string(axis));
+      std::vector<float> out = data;
+      filter_axis(out, n, axis, kernel, missing);
+      const std::int64_t stride[3] = {1, n[0], std::int64_t(n[0]) * n[1]};
+      const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+      int wrong = 0, zero_ends_nan = 0;
+      for (int p = 0; p < n[a]; ++p)
+        for (int q = 0; q < n[b]; ++q) {
+          const std::int64_t start = p * stride[a] + q * stride[b];
+          std::vector<float> line(std::size_t(n[axis]));
+          for (int t = 0; t < n[axis]; ++t)
+            line[std::size_t(t)] = data[std::size_t(start + t * stride[axis])];
+          const std::vector<double> want = reference(line, missing);
+          const bool zeros =
+              std::all_of(line.begin(), line.end(), [](float v) { return v == 0.0F; });
+          for (int t = 0; t < n[axis]; ++t) {
+            const float got = out[std::size_t(start + t * stride[axis])];
+            const double w = want[std::size_t(t)];
+            // A float result of a double sum of values ≤ 40: a few float ulps.
+            const bool ok = std::isnan(w) ? std::isnan(got) : std::abs(got - w) <= 1e-4;
+            wrong += ok ? 0 : 1;
+            if (zeros && std::isnan(got)) ++zero_ends_nan;
+          }
+        }
+      EXPECT_EQ(wrong, 0);
+      // NAN_RESULT: the two kernel radii at each end of every all-zero line are NaN.
+      if (missing == MissingData::NAN_RESULT) {
+        EXPECT_GT(zero_ends_nan, 0);
+      } else {
+        EXPECT_EQ(zero_ends_nan, 0);
+      }
     }
 }
 
