@@ -207,15 +207,11 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
 
 }  // namespace
 
-RegistrationResult register_model(const RegistrationModel& model, const IntraopData& data,
-                                  const RegistrationOptions& options,
-                                  const RegistrationResult* initial) {
-  const std::string invalid = options.validate();
-  BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
-  const auto t_start = Clock::now();
-  const core::TetMesh& mesh = model.mesh();
-  RegistrationResult res;
-  res.positions = initial ? initial->positions : mesh.nodes();
+namespace {
+
+/// register_model's argument checks: one clear error per problem.
+void verify_registration_inputs(const core::TetMesh& mesh, const IntraopData& data,
+                                const RegistrationResult& res) {
   BS_VERIFY(res.positions.rows() == mesh.num_nodes() && res.positions.allFinite(),
             "initial positions must be finite, one row per node (" << mesh.num_nodes() << ")");
   BS_VERIFY(data.vessel_points.allFinite() && data.footprint_points.allFinite() &&
@@ -236,6 +232,218 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
                1e-6 &&
            data.pose->linear().determinant() > 0),
       "the given pose must be a finite rotation and translation");
+}
+
+/// The schedule's first stages: HELD on the bulk shift's pairs (when the start accepted one),
+/// then FREE with what is left of the iteration budget; returns the last stage run.
+StageRecord run_held_and_free(const LoopInputs& in, const RegistrationOptions& options,
+                              const RegistrationResult& res, double ratio0, LoopState& state) {
+  const bool noise_model = in.vessels;  // the estimate; the SMOOTH stage only when enabled
+  int budget = options.max_iterations;
+  StageRecord last;
+  auto run = [&](const StageOptions& so) {
+    last = run_stage(in, so, state);
+    state.stages.push_back(last);
+    budget -= last.iterations;
+    return last;
+  };
+  if (res.shift.accepted && options.shift_stage_iterations > 0) {
+    StageOptions held;
+    held.kind = StageKind::HELD;
+    held.max_iterations = std::min(options.shift_stage_iterations, budget);
+    held.vessel_compliance_ratio = ratio0;
+    run(held);
+  }
+  if (last.stop != StageStop::DIVERGED && budget > 0) {
+    StageOptions free;
+    free.kind = StageKind::FREE;
+    free.max_iterations = budget;
+    free.pair_distance_mm =
+        res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+    free.keep_held_pairs = res.shift.accepted;
+    free.vessel_compliance_ratio = ratio0;
+    free.keep_system = noise_model;
+    run(free);
+  }
+  return last;
+}
+
+/// After a settled FREE stage, the noise model: the vessel compliance chosen on held-out
+/// branches, then the start kept (no compliance predicts held-out vessels better than no
+/// deformation), a SMOOTH stage at the chosen compliance, or nothing. Returns the notes for the
+/// stop reason.
+std::string choose_compliance_and_smooth(const LoopInputs& in, const RegistrationOptions& options,
+                                         double ratio0, RegistrationResult& res, LoopState& state,
+                                         StageRecord& last) {
+  const core::TetMesh& mesh = in.model->mesh();
+  std::string notes;
+  const auto t0 = Clock::now();
+  if (options.noise.criterion == NoiseCriterion::BLOCK_CV) {
+    std::vector<index_t> blocks;
+    blocks.reserve(state.last_vessel_features.size());
+    for (std::int64_t f : state.last_vessel_features)
+      blocks.push_back(f >= 0 && static_cast<std::size_t>(f) < in.segment_blocks.size()
+                           ? in.segment_blocks[static_cast<std::size_t>(f)]
+                           : -1);
+    res.noise =
+        choose_vessel_compliance(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
+                                 blocks, state.last_scale, ratio0, options.noise,
+                                 in.start_state.rows() ? &state.last_delta_start : nullptr);
+  } else {
+    res.noise =
+        estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
+                              state.last_scale, ratio0, options.noise);
+  }
+  state.seconds.noise += seconds_since(t0);
+  notes = res.noise.message;
+  const double change = res.noise.ratio / std::max(ratio0, 1e-300);
+  if (options.noise.enabled && res.noise.valid && res.noise.keep_start) {
+    // No compliance predicts held-out vessels better than no deformation: the model stays at
+    // rest in the start's frame, or at the start's rigid + bulk state (ε → ∞). Recorded as a
+    // SMOOTH stage of no iterations.
+    state.positions = in.start_state.rows() ? in.start_state : mesh.nodes();
+    state.warm.clear();
+    StageRecord keep;
+    keep.kind = StageKind::SMOOTH;
+    keep.stop = StageStop::SETTLED;
+    keep.first_iteration = static_cast<int>(state.history.size()) + 1;
+    keep.iterations = 0;
+    keep.vessel_compliance_ratio = std::numeric_limits<double>::infinity();
+    state.stages.push_back(keep);
+    last = keep;
+    notes += "; the start is kept (no deformation)";
+  } else if (options.noise.enabled && res.noise.valid &&
+             (change > options.noise.change_factor || change < 1.0 / options.noise.change_factor)) {
+    LoopState settled = state;  // the FREE stage's answer, kept if smoothing does not settle
+    StageOptions smooth;
+    smooth.kind = StageKind::SMOOTH;
+    smooth.max_iterations = options.noise.max_iterations;
+    smooth.pair_distance_mm =
+        res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+    smooth.keep_held_pairs = res.shift.accepted;
+    smooth.vessel_compliance_ratio = res.noise.ratio;
+    const StageRecord sm = run_stage(in, smooth, state);
+    if (sm.stop != StageStop::SETTLED) {
+      settled.history = std::move(state.history);  // keep the record of what was tried
+      settled.stages = state.stages;
+      settled.seconds = state.seconds;
+      state = std::move(settled);
+      state.stages.push_back(sm);
+      notes +=
+          "; the smoothing stage ended " + to_string(sm.stop) + ": the free stage's answer is kept";
+      if (sm.stop == StageStop::DIVERGED) last = sm;  // a non-finite step never ends converged
+    } else {
+      state.stages.push_back(sm);
+      last = sm;
+    }
+  }
+  return notes;
+}
+
+/// The loop's answer into the result: positions, history, stages, rows, λ, times and stop.
+void collect_result(const LoopInputs& in, const RegistrationOptions& options, double ratio0,
+                    const StageRecord& last, const std::string& notes, LoopState& state,
+                    RegistrationResult& res) {
+  const core::TetMesh& mesh = in.model->mesh();
+  res.positions = state.positions;
+  res.displacement = res.positions - mesh.nodes();
+  res.history = std::move(state.history);
+  res.stages = std::move(state.stages);
+  res.iterations = static_cast<int>(res.history.size());
+  res.rows_by_set = state.rows_by_set;
+  res.data_rows = data_rows_at(in, state);
+  res.vessel_compliance_ratio = res.stages.empty() ? ratio0 : last.vessel_compliance_ratio;
+  const double t_rigid = res.seconds.rigid;
+  res.seconds = state.seconds;
+  res.seconds.rigid = t_rigid;
+  for (const auto& [k, l] : state.warm) res.lambda.emplace_back(k, l);
+  res.stop = res.stages.empty() ? RegistrationStop::MAX_ITERATIONS : stop_of(last.stop);
+  res.converged = res.stop == RegistrationStop::CONVERGED;
+  res.stop_reason = stop_reason(res, options, notes);
+}
+
+/// Whether a converged answer can be trusted: vessels alone, too few or too scattered
+/// (INSUFFICIENT_DATA); a pose searched on these points that they do not single out
+/// (AMBIGUOUS_POSE).
+void check_trust(const IntraopData& data, const RegistrationOptions& options, const LoopInputs& in,
+                 const RegistrationResult* initial, RegistrationResult& res) {
+  // Is the answer trustworthy? Vessels alone, too few or too scattered: say so (exit 2).
+  if (res.converged && in.vessels && !in.footprint && !in.landmarks) {
+    const index_t pairs = res.history.empty() ? 0 : res.history.back().vessel_pairs;
+    std::string why;
+    if (pairs < options.min_vessel_pairs)
+      why = "only " + std::to_string(pairs) + " vessel points paired (of " +
+            std::to_string(data.vessel_points.rows()) + "); at least " +
+            std::to_string(options.min_vessel_pairs) + " are needed for a trustworthy registration";
+    else if (res.noise.valid && res.noise.sigma_mm > options.max_scatter_mm)
+      why = "the vessel points scatter by " + std::to_string(res.noise.sigma_mm) +
+            " mm about the model, beyond " + std::to_string(options.max_scatter_mm) + " mm";
+    if (!why.empty()) {
+      res.converged = false;
+      res.stop = RegistrationStop::INSUFFICIENT_DATA;
+      res.stop_reason = "insufficient data: " + why + " (" + res.stop_reason + ")";
+    }
+  }
+  // A pose searched on these points that the points do not single out: the answer is written
+  // but not trusted (exit 2), so that a wrong pose is never reported as converged.
+  if (res.converged && !initial && !data.pose && res.start.ambiguous) {
+    res.converged = false;
+    res.stop = RegistrationStop::AMBIGUOUS_POSE;
+    res.stop_reason = "ambiguous pose: " + res.start.ambiguity + " (" + res.stop_reason + ")";
+  }
+}
+
+/// An answer that cannot be trusted (diverged, insufficient data) returns the start's state,
+/// never a half-deformed one.
+void return_start_if_untrusted(const RegistrationModel& model, const IntraopData& data,
+                               const RegistrationOptions& options,
+                               const RegistrationResult* initial, LoopInputs& in, LoopState& state,
+                               RegistrationResult& res) {
+  const core::TetMesh& mesh = model.mesh();
+  // Too few points to trust a deformation are too few to trust the bulk shift fitted jointly
+  // with a pose to them: a cold start returns the rigid pose alone, fitted without the bulk
+  // response (the rigid-only start), the model at rest in it. With a given pose (a pre-dura
+  // sweep) the bulk shift is the only motion fitted to these points, and without it nothing
+  // of the sag would be corrected (sparse_vessels seed 2: 7.0 mm against 2.35 with it), so the
+  // start's state is kept.
+  const bool rigid_fallback =
+      res.stop == RegistrationStop::INSUFFICIENT_DATA && !initial && !data.pose && in.vessels;
+  if (rigid_fallback) {
+    detail::rigid_only_start(model, data, options, res);
+    res.shift.accepted = false;
+    res.shift.message = "not applied (insufficient data)";
+    res.bulk_gravity.setZero();
+    in = loop_inputs(model, data, options, res, {});  // no bulk load, no bulk rest
+  }
+  // A stop that cannot be trusted returns the start's state, never a half-deformed one.
+  if (res.stop == RegistrationStop::DIVERGED || res.stop == RegistrationStop::INSUFFICIENT_DATA) {
+    state.positions = start_positions(model, in, res, options, initial);
+    state.warm.clear();
+    res.positions = state.positions;
+    res.displacement = res.positions - mesh.nodes();
+    res.data_rows = data_rows_at(in, state);
+    res.lambda.clear();
+    res.start_returned = true;
+    res.stop_reason += initial          ? "; the warm start's positions are returned"
+                       : rigid_fallback ? "; the rigid pose alone is returned (no bulk shift, no "
+                                          "deformation)"
+                                        : "; the start's rigid + bulk state is returned (no "
+                                          "deformation)";
+  }
+}
+
+}  // namespace
+
+RegistrationResult register_model(const RegistrationModel& model, const IntraopData& data,
+                                  const RegistrationOptions& options,
+                                  const RegistrationResult* initial) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), "invalid registration options: " << invalid);
+  const auto t_start = Clock::now();
+  const core::TetMesh& mesh = model.mesh();
+  RegistrationResult res;
+  res.positions = initial ? initial->positions : mesh.nodes();
+  verify_registration_inputs(mesh, data, res);
 
   const bool vessels =
       options.use_vessels && data.vessel_points.rows() > 0 && !model.skeleton().segments.empty();
@@ -273,169 +481,15 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   // The schedule.
   const double ratio0 =
       options.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)];
-  const bool noise_model =
-      in.vessels;  // the estimate; the SMOOTH stage only when options.noise.enabled
-  int budget = options.max_iterations;
-  StageRecord last;
-  auto run = [&](const StageOptions& so) {
-    last = run_stage(in, so, state);
-    state.stages.push_back(last);
-    budget -= last.iterations;
-    return last;
-  };
-  if (res.shift.accepted && options.shift_stage_iterations > 0) {
-    StageOptions held;
-    held.kind = StageKind::HELD;
-    held.max_iterations = std::min(options.shift_stage_iterations, budget);
-    held.vessel_compliance_ratio = ratio0;
-    run(held);
-  }
-  if (last.stop != StageStop::DIVERGED && budget > 0) {
-    StageOptions free;
-    free.kind = StageKind::FREE;
-    free.max_iterations = budget;
-    free.pair_distance_mm =
-        res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
-    free.keep_held_pairs = res.shift.accepted;
-    free.vessel_compliance_ratio = ratio0;
-    free.keep_system = noise_model;
-    run(free);
-  }
+  StageRecord last = run_held_and_free(in, options, res, ratio0, state);
   std::string notes;
-  if (noise_model && last.kind == StageKind::FREE && last.stop == StageStop::SETTLED) {
-    const auto t0 = Clock::now();
-    if (options.noise.criterion == NoiseCriterion::BLOCK_CV) {
-      std::vector<index_t> blocks;
-      blocks.reserve(state.last_vessel_features.size());
-      for (std::int64_t f : state.last_vessel_features)
-        blocks.push_back(f >= 0 && static_cast<std::size_t>(f) < in.segment_blocks.size()
-                             ? in.segment_blocks[static_cast<std::size_t>(f)]
-                             : -1);
-      res.noise = choose_vessel_compliance(
-          state.last_delassus, state.last_delta_free, state.last_vessel_rows, blocks,
-          state.last_scale, ratio0, options.noise,
-          in.start_state.rows() ? &state.last_delta_start : nullptr);
-    } else {
-      res.noise =
-          estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
-                                state.last_scale, ratio0, options.noise);
-    }
-    state.seconds.noise += seconds_since(t0);
-    notes = res.noise.message;
-    const double change = res.noise.ratio / std::max(ratio0, 1e-300);
-    if (options.noise.enabled && res.noise.valid && res.noise.keep_start) {
-      // No compliance predicts held-out vessels better than no deformation: the model stays at
-      // rest in the start's frame, or at the start's rigid + bulk state (ε → ∞). Recorded as a
-      // SMOOTH stage of no iterations.
-      state.positions = in.start_state.rows() ? in.start_state : mesh.nodes();
-      state.warm.clear();
-      StageRecord keep;
-      keep.kind = StageKind::SMOOTH;
-      keep.stop = StageStop::SETTLED;
-      keep.first_iteration = static_cast<int>(state.history.size()) + 1;
-      keep.iterations = 0;
-      keep.vessel_compliance_ratio = std::numeric_limits<double>::infinity();
-      state.stages.push_back(keep);
-      last = keep;
-      notes += "; the start is kept (no deformation)";
-    } else if (options.noise.enabled && res.noise.valid &&
-               (change > options.noise.change_factor ||
-                change < 1.0 / options.noise.change_factor)) {
-      LoopState settled = state;  // the FREE stage's answer, kept if smoothing does not settle
-      StageOptions smooth;
-      smooth.kind = StageKind::SMOOTH;
-      smooth.max_iterations = options.noise.max_iterations;
-      smooth.pair_distance_mm =
-          res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
-      smooth.keep_held_pairs = res.shift.accepted;
-      smooth.vessel_compliance_ratio = res.noise.ratio;
-      const StageRecord sm = run_stage(in, smooth, state);
-      if (sm.stop != StageStop::SETTLED) {
-        settled.history = std::move(state.history);  // keep the record of what was tried
-        settled.stages = state.stages;
-        settled.seconds = state.seconds;
-        state = std::move(settled);
-        state.stages.push_back(sm);
-        notes += "; the smoothing stage ended " + to_string(sm.stop) +
-                 ": the free stage's answer is kept";
-        if (sm.stop == StageStop::DIVERGED) last = sm;  // a non-finite step never ends converged
-      } else {
-        state.stages.push_back(sm);
-        last = sm;
-      }
-    }
-  }
+  if (in.vessels && last.kind == StageKind::FREE && last.stop == StageStop::SETTLED)
+    notes = choose_compliance_and_smooth(in, options, ratio0, res, state, last);
 
-  res.positions = state.positions;
-  res.displacement = res.positions - mesh.nodes();
-  res.history = std::move(state.history);
-  res.stages = std::move(state.stages);
-  res.iterations = static_cast<int>(res.history.size());
-  res.rows_by_set = state.rows_by_set;
-  res.data_rows = data_rows_at(in, state);
-  res.vessel_compliance_ratio = res.stages.empty() ? ratio0 : last.vessel_compliance_ratio;
-  const double t_rigid = res.seconds.rigid;
-  res.seconds = state.seconds;
-  res.seconds.rigid = t_rigid;
-  for (const auto& [k, l] : state.warm) res.lambda.emplace_back(k, l);
-  res.stop = res.stages.empty() ? RegistrationStop::MAX_ITERATIONS : stop_of(last.stop);
-  res.converged = res.stop == RegistrationStop::CONVERGED;
-  res.stop_reason = stop_reason(res, options, notes);
+  collect_result(in, options, ratio0, last, notes, state, res);
 
-  // Is the answer trustworthy? Vessels alone, too few or too scattered: say so (exit 2).
-  if (res.converged && in.vessels && !in.footprint && !in.landmarks) {
-    const index_t pairs = res.history.empty() ? 0 : res.history.back().vessel_pairs;
-    std::string why;
-    if (pairs < options.min_vessel_pairs)
-      why = "only " + std::to_string(pairs) + " vessel points paired (of " +
-            std::to_string(data.vessel_points.rows()) + "); at least " +
-            std::to_string(options.min_vessel_pairs) + " are needed for a trustworthy registration";
-    else if (res.noise.valid && res.noise.sigma_mm > options.max_scatter_mm)
-      why = "the vessel points scatter by " + std::to_string(res.noise.sigma_mm) +
-            " mm about the model, beyond " + std::to_string(options.max_scatter_mm) + " mm";
-    if (!why.empty()) {
-      res.converged = false;
-      res.stop = RegistrationStop::INSUFFICIENT_DATA;
-      res.stop_reason = "insufficient data: " + why + " (" + res.stop_reason + ")";
-    }
-  }
-  // A pose searched on these points that the points do not single out: the answer is written
-  // but not trusted (exit 2), so that a wrong pose is never reported as converged.
-  if (res.converged && !initial && !data.pose && res.start.ambiguous) {
-    res.converged = false;
-    res.stop = RegistrationStop::AMBIGUOUS_POSE;
-    res.stop_reason = "ambiguous pose: " + res.start.ambiguity + " (" + res.stop_reason + ")";
-  }
-  // Too few points to trust a deformation are too few to trust the bulk shift fitted jointly
-  // with a pose to them: a cold start returns the rigid pose alone, fitted without the bulk
-  // response (the rigid-only start), the model at rest in it. With a given pose (a pre-dura
-  // sweep) the bulk shift is the only motion fitted to these points, and without it nothing
-  // of the sag would be corrected (sparse_vessels seed 2: 7.0 mm against 2.35 with it), so the
-  // start's state is kept.
-  const bool rigid_fallback =
-      res.stop == RegistrationStop::INSUFFICIENT_DATA && !initial && !data.pose && in.vessels;
-  if (rigid_fallback) {
-    detail::rigid_only_start(model, data, options, res);
-    res.shift.accepted = false;
-    res.shift.message = "not applied (insufficient data)";
-    res.bulk_gravity.setZero();
-    in = loop_inputs(model, data, options, res, {});  // no bulk load, no bulk rest
-  }
-  // A stop that cannot be trusted returns the start's state, never a half-deformed one.
-  if (res.stop == RegistrationStop::DIVERGED || res.stop == RegistrationStop::INSUFFICIENT_DATA) {
-    state.positions = start_positions(model, in, res, options, initial);
-    state.warm.clear();
-    res.positions = state.positions;
-    res.displacement = res.positions - mesh.nodes();
-    res.data_rows = data_rows_at(in, state);
-    res.lambda.clear();
-    res.start_returned = true;
-    res.stop_reason += initial          ? "; the warm start's positions are returned"
-                       : rigid_fallback ? "; the rigid pose alone is returned (no bulk shift, no "
-                                          "deformation)"
-                                        : "; the start's rigid + bulk state is returned (no "
-                                          "deformation)";
-  }
+  check_trust(data, options, in, initial, res);
+  return_start_if_untrusted(model, data, options, initial, in, state, res);
   res.seconds.total = seconds_since(t_start);
 
   if (initial && options.cold_retry && !res.converged &&
