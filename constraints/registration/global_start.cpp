@@ -91,10 +91,10 @@ struct Search {
   [[nodiscard]] Eigen::VectorXd contributions(const Pose& p) const {
     const Matrix3d R = rotation(p.w);
     const double tf2 = o.fine_kernel_mm * o.fine_kernel_mm;
-    Eigen::VectorXd c(fine.rows());
+    Eigen::VectorXd share(fine.rows());
     for (Eigen::Index i = 0; i < fine.rows(); ++i)
-      c(i) = std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
-    return c;
+      share(i) = std::max(0.0, 1.0 - grid->trilinear(place(R, p, i)) / tf2);
+    return share;
   }
   /// RMS distance of the fine points within the coarse kernel, 0 when none.
   [[nodiscard]] double rms(const Pose& p) const {
@@ -334,38 +334,23 @@ std::string fmt(const Vector3d& v, int precision = 2) {
   return os.str();
 }
 
-}  // namespace
-
-GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
-                               const BasisAt& basis_at, const GlobalStartOptions& o,
-                               const Vector3d& outward) {
-  const auto t0 = Clock::now();
-  const std::string invalid = o.validate();
-  BS_VERIFY(invalid.empty(), invalid);
-  BS_VERIFY(points.allFinite() && skeleton.points.allFinite() && outward.allFinite(),
-            "global start: inputs contain NaN or infinity");
-  GlobalStartResult res;
-  if (points.rows() < o.min_points || skeleton.segments.empty()) {
-    res.message = skeleton.segments.empty()
-                      ? "no skeleton segments: identity"
-                      : std::to_string(points.rows()) + " vessel points, fewer than the " +
-                            std::to_string(o.min_points) + " needed: identity";
-    res.seconds = seconds_since(t0);
-    return res;
-  }
-  Search S{skeleton, o, points.colwise().mean().transpose(), {}, {}, {}, nullptr};
-  const MatrixX3d pc = points.rowwise() - S.c.transpose();
-  S.coarse = subsample(pc, o.coarse_points);
-  S.fine = subsample(pc, o.max_points);
-  res.points = static_cast<int>(S.fine.rows());
-
-  // The table: the points' box, grown by every translation and rotation the coarse grid tries.
-  const double rot_step = o.max_rotation_deg * kDeg / 1.5;
-  const double r_max = pc.rowwise().norm().maxCoeff();
-  double h = o.voxel_mm;
+/// The kernel-correlation table's grid: voxel size h, the coarse step (sv voxels, `step` mm),
+/// the translation count K per side and the box [lo, hi]: the points' box grown by every
+/// translation and rotation the coarse grid tries, the voxel grown until it fits kMaxVoxels.
+struct TableGrid {
+  double h = 0, step = 0;
   int sv = 1, K = 0;
-  double step = 0;
   Vector3d lo, hi;
+};
+
+TableGrid table_grid(ConstRef<MatrixX3d> points, double r_max, double rot_step,
+                     const GlobalStartOptions& o) {
+  TableGrid g;
+  double& h = g.h;
+  int &sv = g.sv, &K = g.K;
+  double& step = g.step;
+  Vector3d &lo = g.lo, &hi = g.hi;
+  h = o.voxel_mm;
   for (int attempt = 0; attempt < 8; ++attempt) {
     sv = std::max(1, static_cast<int>(std::lround(o.coarse_step_mm / h)));
     step = sv * h;
@@ -377,30 +362,13 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
     if (voxels <= kMaxVoxels) break;
     h *= std::cbrt(voxels / kMaxVoxels) * 1.01;
   }
-  const detail::DistanceGrid grid(skeleton, lo, hi, h, o.coarse_kernel_mm);
-  S.grid = &grid;
-  res.seconds_table = seconds_since(t0);
+  return g;
+}
 
-  // 1. Coarse: every translation × every rotation of the grid (identity first).
-  auto t1 = Clock::now();
-  std::vector<Vector3d> rotations{Vector3d::Zero()};
-  if (rot_step > 0)
-    for (int z = -1; z <= 1; ++z)
-      for (int y = -1; y <= 1; ++y)
-        for (int x = -1; x <= 1; ++x)
-          if (x || y || z) rotations.push_back(rot_step * Vector3d(x, y, z));
-  std::vector<Pose> cands = coarse_search(S, rotations, step, sv, K);
-  res.candidates = static_cast<int>(cands.size());
-  res.seconds_coarse = seconds_since(t1);
-
-  // 2. Fine rescoring of the candidates.
-  t1 = Clock::now();
-  const Pose identity;
-  res.score_identity = S.score(identity);
-  for (Pose& c : cands) c = rescore(S, c, rot_step, step);
-  std::sort(cands.begin(), cands.end(),
-            [](const Pose& a, const Pose& b) { return a.score > b.score; });
-  res.seconds_fine = seconds_since(t1);
+/// The best candidate distinct from the top one (the candidates sorted by fine score), and the
+/// points' spread along their principal axes.
+void runner_up_and_spread(const Search& S, const std::vector<Pose>& cands,
+                          const GlobalStartOptions& o, GlobalStartResult& res) {
   // The best candidate distinct from the top one (the candidates are sorted by fine score).
   if (!cands.empty() && cands.front().score > 0) {
     auto placed = [&S](const Pose& p) -> MatrixX3d {
@@ -422,13 +390,17 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
     const Vector3d ev = es.eigenvalues().cwiseMax(0.0).cwiseSqrt();
     res.spread_mm = Vector3d(ev(2), ev(1), ev(0));
   }
+}
 
-  // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the
-  // points.
-  t1 = Clock::now();
+/// Step 3: the refinement of the best candidate and of any within 10 % of it (rigid, then the
+/// bulk shift jointly in the frame Q where it sinks), compared by the posterior; the identity
+/// when nothing beats it.
+Pose refine_best(Search& S, const std::vector<Pose>& cands, const Pose& identity,
+                 const BasisAt& basis_at, const GlobalStartOptions& o, const Vector3d& outward,
+                 GlobalStartResult& res, Matrix3d& Q) {
   Pose best = identity;
   best.score = res.score_identity;
-  Matrix3d Q = Matrix3d::Identity();  // the frame the bulk shift is refined in
+  Q = Matrix3d::Identity();
   if (!cands.empty()) {
     const bool bulk = o.bulk_response && basis_at;
     if (bulk) {
@@ -479,89 +451,169 @@ GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3
       }
     }
   }
+  return best;
+}
+
+/// The gain must stand out of its own scatter: the points grouped in blocks of
+/// significance_block_mm (errors along a vessel are correlated within a block, not across), the
+/// blocks' mean gain over its standard error ≥ significance_z. Fewer than 4 blocks: not tested.
+void test_significance(const Search& S, const Pose& best, const Pose& identity,
+                       const GlobalStartOptions& o, GlobalStartResult& res) {
+  const Eigen::VectorXd g = S.contributions(best) - S.contributions(identity);
+  std::map<std::array<long, 3>, double> blocks;
+  for (Eigen::Index i = 0; i < S.fine.rows(); ++i) {
+    const Vector3d q = S.fine.row(i).transpose() / o.significance_block_mm;
+    blocks[{long(std::floor(q(0))), long(std::floor(q(1))), long(std::floor(q(2)))}] += g(i);
+  }
+  res.gain_blocks = static_cast<int>(blocks.size());
+  if (blocks.size() >= 4) {
+    double sum = 0, sum2 = 0;
+    for (const auto& [key, b] : blocks) {
+      sum += b;
+      sum2 += b * b;
+    }
+    const double n = double(blocks.size());
+    const double mean = sum / n;
+    const double sd = std::sqrt(std::max(0.0, (sum2 - n * mean * mean) / (n - 1)));
+    res.gain_z = sd > 0 ? mean / (sd / std::sqrt(n)) : std::numeric_limits<double>::infinity();
+    if (res.gain_z < o.significance_z) res.accepted = false;
+  }
+}
+
+/// An accepted pose into the result and the message.
+void accept_pose(const Search& S, Pose best, const Matrix3d& Q, const GlobalStartOptions& o,
+                 GlobalStartResult& res, std::ostringstream& os) {
+  const Matrix3d R = rotation(best.w);
+  res.transform.linear() = R;
+  res.transform.translation() = S.c + best.t - R * S.c;
+  res.translation_mm = best.t.norm();
+  res.rotation_deg = best.w.norm() / kDeg;
+  if (const PriorWeights kw(o); kw.map)
+    res.prior_z =
+        std::sqrt(kw.t * kw.t * best.t.squaredNorm() + kw.w * kw.w * best.w.squaredNorm()) /
+        o.loss_scale_mm;
+  res.bulk_accepted = !S.basis.empty() && best.s.norm() >= o.bulk_min_mm;
+  if (!res.bulk_accepted) best.s.setZero();
+  res.score = S.score(best);  // with s in the frame the basis was rotated to
+  res.rms_after_mm = S.rms(best);
+  if (res.bulk_accepted) res.bulk_shift = Q * best.s;  // back to the model frame
+  os << "rigid " << res.translation_mm << " mm at the centroid, " << res.rotation_deg
+     << " deg; bulk shift ";
+  if (res.bulk_accepted)
+    os << fmt(res.bulk_shift) << " mm";
+  else
+    os << (S.basis.empty() ? "not searched"
+                           : "below " + std::to_string(o.bulk_min_mm).substr(0, 4) + " mm");
+  os << "; score " << res.score << " vs " << res.score_identity << " at the identity over "
+     << res.points << " points";
+  std::ostringstream why;
+  why.setf(std::ios::fixed);
+  why.precision(2);
+  if (res.runner_up_ratio >= o.ambiguity_ratio)
+    why << "a pose " << res.runner_up_distance_mm << " mm away scores "
+        << 100.0 * res.runner_up_ratio << " % of the best";
+  else if (res.spread_mm(1) < o.min_spread_mm)
+    why << "the points spread " << res.spread_mm(1) << " mm across their main axis (below "
+        << o.min_spread_mm << " mm): the rotation about it is not pinned";
+  res.ambiguity = why.str();
+  res.ambiguous = !res.ambiguity.empty();
+  if (res.ambiguous) os << "; ambiguous: " << res.ambiguity;
+  if (res.prior_z > kBeyondPriorZ)
+    os << "; the pose is " << res.prior_z
+       << " standard deviations of the navigation's stated accuracy from the identity: the data "
+          "moved the fixed base beyond it";
+}
+
+/// The identity kept: the result and the message say why.
+void keep_identity(const Pose& best, const GlobalStartOptions& o, GlobalStartResult& res,
+                   std::ostringstream& os) {
+  res.score = res.score_identity;
+  res.rms_after_mm = res.rms_before_mm;
+  os << "identity kept: the best pose scores " << best.score << " vs " << res.score_identity
+     << " at the identity over " << res.points << " points (";
+  if (best.score > o.min_gain * res.score_identity && best.score > 0)
+    os << "gain " << res.gain_z << " standard errors over " << res.gain_blocks << " blocks of "
+       << o.significance_block_mm << " mm, below " << o.significance_z << ")";
+  else
+    os << "gain below " << o.min_gain << ")";
+}
+
+}  // namespace
+
+GlobalStartResult global_start(const core::Skeleton& skeleton, ConstRef<MatrixX3d> points,
+                               const BasisAt& basis_at, const GlobalStartOptions& o,
+                               const Vector3d& outward) {
+  const auto t0 = Clock::now();
+  const std::string invalid = o.validate();
+  BS_VERIFY(invalid.empty(), invalid);
+  BS_VERIFY(points.allFinite() && skeleton.points.allFinite() && outward.allFinite(),
+            "global start: inputs contain NaN or infinity");
+  GlobalStartResult res;
+  if (points.rows() < o.min_points || skeleton.segments.empty()) {
+    res.message = skeleton.segments.empty()
+                      ? "no skeleton segments: identity"
+                      : std::to_string(points.rows()) + " vessel points, fewer than the " +
+                            std::to_string(o.min_points) + " needed: identity";
+    res.seconds = seconds_since(t0);
+    return res;
+  }
+  Search S{skeleton, o, points.colwise().mean().transpose(), {}, {}, {}, nullptr};
+  const MatrixX3d pc = points.rowwise() - S.c.transpose();
+  S.coarse = subsample(pc, o.coarse_points);
+  S.fine = subsample(pc, o.max_points);
+  res.points = static_cast<int>(S.fine.rows());
+
+  // The table: the points' box, grown by every translation and rotation the coarse grid tries.
+  const double rot_step = o.max_rotation_deg * kDeg / 1.5;
+  const double r_max = pc.rowwise().norm().maxCoeff();
+  const TableGrid tg = table_grid(points, r_max, rot_step, o);
+  const double h = tg.h, step = tg.step;
+  const int sv = tg.sv, K = tg.K;
+  const Vector3d lo = tg.lo, hi = tg.hi;
+  const detail::DistanceGrid grid(skeleton, lo, hi, h, o.coarse_kernel_mm);
+  S.grid = &grid;
+  res.seconds_table = seconds_since(t0);
+
+  // 1. Coarse: every translation × every rotation of the grid (identity first).
+  auto t1 = Clock::now();
+  std::vector<Vector3d> rotations{Vector3d::Zero()};
+  if (rot_step > 0)
+    for (int z = -1; z <= 1; ++z)
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x)
+          if (x || y || z) rotations.push_back(rot_step * Vector3d(x, y, z));
+  std::vector<Pose> cands = coarse_search(S, rotations, step, sv, K);
+  res.candidates = static_cast<int>(cands.size());
+  res.seconds_coarse = seconds_since(t1);
+
+  // 2. Fine rescoring of the candidates.
+  t1 = Clock::now();
+  const Pose identity;
+  res.score_identity = S.score(identity);
+  for (Pose& c : cands) c = rescore(S, c, rot_step, step);
+  std::sort(cands.begin(), cands.end(),
+            [](const Pose& a, const Pose& b) { return a.score > b.score; });
+  res.seconds_fine = seconds_since(t1);
+  runner_up_and_spread(S, cands, o, res);
+
+  // 3. Refinement of the best and of any within 10 % of it; the bulk basis where the best puts the
+  // points.
+  t1 = Clock::now();
+  Matrix3d Q = Matrix3d::Identity();  // the frame the bulk shift is refined in
+  Pose best = refine_best(S, cands, identity, basis_at, o, outward, res, Q);
   res.seconds_refine = seconds_since(t1);
 
   // 4. Decision by the data score.
   res.rms_before_mm = S.rms(identity);
   res.accepted = best.score > o.min_gain * res.score_identity && best.score > 0;
-  // The gain must stand out of its own scatter: the points grouped in blocks of
-  // significance_block_mm (errors along a vessel are correlated within a block, not across), the
-  // blocks' mean gain over its standard error ≥ significance_z. Fewer than 4 blocks: not tested.
-  if (res.accepted && o.significance_z > 0) {
-    const Eigen::VectorXd g = S.contributions(best) - S.contributions(identity);
-    std::map<std::array<long, 3>, double> blocks;
-    for (Eigen::Index i = 0; i < S.fine.rows(); ++i) {
-      const Vector3d q = S.fine.row(i).transpose() / o.significance_block_mm;
-      blocks[{long(std::floor(q(0))), long(std::floor(q(1))), long(std::floor(q(2)))}] += g(i);
-    }
-    res.gain_blocks = static_cast<int>(blocks.size());
-    if (blocks.size() >= 4) {
-      double sum = 0, sum2 = 0;
-      for (const auto& [key, b] : blocks) {
-        sum += b;
-        sum2 += b * b;
-      }
-      const double n = double(blocks.size());
-      const double mean = sum / n;
-      const double sd = std::sqrt(std::max(0.0, (sum2 - n * mean * mean) / (n - 1)));
-      res.gain_z = sd > 0 ? mean / (sd / std::sqrt(n)) : std::numeric_limits<double>::infinity();
-      if (res.gain_z < o.significance_z) res.accepted = false;
-    }
-  }
+  if (res.accepted && o.significance_z > 0) test_significance(S, best, identity, o, res);
   std::ostringstream os;
   os.setf(std::ios::fixed);
   os.precision(2);
-  if (res.accepted) {
-    const Matrix3d R = rotation(best.w);
-    res.transform.linear() = R;
-    res.transform.translation() = S.c + best.t - R * S.c;
-    res.translation_mm = best.t.norm();
-    res.rotation_deg = best.w.norm() / kDeg;
-    if (const PriorWeights kw(o); kw.map)
-      res.prior_z =
-          std::sqrt(kw.t * kw.t * best.t.squaredNorm() + kw.w * kw.w * best.w.squaredNorm()) /
-          o.loss_scale_mm;
-    res.bulk_accepted = !S.basis.empty() && best.s.norm() >= o.bulk_min_mm;
-    if (!res.bulk_accepted) best.s.setZero();
-    res.score = S.score(best);  // with s in the frame the basis was rotated to
-    res.rms_after_mm = S.rms(best);
-    if (res.bulk_accepted) res.bulk_shift = Q * best.s;  // back to the model frame
-    os << "rigid " << res.translation_mm << " mm at the centroid, " << res.rotation_deg
-       << " deg; bulk shift ";
-    if (res.bulk_accepted)
-      os << fmt(res.bulk_shift) << " mm";
-    else
-      os << (S.basis.empty() ? "not searched"
-                             : "below " + std::to_string(o.bulk_min_mm).substr(0, 4) + " mm");
-    os << "; score " << res.score << " vs " << res.score_identity << " at the identity over "
-       << res.points << " points";
-    std::ostringstream why;
-    why.setf(std::ios::fixed);
-    why.precision(2);
-    if (res.runner_up_ratio >= o.ambiguity_ratio)
-      why << "a pose " << res.runner_up_distance_mm << " mm away scores "
-          << 100.0 * res.runner_up_ratio << " % of the best";
-    else if (res.spread_mm(1) < o.min_spread_mm)
-      why << "the points spread " << res.spread_mm(1) << " mm across their main axis (below "
-          << o.min_spread_mm << " mm): the rotation about it is not pinned";
-    res.ambiguity = why.str();
-    res.ambiguous = !res.ambiguity.empty();
-    if (res.ambiguous) os << "; ambiguous: " << res.ambiguity;
-    if (res.prior_z > kBeyondPriorZ)
-      os << "; the pose is " << res.prior_z
-         << " standard deviations of the navigation's stated accuracy from the identity: the data "
-            "moved the fixed base beyond it";
-  } else {
-    res.score = res.score_identity;
-    res.rms_after_mm = res.rms_before_mm;
-    os << "identity kept: the best pose scores " << best.score << " vs " << res.score_identity
-       << " at the identity over " << res.points << " points (";
-    if (best.score > o.min_gain * res.score_identity && best.score > 0)
-      os << "gain " << res.gain_z << " standard errors over " << res.gain_blocks << " blocks of "
-         << o.significance_block_mm << " mm, below " << o.significance_z << ")";
-    else
-      os << "gain below " << o.min_gain << ")";
-  }
+  if (res.accepted)
+    accept_pose(S, best, Q, o, res, os);
+  else
+    keep_identity(best, o, res, os);
   os << " (" << res.candidates << " candidates, " << res.refine_iterations << " refinement rounds)";
   res.message = os.str();
   res.seconds = seconds_since(t0);
