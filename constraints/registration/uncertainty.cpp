@@ -145,14 +145,11 @@ std::string UncertaintyOptions::validate() const {
   return {};
 }
 
-NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
-                             ConstRef<MatrixX3d> nodes, const SparseMatrix& G,
-                             const Eigen::VectorXd& noise, const UncertaintyOptions& options,
-                             const NodalVarianceExtras& extras) {
-  const std::string invalid = options.validate();
-  BS_VERIFY(invalid.empty(), invalid);
-  const index_t n = nodes.rows();
-  const index_t f = dofs.num_free();
+namespace {
+
+/// nodal_variance's argument checks.
+void verify_nodal_inputs(const core::DofMap& dofs, index_t n, index_t f, const SparseMatrix& G,
+                         const Eigen::VectorXd& noise, const NodalVarianceExtras& extras) {
   BS_VERIFY(dofs.num_full() == 3 * n,
             "uncertainty: " << n << " nodes for a DOF map of " << dofs.num_full() << " DOFs");
   BS_VERIFY(G.rows() == f && G.cols() == noise.size(),
@@ -165,109 +162,99 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
   BS_VERIFY(
       !extras.delta || extras.delta->size() == noise.size(),
       "uncertainty: " << extras.delta->size() << " row values for " << noise.size() << " rows");
-  NodalVariance out;
-  out.prior = Eigen::VectorXd::Zero(n);
-  out.posterior = Eigen::VectorXd::Zero(n);
+}
+
+/// The rigid pose as an unknown with a flat prior (universal kriging): M = Grᵀ S⁻¹ Gr, and the
+/// node's rigid term tr(R_n M⁺ R_nᵀ), R_n = h_n − Rot_n (K0⁻¹ G S⁻¹ Gr)_n; S⁻¹ Gr and M⁺ out.
+void rigid_term(const core::DofMap& dofs, index_t n, const SparseMatrix& G,
+                const Eigen::MatrixXd& Y, const Eigen::LLT<Eigen::MatrixXd>& llt,
+                const NodalVarianceExtras& extras, NodalVariance& out, Eigen::MatrixXd& SiGr,
+                Eigen::MatrixXd& Mp) {
+  const Eigen::MatrixXd& Gr = *extras.rigid_rows;
+  BS_VERIFY(Gr.rows() == G.cols() && Gr.cols() == 6, "uncertainty: rigid rows "
+                                                         << Gr.rows() << "×" << Gr.cols() << " for "
+                                                         << G.cols() << " rows (expected ×6)");
+  BS_VERIFY(extras.rigid_points && extras.rigid_points->rows() == n,
+            "uncertainty: the rigid term needs " << n << " node positions");
+  BS_VERIFY(!extras.node_rotations || extras.node_rotations->size() == std::size_t(n),
+            "uncertainty: " << extras.node_rotations->size() << " rotations for " << n << " nodes");
+  SiGr = llt.solve(Gr);
+  Mp = pseudo_inverse(Gr.transpose() * SiGr, out.rigid_rank);
+  const Eigen::MatrixXd Q = Y * SiGr;  // f×6
   out.rigid = Eigen::VectorXd::Zero(n);
-
-  // Data term per DOF: column norms² of L⁻¹ Yᵀ, Y = K0⁻¹ G, L the Cholesky factor of W + A.
-  Eigen::VectorXd reduction = Eigen::VectorXd::Zero(f);
-  std::vector<bool> touched(static_cast<std::size_t>(n), false);
-  if (G.cols() > 0) {
-    const Eigen::MatrixXd Y = factor.solve(Eigen::MatrixXd(G));
-    Eigen::MatrixXd S = Eigen::MatrixXd(G.transpose() * Y);
-    S = 0.5 * (S + S.transpose()).eval();
-    const Eigen::VectorXd d = S.diagonal();  // (a Diagonal's data() is strided)
-    const std::vector<double> diag(d.data(), d.data() + d.size());
-    out.scale = median_of(diag);
-    S.diagonal() += extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
-    const Eigen::LLT<Eigen::MatrixXd> llt(S);
-    BS_VERIFY(llt.info() == Eigen::Success,
-              "uncertainty: the data rows' covariance is not positive definite");
-    // The rigid pose as an unknown with a flat prior (universal kriging): M = Grᵀ S⁻¹ Gr, and
-    // the node's rigid term tr(R_n M⁺ R_nᵀ), R_n = h_n − Rot_n (K0⁻¹ G S⁻¹ Gr)_n.
-    Eigen::MatrixXd SiGr, Mp;
-    if (extras.rigid_rows) {
-      const Eigen::MatrixXd& Gr = *extras.rigid_rows;
-      BS_VERIFY(Gr.rows() == G.cols() && Gr.cols() == 6,
-                "uncertainty: rigid rows " << Gr.rows() << "×" << Gr.cols() << " for " << G.cols()
-                                           << " rows (expected ×6)");
-      BS_VERIFY(extras.rigid_points && extras.rigid_points->rows() == n,
-                "uncertainty: the rigid term needs " << n << " node positions");
-      BS_VERIFY(
-          !extras.node_rotations || extras.node_rotations->size() == std::size_t(n),
-          "uncertainty: " << extras.node_rotations->size() << " rotations for " << n << " nodes");
-      SiGr = llt.solve(Gr);
-      Mp = pseudo_inverse(Gr.transpose() * SiGr, out.rigid_rank);
-      const Eigen::MatrixXd Q = Y * SiGr;  // f×6
-      out.rigid = Eigen::VectorXd::Zero(n);
-      for (index_t i = 0; i < n; ++i) {
-        Eigen::Matrix<double, 3, 6> h;
-        h.leftCols<3>().setIdentity();
-        h.rightCols<3>() =
-            -cross_matrix(extras.rigid_points->row(i).transpose() - extras.rigid_centre);
-        Eigen::Matrix<double, 3, 6> q = Eigen::Matrix<double, 3, 6>::Zero();
-        for (int c = 0; c < 3; ++c)
-          if (const index_t fi = dofs.free_index(3 * i + c); fi >= 0) q.row(c) = Q.row(fi);
-        const Eigen::Matrix<double, 3, 6> rm =
-            h - (extras.node_rotations ? (*extras.node_rotations)[std::size_t(i)]
-                                       : Matrix3d::Identity()) *
-                    q;
-        out.rigid[i] = std::max(0.0, (rm * Mp * rm.transpose()).trace());
-      }
-    }
-    if (extras.delta) {
-      // ML: δᵀ (W + A)⁻¹ δ. Discrepancy: the fitted rows' residual r = A (W + A)⁻¹ δ against its
-      // expectation E‖r‖² = s² tr(A (W + A)⁻¹ A).
-      const Eigen::VectorXd a = extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
-      const Eigen::VectorXd w = llt.solve(*extras.delta);
-      out.quadratic = extras.delta->dot(w);
-      out.residual_sq = (a.array() * w.array()).matrix().squaredNorm();
-      const Eigen::MatrixXd Sinv = llt.solve(Eigen::MatrixXd::Identity(S.rows(), S.cols()));
-      out.residual_dof = (a.array().square() * Sinv.diagonal().array()).sum();
-      // Restricted (rigid pose projected out) and held-out-block forms: P = S⁻¹ − S⁻¹Gr M⁺ GrᵀS⁻¹,
-      // Pδ ~ N(0, s² P), so each block's w_bᵀ (P_bb)⁺ w_b ~ s² χ²(rank P_bb): the closed form of
-      // the residuals at blocks held out of the linear-Gaussian fit.
-      Eigen::VectorXd pw = w;
-      Eigen::MatrixXd P = Sinv;
-      if (extras.rigid_rows) {
-        pw -= SiGr * (Mp * (SiGr.transpose() * *extras.delta));
-        P -= SiGr * Mp * SiGr.transpose();
-      }
-      out.restricted_quadratic = extras.delta->dot(pw);
-      if (extras.blocks) {
-        BS_VERIFY(
-            extras.blocks->size() == std::size_t(G.cols()),
-            "uncertainty: " << extras.blocks->size() << " block ids for " << G.cols() << " rows");
-        std::map<index_t, std::vector<index_t>> members;
-        for (index_t j = 0; j < G.cols(); ++j)
-          if ((*extras.blocks)[std::size_t(j)] >= 0)
-            members[(*extras.blocks)[std::size_t(j)]].push_back(j);
-        for (const auto& [id, rows] : members) {
-          const auto k = static_cast<Eigen::Index>(rows.size());
-          Eigen::MatrixXd pb(k, k);
-          Eigen::VectorXd wb(k);
-          for (Eigen::Index a1 = 0; a1 < k; ++a1) {
-            wb[a1] = pw[rows[std::size_t(a1)]];
-            for (Eigen::Index a2 = 0; a2 < k; ++a2)
-              pb(a1, a2) = P(rows[std::size_t(a1)], rows[std::size_t(a2)]);
-          }
-          index_t rank = 0;
-          const Eigen::MatrixXd pinv = pseudo_inverse(pb, rank);
-          if (rank == 0) continue;
-          out.heldout_quadratic += wb.dot(pinv * wb);
-          out.heldout_rows += static_cast<double>(rank);
-          ++out.heldout_blocks;
-        }
-      }
-    }
-    const Eigen::MatrixXd Zt = llt.matrixL().solve(Y.transpose());
-    reduction = Zt.colwise().squaredNorm().transpose();
-    for (int k = 0; k < G.outerSize(); ++k)
-      for (SparseMatrix::InnerIterator it(G, k); it; ++it)
-        touched[static_cast<std::size_t>(dofs.full_index(it.row()) / 3)] = true;
+  for (index_t i = 0; i < n; ++i) {
+    Eigen::Matrix<double, 3, 6> h;
+    h.leftCols<3>().setIdentity();
+    h.rightCols<3>() = -cross_matrix(extras.rigid_points->row(i).transpose() - extras.rigid_centre);
+    Eigen::Matrix<double, 3, 6> q = Eigen::Matrix<double, 3, 6>::Zero();
+    for (int c = 0; c < 3; ++c)
+      if (const index_t fi = dofs.free_index(3 * i + c); fi >= 0) q.row(c) = Q.row(fi);
+    const Eigen::Matrix<double, 3, 6> rm =
+        h -
+        (extras.node_rotations ? (*extras.node_rotations)[std::size_t(i)] : Matrix3d::Identity()) *
+            q;
+    out.rigid[i] = std::max(0.0, (rm * Mp * rm.transpose()).trace());
   }
+}
 
+/// The likelihood of the rows' values δ: δᵀ (W + A)⁻¹ δ, the fitted residual against its
+/// expectation, the restricted form and the held-out blocks' closed form.
+void likelihood_terms(const Eigen::MatrixXd& S, const Eigen::LLT<Eigen::MatrixXd>& llt,
+                      const SparseMatrix& G, const Eigen::VectorXd& noise,
+                      const NodalVarianceExtras& extras, const Eigen::MatrixXd& SiGr,
+                      const Eigen::MatrixXd& Mp, NodalVariance& out) {
+  // ML: δᵀ (W + A)⁻¹ δ. Discrepancy: the fitted rows' residual r = A (W + A)⁻¹ δ against its
+  // expectation E‖r‖² = s² tr(A (W + A)⁻¹ A).
+  const Eigen::VectorXd a = extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
+  const Eigen::VectorXd w = llt.solve(*extras.delta);
+  out.quadratic = extras.delta->dot(w);
+  out.residual_sq = (a.array() * w.array()).matrix().squaredNorm();
+  const Eigen::MatrixXd Sinv = llt.solve(Eigen::MatrixXd::Identity(S.rows(), S.cols()));
+  out.residual_dof = (a.array().square() * Sinv.diagonal().array()).sum();
+  // Restricted (rigid pose projected out) and held-out-block forms: P = S⁻¹ − S⁻¹Gr M⁺ GrᵀS⁻¹,
+  // Pδ ~ N(0, s² P), so each block's w_bᵀ (P_bb)⁺ w_b ~ s² χ²(rank P_bb): the closed form of
+  // the residuals at blocks held out of the linear-Gaussian fit.
+  Eigen::VectorXd pw = w;
+  Eigen::MatrixXd P = Sinv;
+  if (extras.rigid_rows) {
+    pw -= SiGr * (Mp * (SiGr.transpose() * *extras.delta));
+    P -= SiGr * Mp * SiGr.transpose();
+  }
+  out.restricted_quadratic = extras.delta->dot(pw);
+  if (extras.blocks) {
+    BS_VERIFY(extras.blocks->size() == std::size_t(G.cols()),
+              "uncertainty: " << extras.blocks->size() << " block ids for " << G.cols() << " rows");
+    std::map<index_t, std::vector<index_t>> members;
+    for (index_t j = 0; j < G.cols(); ++j)
+      if ((*extras.blocks)[std::size_t(j)] >= 0)
+        members[(*extras.blocks)[std::size_t(j)]].push_back(j);
+    for (const auto& [id, rows] : members) {
+      const auto k = static_cast<Eigen::Index>(rows.size());
+      Eigen::MatrixXd pb(k, k);
+      Eigen::VectorXd wb(k);
+      for (Eigen::Index a1 = 0; a1 < k; ++a1) {
+        wb[a1] = pw[rows[std::size_t(a1)]];
+        for (Eigen::Index a2 = 0; a2 < k; ++a2)
+          pb(a1, a2) = P(rows[std::size_t(a1)], rows[std::size_t(a2)]);
+      }
+      index_t rank = 0;
+      const Eigen::MatrixXd pinv = pseudo_inverse(pb, rank);
+      if (rank == 0) continue;
+      out.heldout_quadratic += wb.dot(pinv * wb);
+      out.heldout_rows += static_cast<double>(rank);
+      ++out.heldout_blocks;
+    }
+  }
+}
+
+/// The prior term: exact at the coarse nodes (unit-load solves, in blocks) and where
+/// extras.known_prior gives it, interpolated elsewhere.
+void prior_term(const core::CholmodFactor& factor, const core::DofMap& dofs,
+                ConstRef<MatrixX3d> nodes, const UncertaintyOptions& options,
+                const NodalVarianceExtras& extras, const std::vector<bool>& touched,
+                NodalVariance& out) {
+  const index_t n = nodes.rows();
+  const index_t f = dofs.num_free();
   // Prior term: exact on the coarse set by unit loads (‖L⁻¹ P eᵢ‖² = (K0⁻¹)ᵢᵢ), in blocks.
   std::vector<bool> exact(static_cast<std::size_t>(n), false);
   std::vector<index_t> known;  // from extras.known_prior: exact without a solve
@@ -327,6 +314,49 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
         }
       out.prior[i] = wsum > 0 ? v / wsum : 0.0;
     }
+}
+
+}  // namespace
+
+NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofMap& dofs,
+                             ConstRef<MatrixX3d> nodes, const SparseMatrix& G,
+                             const Eigen::VectorXd& noise, const UncertaintyOptions& options,
+                             const NodalVarianceExtras& extras) {
+  const std::string invalid = options.validate();
+  BS_VERIFY(invalid.empty(), invalid);
+  const index_t n = nodes.rows();
+  const index_t f = dofs.num_free();
+  verify_nodal_inputs(dofs, n, f, G, noise, extras);
+  NodalVariance out;
+  out.prior = Eigen::VectorXd::Zero(n);
+  out.posterior = Eigen::VectorXd::Zero(n);
+  out.rigid = Eigen::VectorXd::Zero(n);
+
+  // Data term per DOF: column norms² of L⁻¹ Yᵀ, Y = K0⁻¹ G, L the Cholesky factor of W + A.
+  Eigen::VectorXd reduction = Eigen::VectorXd::Zero(f);
+  std::vector<bool> touched(static_cast<std::size_t>(n), false);
+  if (G.cols() > 0) {
+    const Eigen::MatrixXd Y = factor.solve(Eigen::MatrixXd(G));
+    Eigen::MatrixXd S = Eigen::MatrixXd(G.transpose() * Y);
+    S = 0.5 * (S + S.transpose()).eval();
+    const Eigen::VectorXd d = S.diagonal();  // (a Diagonal's data() is strided)
+    const std::vector<double> diag(d.data(), d.data() + d.size());
+    out.scale = median_of(diag);
+    S.diagonal() += extras.noise_relative ? Eigen::VectorXd(out.scale * noise) : noise;
+    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    BS_VERIFY(llt.info() == Eigen::Success,
+              "uncertainty: the data rows' covariance is not positive definite");
+    Eigen::MatrixXd SiGr, Mp;  // the rigid term's S⁻¹ Gr and M⁺
+    if (extras.rigid_rows) rigid_term(dofs, n, G, Y, llt, extras, out, SiGr, Mp);
+    if (extras.delta) likelihood_terms(S, llt, G, noise, extras, SiGr, Mp, out);
+    const Eigen::MatrixXd Zt = llt.matrixL().solve(Y.transpose());
+    reduction = Zt.colwise().squaredNorm().transpose();
+    for (int k = 0; k < G.outerSize(); ++k)
+      for (SparseMatrix::InnerIterator it(G, k); it; ++it)
+        touched[static_cast<std::size_t>(dofs.full_index(it.row()) / 3)] = true;
+  }
+
+  prior_term(factor, dofs, nodes, options, extras, touched, out);
   for (index_t i = 0; i < n; ++i) {
     double red = 0.0;
     for (int c = 0; c < 3; ++c)
