@@ -389,6 +389,166 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   return predict_uncertainty(model, r, options, options.uncertainty);
 }
 
+namespace {
+
+/// The data rows in use at the final state (not the dura's, not a separated unilateral row),
+/// rotated: G = (H R)ᵀ on the free DOFs; each row's compliance ratio, its rigid sensitivities
+/// about the rows' centroid and, for a vessel row, its cross-validation block.
+struct UncertaintyRows {
+  std::vector<index_t> used;
+  SparseMatrix G;
+  Eigen::VectorXd ratio;
+  Eigen::MatrixXd rigid_rows;
+  Vector3d centre = Vector3d::Zero();
+  std::vector<index_t> blocks;
+};
+
+UncertaintyRows uncertainty_rows(const RegistrationModel& model, const RegistrationResult& r,
+                                 const RegistrationOptions& options, const UncertaintyOptions& uo,
+                                 const std::vector<Matrix3d>& R) {
+  const core::DofMap& dofs = model.mechanics().dofs();
+  UncertaintyRows u;
+  std::vector<index_t>& used = u.used;
+  for (index_t i = 0; i < r.data_rows.size(); ++i) {
+    const ConstraintRow& row = r.data_rows[i];
+    if (row.set == ConstraintSet::DURA || row.set == ConstraintSet::FIXED) continue;
+    if (row.law == ConstraintLaw::UNILATERAL && row.violation > uo.separated_mm) continue;
+    used.push_back(i);
+  }
+  const index_t m = static_cast<index_t>(used.size());
+  std::vector<Eigen::Triplet<double>> t;
+  Eigen::VectorXd& ratio = u.ratio;
+  ratio.resize(m);
+  for (index_t j = 0; j < m; ++j) {
+    const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
+    for (int k = 0; k < row.stencil.size; ++k) {
+      const index_t node = row.stencil.node[static_cast<std::size_t>(k)];
+      const Vector3d g = row.stencil.weight[static_cast<std::size_t>(k)] *
+                         (R[static_cast<std::size_t>(node)].transpose() * row.direction);
+      for (int c = 0; c < 3; ++c)
+        if (const index_t fi = dofs.free_index(3 * node + c); fi >= 0) t.emplace_back(fi, j, g[c]);
+    }
+    const double set_ratio = row.set == ConstraintSet::VESSELS
+                                 ? r.vessel_compliance_ratio
+                                 : options.step.compliance_ratio[static_cast<std::size_t>(row.set)];
+    // ε → ∞ (the loop kept its rigid start: no compliance predicted the held-out vessels better)
+    // is read as the stiffest candidate the noise model weighed, so the rows stay finite data
+    // that barely condition the prior.
+    ratio[j] =
+        std::max(std::isfinite(set_ratio) ? set_ratio : options.noise.max_ratio, uo.hard_row_ratio);
+  }
+  u.G = SparseMatrix(dofs.num_free(), m);
+  u.G.setFromTriplets(t.begin(), t.end());
+  // The rows' rigid sensitivities about their centroid, and the vessel rows' CV blocks.
+  Eigen::MatrixXd& rigid_rows = u.rigid_rows;
+  rigid_rows.resize(m, 6);
+  Vector3d& centre = u.centre;
+  std::vector<Vector3d> at(static_cast<std::size_t>(m));
+  for (index_t j = 0; j < m; ++j) {
+    at[std::size_t(j)] = r.data_rows[used[std::size_t(j)]].stencil.position(r.positions);
+    centre += at[std::size_t(j)] / static_cast<double>(m);
+  }
+  const std::vector<index_t> segment_block =
+      segment_blocks(model.skeleton(), options.noise.block_length_mm);
+  std::vector<index_t>& blocks = u.blocks;
+  blocks.assign(static_cast<std::size_t>(m), -1);
+  for (index_t j = 0; j < m; ++j) {
+    const ConstraintRow& row = r.data_rows[used[std::size_t(j)]];
+    rigid_rows.row(j).head<3>() = row.direction.transpose();
+    rigid_rows.row(j).tail<3>() = (at[std::size_t(j)] - centre).cross(row.direction).transpose();
+    if (row.set == ConstraintSet::VESSELS && row.feature >= 0 &&
+        static_cast<std::size_t>(row.feature) < segment_block.size())
+      blocks[std::size_t(j)] = segment_block[static_cast<std::size_t>(row.feature)];
+  }
+  return u;
+}
+
+/// δ_free: the rows' violation if the model relaxed to its unloaded shape (as the step's).
+Eigen::VectorXd free_violations(const ConstrainedModel& mech, const RegistrationResult& r,
+                                const RegistrationOptions& options,
+                                const core::ElementRotations& er, const std::vector<Matrix3d>& R,
+                                const std::vector<index_t>& used) {
+  const index_t m = static_cast<index_t>(used.size());
+  Eigen::VectorXd delta_free(m);
+  if (m > 0) {
+    Eigen::VectorXd f = -mech.model().internal_force(r.positions, er.rotation);
+    if (!options.step.gravity.isZero())
+      f += mech.model().gravity_force(options.step.gravity, options.step.density);
+    const Eigen::VectorXd dx = mech.compliance().apply(f, R);
+    for (index_t j = 0; j < m; ++j) {
+      const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
+      Vector3d p = Vector3d::Zero();
+      for (int k = 0; k < row.stencil.size; ++k)
+        p += row.stencil.weight[static_cast<std::size_t>(k)] *
+             dx.segment<3>(3 * row.stencil.node[static_cast<std::size_t>(k)]);
+      delta_free[j] = row.violation + row.direction.dot(p);
+    }
+  }
+  return delta_free;
+}
+
+/// s² from the data rows by the chosen estimator, at its upper confidence bound; into `out`,
+/// and the sentence that says how (empty when s² could not be estimated).
+std::string estimate_scale(const NodalVariance& nv, index_t m, const UncertaintyOptions& uo,
+                           UncertaintyResult& out) {
+  const double scale = nv.scale;
+  char buf[1000] = "";
+  const double md = static_cast<double>(m);
+  out.s2_ml = nv.quadratic / md;
+  out.s2_discrepancy = nv.residual_sq / std::max(nv.residual_dof, 1e-300);
+  out.s2_restricted =
+      nv.restricted_quadratic / std::max(1.0, md - static_cast<double>(nv.rigid_rank));
+  out.s2_heldout = nv.heldout_rows > 0 ? nv.heldout_quadratic / nv.heldout_rows : 0.0;
+  out.heldout_blocks = nv.heldout_blocks;
+  out.rigid_rank = nv.rigid_rank;
+  using SE = UncertaintyOptions::ScaleEstimator;
+  const char* how = "";
+  double s2 = 0.0;
+  switch (uo.scale_estimator) {
+    case SE::DISCREPANCY:
+      s2 = out.s2_discrepancy;
+      how = "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))";
+      break;
+    case SE::MAXIMUM_LIKELIHOOD:
+      s2 = out.s2_ml;
+      how = "by maximum likelihood (δ_free ~ N(0, s²(W + A)))";
+      break;
+    case SE::HELD_OUT:
+      s2 = nv.heldout_rows > 0 ? out.s2_heldout : out.s2_restricted;
+      how = nv.heldout_rows > 0
+                ? "from the residuals at held-out vessel blocks (closed-form leave-one-block-out "
+                  "of the linear-Gaussian fit, pose projected out)"
+                : "by restricted maximum likelihood (no vessel blocks to hold out)";
+      break;
+  }
+  // The sampling uncertainty of s² with few effectively independent rows: an upper bound.
+  out.scale_rows = nv.heldout_blocks > 0 ? static_cast<double>(nv.heldout_blocks) : md;
+  out.scale_factor = uo.scale_confidence > 0
+                         ? out.scale_rows / chi2_quantile(out.scale_rows, 1.0 - uo.scale_confidence)
+                         : 1.0;
+  if (s2 > 0 && std::isfinite(s2) && scale > 0 && std::isfinite(out.scale_factor)) {
+    out.s2 = uo.calibration * s2 * out.scale_factor;
+    out.estimated = true;
+    out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
+    std::snprintf(
+        buf, sizeof buf,
+        "s² %s of the %lld data rows, at its %.3g upper confidence bound (χ² with %.0f "
+        "effective rows: × %.3g) = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
+        "held out); α = the registration's vessel compliance (ratio %.3g × median diag W "
+        "%.4g mm/mN), hard rows %.3g × it; implied vessel-row scatter %.3g mm; %s; dura rows "
+        "not used",
+        how, static_cast<long long>(m), uo.scale_confidence, out.scale_rows, out.scale_factor,
+        out.s2, uo.calibration != 1.0 ? " (× calibration)" : "", out.s2_ml,
+        static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale, uo.hard_row_ratio,
+        out.noise_sigma_mm,
+        uo.rigid_term ? "the pose of the rigid start is an unknown of the model (rigid term)"
+                      : "pose taken as known");
+  }
+  return buf;
+}
+
+}  // namespace
+
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,
                                       const RegistrationOptions& options,
                                       const UncertaintyOptions& uo) {
@@ -408,73 +568,17 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   // The data rows in use at the final state, rotated: G = (H R)ᵀ on the free DOFs.
   const core::ElementRotations er = mech.model().element_rotations(r.positions);
   const std::vector<Matrix3d> R = core::nodal_rotations(mesh, er.rotation);
-  std::vector<index_t> used;
-  for (index_t i = 0; i < r.data_rows.size(); ++i) {
-    const ConstraintRow& row = r.data_rows[i];
-    if (row.set == ConstraintSet::DURA || row.set == ConstraintSet::FIXED) continue;
-    if (row.law == ConstraintLaw::UNILATERAL && row.violation > uo.separated_mm) continue;
-    used.push_back(i);
-  }
+  const UncertaintyRows u = uncertainty_rows(model, r, options, uo, R);
+  const std::vector<index_t>& used = u.used;
   const index_t m = static_cast<index_t>(used.size());
-  std::vector<Eigen::Triplet<double>> t;
-  Eigen::VectorXd ratio(m);
-  for (index_t j = 0; j < m; ++j) {
-    const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
-    for (int k = 0; k < row.stencil.size; ++k) {
-      const index_t node = row.stencil.node[static_cast<std::size_t>(k)];
-      const Vector3d g = row.stencil.weight[static_cast<std::size_t>(k)] *
-                         (R[static_cast<std::size_t>(node)].transpose() * row.direction);
-      for (int c = 0; c < 3; ++c)
-        if (const index_t fi = dofs.free_index(3 * node + c); fi >= 0) t.emplace_back(fi, j, g[c]);
-    }
-    const double set_ratio = row.set == ConstraintSet::VESSELS
-                                 ? r.vessel_compliance_ratio
-                                 : options.step.compliance_ratio[static_cast<std::size_t>(row.set)];
-    // ε → ∞ (the loop kept its rigid start: no compliance predicted the held-out vessels better)
-    // is read as the stiffest candidate the noise model weighed, so the rows stay finite data
-    // that barely condition the prior.
-    ratio[j] =
-        std::max(std::isfinite(set_ratio) ? set_ratio : options.noise.max_ratio, uo.hard_row_ratio);
-  }
-  SparseMatrix G(dofs.num_free(), m);
-  G.setFromTriplets(t.begin(), t.end());
+  const SparseMatrix& G = u.G;
+  const Eigen::VectorXd& ratio = u.ratio;
+  const Eigen::MatrixXd& rigid_rows = u.rigid_rows;
+  const Vector3d& centre = u.centre;
+  const std::vector<index_t>& blocks = u.blocks;
   out.rows = m;
-  // The rows' rigid sensitivities about their centroid, and the vessel rows' CV blocks.
-  Eigen::MatrixXd rigid_rows(m, 6);
-  Vector3d centre = Vector3d::Zero();
-  std::vector<Vector3d> at(static_cast<std::size_t>(m));
-  for (index_t j = 0; j < m; ++j) {
-    at[std::size_t(j)] = r.data_rows[used[std::size_t(j)]].stencil.position(r.positions);
-    centre += at[std::size_t(j)] / static_cast<double>(m);
-  }
-  const std::vector<index_t> segment_block =
-      segment_blocks(model.skeleton(), options.noise.block_length_mm);
-  std::vector<index_t> blocks(static_cast<std::size_t>(m), -1);
-  for (index_t j = 0; j < m; ++j) {
-    const ConstraintRow& row = r.data_rows[used[std::size_t(j)]];
-    rigid_rows.row(j).head<3>() = row.direction.transpose();
-    rigid_rows.row(j).tail<3>() = (at[std::size_t(j)] - centre).cross(row.direction).transpose();
-    if (row.set == ConstraintSet::VESSELS && row.feature >= 0 &&
-        static_cast<std::size_t>(row.feature) < segment_block.size())
-      blocks[std::size_t(j)] = segment_block[static_cast<std::size_t>(row.feature)];
-  }
 
-  // δ_free: the rows' violation if the model relaxed to its unloaded shape (as the step's).
-  Eigen::VectorXd delta_free(m);
-  if (m > 0) {
-    Eigen::VectorXd f = -mech.model().internal_force(r.positions, er.rotation);
-    if (!options.step.gravity.isZero())
-      f += mech.model().gravity_force(options.step.gravity, options.step.density);
-    const Eigen::VectorXd dx = mech.compliance().apply(f, R);
-    for (index_t j = 0; j < m; ++j) {
-      const ConstraintRow& row = r.data_rows[used[static_cast<std::size_t>(j)]];
-      Vector3d p = Vector3d::Zero();
-      for (int k = 0; k < row.stencil.size; ++k)
-        p += row.stencil.weight[static_cast<std::size_t>(k)] *
-             dx.segment<3>(3 * row.stencil.node[static_cast<std::size_t>(k)]);
-      delta_free[j] = row.violation + row.direction.dot(p);
-    }
-  }
+  const Eigen::VectorXd delta_free = free_violations(mech, r, options, er, R, used);
   // The prior's nodal traces the dense compliance block already holds.
   Eigen::VectorXd known(n);
   for (index_t i = 0; i < n; ++i) known[i] = mech.compliance().block_trace(i);
@@ -500,61 +604,8 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio
                                                               : options.noise.max_ratio;
   out.vessel_alpha = out.vessel_ratio * scale;
+  std::string estimation = usable ? estimate_scale(nv, m, uo, out) : std::string();
   char buf[1000];
-  if (usable) {
-    const double md = static_cast<double>(m);
-    out.s2_ml = nv.quadratic / md;
-    out.s2_discrepancy = nv.residual_sq / std::max(nv.residual_dof, 1e-300);
-    out.s2_restricted =
-        nv.restricted_quadratic / std::max(1.0, md - static_cast<double>(nv.rigid_rank));
-    out.s2_heldout = nv.heldout_rows > 0 ? nv.heldout_quadratic / nv.heldout_rows : 0.0;
-    out.heldout_blocks = nv.heldout_blocks;
-    out.rigid_rank = nv.rigid_rank;
-    using SE = UncertaintyOptions::ScaleEstimator;
-    const char* how = "";
-    double s2 = 0.0;
-    switch (uo.scale_estimator) {
-      case SE::DISCREPANCY:
-        s2 = out.s2_discrepancy;
-        how = "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))";
-        break;
-      case SE::MAXIMUM_LIKELIHOOD:
-        s2 = out.s2_ml;
-        how = "by maximum likelihood (δ_free ~ N(0, s²(W + A)))";
-        break;
-      case SE::HELD_OUT:
-        s2 = nv.heldout_rows > 0 ? out.s2_heldout : out.s2_restricted;
-        how = nv.heldout_rows > 0
-                  ? "from the residuals at held-out vessel blocks (closed-form leave-one-block-out "
-                    "of the linear-Gaussian fit, pose projected out)"
-                  : "by restricted maximum likelihood (no vessel blocks to hold out)";
-        break;
-    }
-    // The sampling uncertainty of s² with few effectively independent rows: an upper bound.
-    out.scale_rows = nv.heldout_blocks > 0 ? static_cast<double>(nv.heldout_blocks) : md;
-    out.scale_factor =
-        uo.scale_confidence > 0
-            ? out.scale_rows / chi2_quantile(out.scale_rows, 1.0 - uo.scale_confidence)
-            : 1.0;
-    if (s2 > 0 && std::isfinite(s2) && scale > 0 && std::isfinite(out.scale_factor)) {
-      out.s2 = uo.calibration * s2 * out.scale_factor;
-      out.estimated = true;
-      out.noise_sigma_mm = std::sqrt(out.s2 * out.vessel_alpha);
-      std::snprintf(
-          buf, sizeof buf,
-          "s² %s of the %lld data rows, at its %.3g upper confidence bound (χ² with %.0f "
-          "effective rows: × %.3g) = %.4g mN·mm%s (maximum likelihood %.4g, %lld blocks "
-          "held out); α = the registration's vessel compliance (ratio %.3g × median diag W "
-          "%.4g mm/mN), hard rows %.3g × it; implied vessel-row scatter %.3g mm; %s; dura rows "
-          "not used",
-          how, static_cast<long long>(m), uo.scale_confidence, out.scale_rows, out.scale_factor,
-          out.s2, uo.calibration != 1.0 ? " (× calibration)" : "", out.s2_ml,
-          static_cast<long long>(out.heldout_blocks), out.vessel_ratio, scale, uo.hard_row_ratio,
-          out.noise_sigma_mm,
-          uo.rigid_term ? "the pose of the rigid start is an unknown of the model (rigid term)"
-                        : "pose taken as known");
-    }
-  }
   if (!out.estimated) {
     std::vector<double> free_prior;
     for (index_t i = 0; i < n; ++i)
@@ -566,8 +617,9 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
                   "median predicted error "
                   "of %.3g mm",
                   static_cast<long long>(m), uo.no_data_median_mm);
+    estimation = buf;
   }
-  out.estimation = buf;
+  out.estimation = estimation;
   out.node_posterior = nv.posterior;
   out.node_rigid = nv.rigid;
   out.node_variance =
