@@ -71,6 +71,101 @@ double natural_residual(const Eigen::VectorXd& g, const Eigen::VectorXd& lambda,
   return r;
 }
 
+/// The rows' groups: contiguous runs of one group id (at most 3 bilateral rows, a unilateral
+/// row alone), each with the pseudo-inverse of its diagonal block (inactive rows zeroed).
+std::vector<Group> make_groups(ConstRef<Eigen::MatrixXd> W, const ConstraintRows& rows,
+                               const std::vector<char>& active, double null_tol) {
+  const index_t m = rows.size();
+  std::vector<Group> groups;
+  for (index_t i = 0; i < m;) {
+    Group g;
+    g.begin = i;
+    g.unilateral = rows[i].law == ConstraintLaw::UNILATERAL;
+    index_t j = i;
+    while (j < m && rows[j].group == rows[i].group && j - i < 3 && !g.unilateral) ++j;
+    if (g.unilateral) j = i + 1;
+    g.size = static_cast<int>(j - i);
+    // Inactive rows are removed from the block by zeroing them before the pseudo-inverse.
+    Eigen::MatrixXd B = W.block(g.begin, g.begin, g.size, g.size);
+    for (int a = 0; a < g.size; ++a)
+      if (!active[g.begin + a]) {
+        B.row(a).setZero();
+        B.col(a).setZero();
+      }
+    g.inverse = block_pseudo_inverse(B, null_tol);
+    groups.push_back(g);
+    i = j;
+  }
+  return groups;
+}
+
+/// One projected Gauss-Seidel sweep over the groups: λ updated in place, g = δ_free + W λ kept
+/// up to date incrementally. Returns the largest change |W_ii Δλ_i|.
+double sweep(const std::vector<Group>& groups, ConstRef<Eigen::MatrixXd> W,
+             const Eigen::VectorXd& diag, const std::vector<char>& active, double lmax,
+             Eigen::VectorXd& lambda, Eigen::VectorXd& g) {
+  double change = 0;
+  for (const Group& gr : groups) {
+    if (gr.unilateral) {
+      const index_t i = gr.begin;
+      if (!active[i]) continue;
+      const double old = lambda[i];
+      const double nl = std::clamp(old - g[i] / diag[i], 0.0, lmax);
+      const double d = nl - old;
+      if (d != 0.0) {
+        lambda[i] = nl;
+        g.noalias() += W.col(i) * d;
+        change = std::max(change, std::abs(diag[i] * d));
+      }
+      continue;
+    }
+    const auto gi = g.segment(gr.begin, gr.size);
+    Eigen::Vector3d d = Eigen::Vector3d::Zero();
+    d.head(gr.size) = -gr.inverse.topLeftCorner(gr.size, gr.size) * gi;
+    for (int a = 0; a < gr.size; ++a) {
+      const index_t i = gr.begin + a;
+      if (!active[i]) {
+        d[a] = 0;
+        continue;
+      }
+      const double nl = std::clamp(lambda[i] + d[a], -lmax, lmax);
+      d[a] = nl - lambda[i];
+      lambda[i] = nl;
+      change = std::max(change, std::abs(diag[i] * d[a]));
+    }
+    g.noalias() += W.middleCols(gr.begin, gr.size) * d.head(gr.size);
+  }
+  return change;
+}
+
+/// The solve's one-line account: the stop, then the ignored and bounded rows.
+std::string pgs_message(const PgsResult& res, const PgsOptions& options) {
+  std::ostringstream msg;
+  if (res.message.empty()) {
+    switch (res.stop) {
+      case PgsStop::CONVERGED:
+        msg << "converged in " << res.iterations << " sweeps";
+        break;
+      case PgsStop::MAX_ITERATIONS:
+        msg << "iteration cap " << options.max_iterations << " reached, residual " << res.residual;
+        break;
+      case PgsStop::STALLED:
+        msg << "no progress for " << options.stall_window << " sweeps at residual " << res.residual
+            << ": constraints are inconsistent (antagonistic rows"
+            << (res.bounded_rows > 0 ? ", or forces at lambda_max" : "") << ")";
+        break;
+      case PgsStop::NO_ROWS:
+        break;
+    }
+  } else {
+    msg << res.message;
+  }
+  if (res.ignored_rows > 0)
+    msg << "; " << res.ignored_rows << " rows act only on fixed nodes and were ignored";
+  if (res.bounded_rows > 0) msg << "; " << res.bounded_rows << " rows at lambda_max";
+  return msg.str();
+}
+
 }  // namespace
 
 PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta_free,
@@ -107,27 +202,7 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
       ++res.ignored_rows;
     }
 
-  // Groups: contiguous runs of the same group id.
-  std::vector<Group> groups;
-  for (index_t i = 0; i < m;) {
-    Group g;
-    g.begin = i;
-    g.unilateral = rows[i].law == ConstraintLaw::UNILATERAL;
-    index_t j = i;
-    while (j < m && rows[j].group == rows[i].group && j - i < 3 && !g.unilateral) ++j;
-    if (g.unilateral) j = i + 1;
-    g.size = static_cast<int>(j - i);
-    // Inactive rows are removed from the block by zeroing them before the pseudo-inverse.
-    Eigen::MatrixXd B = W.block(g.begin, g.begin, g.size, g.size);
-    for (int a = 0; a < g.size; ++a)
-      if (!active[g.begin + a]) {
-        B.row(a).setZero();
-        B.col(a).setZero();
-      }
-    g.inverse = block_pseudo_inverse(B, null_tol);
-    groups.push_back(g);
-    i = j;
-  }
+  const std::vector<Group> groups = make_groups(W, rows, active, null_tol);
 
   const double lmax =
       options.lambda_max > 0 ? options.lambda_max : std::numeric_limits<double>::infinity();
@@ -137,37 +212,7 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
   int best_iter = 0;
   res.stop = PgsStop::MAX_ITERATIONS;
   for (int it = 1; it <= options.max_iterations; ++it) {
-    double change = 0;
-    for (const Group& gr : groups) {
-      if (gr.unilateral) {
-        const index_t i = gr.begin;
-        if (!active[i]) continue;
-        const double old = res.lambda[i];
-        const double nl = std::clamp(old - g[i] / diag[i], 0.0, lmax);
-        const double d = nl - old;
-        if (d != 0.0) {
-          res.lambda[i] = nl;
-          g.noalias() += W.col(i) * d;
-          change = std::max(change, std::abs(diag[i] * d));
-        }
-        continue;
-      }
-      const auto gi = g.segment(gr.begin, gr.size);
-      Eigen::Vector3d d = Eigen::Vector3d::Zero();
-      d.head(gr.size) = -gr.inverse.topLeftCorner(gr.size, gr.size) * gi;
-      for (int a = 0; a < gr.size; ++a) {
-        const index_t i = gr.begin + a;
-        if (!active[i]) {
-          d[a] = 0;
-          continue;
-        }
-        const double nl = std::clamp(res.lambda[i] + d[a], -lmax, lmax);
-        d[a] = nl - res.lambda[i];
-        res.lambda[i] = nl;
-        change = std::max(change, std::abs(diag[i] * d[a]));
-      }
-      g.noalias() += W.middleCols(gr.begin, gr.size) * d.head(gr.size);
-    }
+    const double change = sweep(groups, W, diag, active, lmax, res.lambda, g);
     res.iterations = it;
     res.last_change = change;
     res.residual = natural_residual(g, res.lambda, diag, rows, active) / scale;
@@ -197,30 +242,7 @@ PgsResult solve_pgs(ConstRef<Eigen::MatrixXd> W, ConstRef<Eigen::VectorXd> delta
   for (index_t i = 0; i < m; ++i)
     if (std::isfinite(lmax) && std::abs(res.lambda[i]) >= lmax) ++res.bounded_rows;
 
-  std::ostringstream msg;
-  if (res.message.empty()) {
-    switch (res.stop) {
-      case PgsStop::CONVERGED:
-        msg << "converged in " << res.iterations << " sweeps";
-        break;
-      case PgsStop::MAX_ITERATIONS:
-        msg << "iteration cap " << options.max_iterations << " reached, residual " << res.residual;
-        break;
-      case PgsStop::STALLED:
-        msg << "no progress for " << options.stall_window << " sweeps at residual " << res.residual
-            << ": constraints are inconsistent (antagonistic rows"
-            << (res.bounded_rows > 0 ? ", or forces at lambda_max" : "") << ")";
-        break;
-      case PgsStop::NO_ROWS:
-        break;
-    }
-  } else {
-    msg << res.message;
-  }
-  if (res.ignored_rows > 0)
-    msg << "; " << res.ignored_rows << " rows act only on fixed nodes and were ignored";
-  if (res.bounded_rows > 0) msg << "; " << res.bounded_rows << " rows at lambda_max";
-  res.message = msg.str();
+  res.message = pgs_message(res, options);
   logger().debug("PGS: {}", res.message);
   return res;
 }
