@@ -215,22 +215,28 @@ nlohmann::json input_entry(const std::filesystem::path& p) {
           {"fnv1a64", std::to_string(file_hash(p))}};
 }
 
-}  // namespace
+/// What prepare reads: the labels (checked), their voxel counts, the MRA (over the labels) and
+/// the notes on mended headers (the MRI, when given, only checked).
+struct PrepareInputs {
+  imaging::LabelVolume labels;
+  std::array<std::int64_t, 256> label_voxels{};
+  imaging::VolumeF mra;
+  std::vector<std::string> header_notes;
+};
 
-PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
-  verify_output_folder(o.out);
-  const imaging::OutputLock lock(o.out);  // one run writes MODEL at a time
-  // The scene options first: a typo must not cost a meshing run (and nothing is written).
-  if (o.scene_options) workflow::check_scene_options(*o.scene_options);
-  progress.stage("reading the label volume");
-  const imaging::LabelVolume labels = imaging::read_labels(o.labels);
-  const std::array<std::int64_t, 256> label_voxels = count_labels(labels);
+PrepareInputs read_prepare_inputs(const PrepareOptions& o) {
+  PrepareInputs in;
+  in.labels = imaging::read_labels(o.labels);
+  in.label_voxels = count_labels(in.labels);
+  const imaging::LabelVolume& labels = in.labels;
+  const std::array<std::int64_t, 256>& label_voxels = in.label_voxels;
   verify_labels(o.labels, labels, label_voxels);
   // Headers whose direction matrix is orthonormal only to single precision are mended on reading;
   // model.json → header_notes says which and by how much.
-  std::vector<std::string> header_notes;
+  std::vector<std::string>& header_notes = in.header_notes;
   std::string note;
-  const imaging::VolumeF mra = imaging::read_volume(o.mra, &note);
+  in.mra = imaging::read_volume(o.mra, &note);
+  const imaging::VolumeF& mra = in.mra;
   if (!note.empty()) header_notes.push_back(o.mra.string() + ": " + note);
   BS_VERIFY(mra.components == 1,
             o.mra.string() << ": expected a scalar image, got " << mra.components << " components");
@@ -246,6 +252,46 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
     (void)imaging::read_volume(*o.mri, &note);  // readable and sane
     if (!note.empty()) header_notes.push_back(o.mri->string() + ": " + note);
   }
+  return in;
+}
+
+/// The default scene: what prepare measured (its files, the craniotomy), every option at the
+/// library's default (`brainshift options`); the user's --scene-options merged over it (RFC 7386).
+nlohmann::json model_scene(const PrepareOptions& o, const nlohmann::json& default_fixed,
+                           const nlohmann::json& default_craniotomy, bool vessels) {
+  nlohmann::json scene = {{"version", 1},
+                          {"mesh", "mesh.vtu"},
+                          {"fixed", default_fixed},
+                          {"collision_surface", "surface.vtp"},
+                          {"craniotomy", default_craniotomy}};
+  if (vessels) scene["vessels"] = "vessels.vtp";
+  if (o.scene_options) {
+    std::ifstream in(*o.scene_options);
+    BS_VERIFY(in.good(), o.scene_options->string() << ": cannot open");
+    try {
+      scene.merge_patch(nlohmann::json::parse(in));
+    } catch (const nlohmann::json::parse_error& e) {
+      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (at byte " << e.byte << ")");
+    } catch (const nlohmann::json::exception&) {  // e.g. a number beyond double's range
+      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (a number out of range)");
+    }
+  }
+  return scene;
+}
+
+}  // namespace
+
+PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
+  verify_output_folder(o.out);
+  const imaging::OutputLock lock(o.out);  // one run writes MODEL at a time
+  // The scene options first: a typo must not cost a meshing run (and nothing is written).
+  if (o.scene_options) workflow::check_scene_options(*o.scene_options);
+  progress.stage("reading the label volume");
+  const PrepareInputs inputs = read_prepare_inputs(o);
+  const imaging::LabelVolume& labels = inputs.labels;
+  const std::array<std::int64_t, 256>& label_voxels = inputs.label_voxels;
+  const imaging::VolumeF& mra = inputs.mra;
+  const std::vector<std::string>& header_notes = inputs.header_notes;
   std::vector<std::string> warnings;
   const auto warn = [&](const std::string& w) {
     warnings.push_back(w);
@@ -299,23 +345,8 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   const nlohmann::json default_fixed = {{"nodes", "fixed.csv"}};
   const nlohmann::json default_craniotomy = {{"centre_mm", vector_json(craniotomy.centre)},
                                              {"radius_mm", craniotomy.radius_mm}};
-  nlohmann::json scene = {{"version", 1},
-                          {"mesh", "mesh.vtu"},
-                          {"fixed", default_fixed},
-                          {"collision_surface", "surface.vtp"},
-                          {"craniotomy", default_craniotomy}};
-  if (!skeleton.branches.empty()) scene["vessels"] = "vessels.vtp";
-  if (o.scene_options) {
-    std::ifstream in(*o.scene_options);
-    BS_VERIFY(in.good(), o.scene_options->string() << ": cannot open");
-    try {
-      scene.merge_patch(nlohmann::json::parse(in));
-    } catch (const nlohmann::json::parse_error& e) {
-      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (at byte " << e.byte << ")");
-    } catch (const nlohmann::json::exception&) {  // e.g. a number beyond double's range
-      BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (a number out of range)");
-    }
-  }
+  const nlohmann::json scene =
+      model_scene(o, default_fixed, default_craniotomy, !skeleton.branches.empty());
   nlohmann::json manifest = {
       {"format", model_format},
       {"version", model_version},
