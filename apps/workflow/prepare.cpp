@@ -279,6 +279,61 @@ nlohmann::json model_scene(const PrepareOptions& o, const nlohmann::json& defaul
   return scene;
 }
 
+/// The collision surface (wrapped where the boundary is non-manifold), the default fixed region
+/// and craniotomy of a meshed brain, with what was done said on `progress`.
+struct SurfaceAndRegions {
+  imaging::CollisionSurfaceOptions surface_options;
+  imaging::CollisionSurface collision;
+  imaging::FixedRegion fixed;
+  imaging::Craniotomy craniotomy;
+  double seconds = 0;  ///< the collision surface's
+};
+
+SurfaceAndRegions surface_and_regions(const imaging::MeshingResult& meshed, const PrepareOptions& o,
+                                      const Progress& progress) {
+  const core::TetMesh& mesh = meshed.mesh;
+  SurfaceAndRegions r;
+  const core::Stopwatch surface_watch;
+  progress.stage("collision surface, fixed region and craniotomy (" +
+                 std::to_string(mesh.num_nodes()) + " nodes, " + std::to_string(mesh.num_tets()) +
+                 " tetrahedra)");
+  const imaging::MeshSurface outer = imaging::outer_boundary_surface(mesh);
+  imaging::CollisionSurfaceOptions& surface_options = r.surface_options;
+  surface_options.target_vertices = o.surface_vertices;
+  r.collision = imaging::make_collision_surface(mesh, outer, surface_options);
+  const imaging::CollisionSurface& collision = r.collision;
+  const core::SurfaceMesh& surface = collision.surface;
+  r.seconds = surface_watch.seconds();
+  if (collision.wrapped)
+    progress.stage(
+        "the mesh boundary is non-manifold at " + std::to_string(collision.non_manifold_edges) +
+        " edges and " + std::to_string(collision.non_manifold_vertices) +
+        " vertices (thin parts touching): wrapped (alpha " + mm(surface_options.wrap_alpha_mm) +
+        " mm) and decimated to " + std::to_string(surface.vertices.rows()) + " vertices");
+  if (collision.moved_vertices > 0)
+    progress.stage(std::to_string(collision.moved_vertices) +
+                   " collision-surface vertices were up to " + mm(collision.max_outside_mm) +
+                   " mm outside the mesh: moved onto it");
+  r.fixed = imaging::default_fixed_region(outer);
+  r.craniotomy = imaging::default_craniotomy(surface, mesh, meshed.tet_label);
+  progress.stage("fixed region: " + std::to_string(r.fixed.nodes.size()) + " " + r.fixed.rule);
+  progress.stage("craniotomy (default): " + r.craniotomy.rule);
+  return r;
+}
+
+/// What --scene-options replaced is what the model uses: the manifest says so.
+void note_scene_overrides(nlohmann::json& manifest, const nlohmann::json& scene,
+                          const nlohmann::json& default_fixed,
+                          const nlohmann::json& default_craniotomy) {
+  const nlohmann::json none;
+  if (scene.value("craniotomy", none) != default_craniotomy)
+    manifest["craniotomy"] = {{"scene", scene.value("craniotomy", none)},
+                              {"rule", "given by --scene-options"}};
+  if (scene.value("fixed", none) != default_fixed)
+    manifest["fixed"] = {{"scene", scene.value("fixed", none)},
+                         {"rule", "given by --scene-options"}};
+}
+
 }  // namespace
 
 PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
@@ -310,32 +365,13 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   }
   const core::TetMesh& mesh = meshed.mesh;
   const double t_mesh = progress.seconds();
-  const core::Stopwatch surface_watch;
-  progress.stage("collision surface, fixed region and craniotomy (" +
-                 std::to_string(mesh.num_nodes()) + " nodes, " + std::to_string(mesh.num_tets()) +
-                 " tetrahedra)");
-  const imaging::MeshSurface outer = imaging::outer_boundary_surface(mesh);
-  imaging::CollisionSurfaceOptions surface_options;
-  surface_options.target_vertices = o.surface_vertices;
-  const imaging::CollisionSurface collision =
-      imaging::make_collision_surface(mesh, outer, surface_options);
+  const SurfaceAndRegions regions = surface_and_regions(meshed, o, progress);
+  const imaging::CollisionSurfaceOptions& surface_options = regions.surface_options;
+  const imaging::CollisionSurface& collision = regions.collision;
   const core::SurfaceMesh& surface = collision.surface;
-  const double t_surface = surface_watch.seconds();
-  if (collision.wrapped)
-    progress.stage(
-        "the mesh boundary is non-manifold at " + std::to_string(collision.non_manifold_edges) +
-        " edges and " + std::to_string(collision.non_manifold_vertices) +
-        " vertices (thin parts touching): wrapped (alpha " + mm(surface_options.wrap_alpha_mm) +
-        " mm) and decimated to " + std::to_string(surface.vertices.rows()) + " vertices");
-  if (collision.moved_vertices > 0)
-    progress.stage(std::to_string(collision.moved_vertices) +
-                   " collision-surface vertices were up to " + mm(collision.max_outside_mm) +
-                   " mm outside the mesh: moved onto it");
-  const imaging::FixedRegion fixed = imaging::default_fixed_region(outer);
-  const imaging::Craniotomy craniotomy =
-      imaging::default_craniotomy(surface, mesh, meshed.tet_label);
-  progress.stage("fixed region: " + std::to_string(fixed.nodes.size()) + " " + fixed.rule);
-  progress.stage("craniotomy (default): " + craniotomy.rule);
+  const double t_surface = regions.seconds;
+  const imaging::FixedRegion& fixed = regions.fixed;
+  const imaging::Craniotomy& craniotomy = regions.craniotomy;
 
   const imaging::SkeletonFit fit = mra_vessels(o.mra, mra, mesh, progress, warn);
   const imaging::VesselGraph& skeleton = fit.graph;
@@ -370,14 +406,7 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
       {"warnings", warnings},
       {"header_notes", header_notes}};
   if (o.mri) manifest["inputs"]["mri"] = input_entry(*o.mri);
-  // What --scene-options replaced is what the model uses: say so.
-  const nlohmann::json none;
-  if (scene.value("craniotomy", none) != default_craniotomy)
-    manifest["craniotomy"] = {{"scene", scene.value("craniotomy", none)},
-                              {"rule", "given by --scene-options"}};
-  if (scene.value("fixed", none) != default_fixed)
-    manifest["fixed"] = {{"scene", scene.value("fixed", none)},
-                         {"rule", "given by --scene-options"}};
+  note_scene_overrides(manifest, scene, default_fixed, default_craniotomy);
 
   progress.stage("writing the model");
   write_folder_atomically(o.out, [&](const std::filesystem::path& dir) {
