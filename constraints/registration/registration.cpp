@@ -3,7 +3,6 @@
 #include "constraints/registration/pairing.hpp"
 #include "constraints/registration/registration_stage.hpp"
 #include "constraints/registration/registration_start.hpp"
-#include "constraints/registration/uncertainty.hpp"
 #include "constraints/registration/vessel_blocks.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"

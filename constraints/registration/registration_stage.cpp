@@ -378,4 +378,22 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
   return record;
 }
 
+ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {
+  ConstraintRows rows;
+  const RegistrationModel& model = *in.model;
+  const core::TetMesh& mesh = model.mesh();
+  if (in.vessels && !state.vessel_pairs.empty())
+    add_vessel_rows(rows, state.vessel_pairs, model.skeleton(),
+                    MappedVertices{&mesh, &model.skeleton_mapping()}, state.positions,
+                    in.vessel_points);
+  if (in.footprint && !state.footprint_pairs.empty())
+    add_footprint_rows(rows, state.footprint_pairs, model.surface(),
+                       MappedVertices{&mesh, &model.surface_mapping()}, state.positions,
+                       in.footprint_points, in.footprint_normals);
+  if (in.landmarks)
+    add_landmark_rows(rows, MappedVertices{&mesh, &in.landmark_map}, state.positions,
+                      in.landmark_targets);
+  return rows;
+}
+
 }  // namespace brainshift::constraints

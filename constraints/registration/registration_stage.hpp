@@ -83,6 +83,11 @@ struct StageOptions {
 /// iterate and returns DIVERGED.
 StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState& state);
 
+/// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final
+/// positions: what predict_uncertainty() (uncertainty.hpp) conditions on, as
+/// RegistrationResult::data_rows.
+ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state);
+
 /// A turn-back counts as a contracting oscillation when its step is at most this fraction of
 /// the previous one (max nodal |Δx|, both made with the same pairs, this one not limited).
 /// With the pairs fixed, near its fixed point the loop is x_{k+1} = G(x_k) with

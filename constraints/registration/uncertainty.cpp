@@ -1,6 +1,5 @@
 #include "constraints/registration/uncertainty.hpp"
 
-#include "constraints/registration/registration_stage.hpp"
 #include "constraints/registration/vessel_blocks.hpp"
 #include "core/error.hpp"
 #include "core/solver/nodal_rotations.hpp"
@@ -364,24 +363,6 @@ NodalVariance nodal_variance(const core::CholmodFactor& factor, const core::DofM
     out.posterior[i] = std::max(0.0, out.prior[i] - red);
   }
   return out;
-}
-
-ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {
-  ConstraintRows rows;
-  const RegistrationModel& model = *in.model;
-  const core::TetMesh& mesh = model.mesh();
-  if (in.vessels && !state.vessel_pairs.empty())
-    add_vessel_rows(rows, state.vessel_pairs, model.skeleton(),
-                    MappedVertices{&mesh, &model.skeleton_mapping()}, state.positions,
-                    in.vessel_points);
-  if (in.footprint && !state.footprint_pairs.empty())
-    add_footprint_rows(rows, state.footprint_pairs, model.surface(),
-                       MappedVertices{&mesh, &model.surface_mapping()}, state.positions,
-                       in.footprint_points, in.footprint_normals);
-  if (in.landmarks)
-    add_landmark_rows(rows, MappedVertices{&mesh, &in.landmark_map}, state.positions,
-                      in.landmark_targets);
-  return rows;
 }
 
 UncertaintyResult predict_uncertainty(const RegistrationModel& model, const RegistrationResult& r,

@@ -70,9 +70,6 @@
 
 namespace brainshift::constraints {
 
-struct LoopInputs;
-struct LoopState;
-
 /// Traces of the nodal covariance blocks, without the scale s² (mm/mN).
 struct NodalVariance {
   Eigen::VectorXd prior;  ///< #N: tr (K0⁻¹)_nn (interpolated off the coarse set); 0 on fixed nodes
@@ -168,10 +165,6 @@ struct UncertaintyResult {
   double seconds = 0.0;      ///< wall time
   double cpu_seconds = 0.0;  ///< process CPU time over the same span (all threads)
 };
-
-/// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final
-/// positions: what predict_uncertainty() conditions on. Called by register_model().
-ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state);
 
 /// Predicted error at every node of a registration result (uses r.positions, r.data_rows,
 /// r.vessel_compliance_ratio and options.step's compliance ratios). Never throws on bad data:
