@@ -309,5 +309,35 @@ TEST(RegistrationLoop, AGrowingOscillationBelowTheRadiusIsDampedAndConverges) {
   EXPECT_LT(off_clean, 0.05);
 }
 
+TEST(RegistrationLoop, AnOscillationNothingDampsEndsNotSettlingBeforeTheIterationCap) {
+  // A node pushed ±a after every step, whatever the step (fault injection after the trust limit
+  // and DAMP's share): every step turns back by 2a, DAMP cannot shrink it, so the radius halves
+  // on each turn-back until it is below the increment tolerance, and the stage must end
+  // NOT_SETTLING with its diagnosis, not run on to the iteration cap.
+  FarNodeInjection c;
+  auto& [s, d, o, clean, node, farthest] = c;
+  ASSERT_TRUE(clean.converged) << clean.stop_reason;
+  ASSERT_GE(node, 0);
+  const double a = 1.0;  // mm: far above the 0.01 mm tolerance, so no step is ever "small"
+  MatrixX3d x_before = s.mesh.nodes();
+  int k = 0;
+  o.inspect_step = [&](StepResult& step) {
+    step.x(node, 2) += (++k % 2 == 0 ? a : -a);
+    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
+    x_before = step.x;
+  };
+  const RegistrationResult r = register_model(*s.model, d, o);
+  int shrinks = 0;
+  for (const IterationRecord& h : r.history) shrinks += h.trust == TrustDecision::SHRINK;
+  std::cout << "[ loop ] " << r.iterations << " iterations, " << shrinks << " shrunk; "
+            << r.stop_reason << "\n";
+  EXPECT_EQ(r.stop, RegistrationStop::NOT_SETTLING) << r.stop_reason;
+  EXPECT_FALSE(r.converged);
+  // From the default radius to below 0.01 mm takes about ten halvings; the cap is far above.
+  EXPECT_GE(shrinks, 5);
+  EXPECT_LT(r.iterations, o.max_iterations);
+  EXPECT_TRUE(r.positions.allFinite());
+}
+
 }  // namespace
 }  // namespace brainshift::constraints
