@@ -263,11 +263,7 @@ NoiseEstimate choose_vessel_compliance(const Eigen::MatrixXd& W, const Eigen::Ve
     scores.push_back(std::move(s));
   }
   est.cv_start_rms_mm = std::sqrt(y_start.squaredNorm() / md);
-  auto total = [&](std::size_t k) {
-    double t = 0;
-    for (double v : scores[k]) t += v;
-    return t / md;
-  };
+  const auto total = [&](std::size_t k) { return cv.total(k, md); };
   std::size_t best = scores.size();
   for (std::size_t k = 0; k < scores.size(); ++k)
     if (std::isfinite(total(k)) && (best == scores.size() || total(k) < total(best))) best = k;

@@ -237,7 +237,6 @@ void verify_registration_inputs(const core::TetMesh& mesh, const IntraopData& da
 /// then FREE with what is left of the iteration budget; returns the last stage run.
 StageRecord run_held_and_free(const LoopInputs& in, const RegistrationOptions& options,
                               const RegistrationResult& res, double ratio0, LoopState& state) {
-  const bool noise_model = in.vessels;  // the estimate; the SMOOTH stage only when enabled
   int budget = options.max_iterations;
   StageRecord last;
   auto run = [&](const StageOptions& so) {
@@ -261,7 +260,7 @@ StageRecord run_held_and_free(const LoopInputs& in, const RegistrationOptions& o
         res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
     free.keep_held_pairs = res.shift.accepted;
     free.vessel_compliance_ratio = ratio0;
-    free.keep_system = noise_model;
+    free.keep_system = in.vessels;  // for the noise model (its SMOOTH stage only when enabled)
     run(free);
   }
   return last;
