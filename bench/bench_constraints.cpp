@@ -14,9 +14,9 @@
 
 #include "bench_common.hpp"
 
-#include "constraints/registration/global_start.hpp"
 #include "constraints/registration/registration.hpp"
-#include "constraints/registration/shift_search.hpp"
+#include "constraints/registration/start/bulk_search.hpp"
+#include "constraints/registration/start/global_start.hpp"
 #include "constraints/rows/constraint_rows.hpp"
 #include "constraints/solver/compliance_operator.hpp"
 #include "constraints/solver/constrained_step.hpp"
@@ -448,7 +448,7 @@ void BM_GlobalStart(benchmark::State& state) {
   const constraints::BasisAt basis = [&m](ConstRef<MatrixX3d> x) {
     return constraints::load_basis(m.mesh(), m.load_response(), x);
   };
-  constraints::GlobalStartResult r;
+  constraints::StartResult r;
   for (auto _ : state)
     benchmark::DoNotOptimize(r = constraints::global_start(m.skeleton(), s.points, basis, {}));
   state.counters["accepted"] = r.accepted;

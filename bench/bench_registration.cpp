@@ -155,7 +155,7 @@ void BM_Registration(benchmark::State& state) {
   state.counters["pgs_s"] = r.seconds.pgs;
   state.counters["correction_s"] = r.seconds.correction;
   state.counters["err_before_mm"] = s.landmark_error(s.mesh.nodes(), Eigen::Isometry3d::Identity());
-  state.counters["err_after_mm"] = s.landmark_error(r.positions, r.rigid.transform);
+  state.counters["err_after_mm"] = s.landmark_error(r.positions, r.start.transform);
 }
 BENCHMARK(BM_Registration)
     ->ArgName("dura")

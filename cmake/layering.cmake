@@ -71,3 +71,17 @@ bs_check_layer(brainshift_imaging FORBIDDEN brainshift_constraints brainshift_da
                INCLUDES constraints data_synth apps SOURCES imaging)
 bs_check_layer(brainshift_data_synth FORBIDDEN brainshift_constraints
                INCLUDES constraints apps SOURCES data_synth)
+
+# Inside the registration, the stage folders (start/, pairing/, rows/, loop/, noise/, uncertainty/)
+# sit below registration.hpp, the entry points: they include registration_types.hpp, never
+# registration.hpp, so that no include runs back up from a stage to the schedule that calls it.
+file(GLOB_RECURSE bs_stage_files ${PROJECT_SOURCE_DIR}/constraints/registration/*/*.cpp
+     ${PROJECT_SOURCE_DIR}/constraints/registration/*/*.hpp)
+foreach(file IN LISTS bs_stage_files)
+  file(STRINGS ${file} hits REGEX "^[ \t]*#[ \t]*include[ \t]*\"constraints/registration/registration\\.hpp\"")
+  if(hits)
+    file(RELATIVE_PATH rel ${PROJECT_SOURCE_DIR} ${file})
+    message(FATAL_ERROR "layering: ${rel} includes registration.hpp: a stage folder includes "
+                        "registration_types.hpp (see cmake/layering.cmake)")
+  endif()
+endforeach()

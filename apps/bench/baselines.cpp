@@ -25,7 +25,7 @@ RegistrationResult rigid_only(constraints::RegistrationModel& model,
                               const RegistrationOptions& options) {
   const auto t0 = Clock::now();
   RegistrationResult r;
-  r.rigid = constraints::rigid_start(model, data, options);
+  r.start = constraints::rigid_start(model, data, options);
   r.positions = model.mesh().nodes();
   r.displacement = MatrixX3d::Zero(r.positions.rows(), 3);
   r.converged = true;
@@ -44,9 +44,9 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
                                            const constraints::IntraopData& data,
                                            const RegistrationOptions& options) {
   const auto t0 = Clock::now();
-  const constraints::RigidStartResult rigid = options.start == constraints::RigidStart::RIGID
-                                                  ? constraints::rigid_start(model, data, options)
-                                                  : constraints::RigidStartResult{};
+  const constraints::StartResult rigid = options.start == constraints::RigidStart::RIGID
+                                             ? constraints::rigid_start(model, data, options)
+                                             : constraints::StartResult{};
   const double t_rigid = seconds_since(t0);
   const MatrixX3d& S = model.skeleton().points;
   std::map<index_t, std::pair<Vector3d, int>> sum;  // skeleton point → (Σ targets, count)
@@ -77,7 +77,7 @@ RegistrationResult prescribed_displacement(constraints::RegistrationModel& model
   o.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::LANDMARK)] =
       o.step.compliance_ratio[vessels];
   RegistrationResult r = constraints::register_model(model, d, o);
-  r.rigid = rigid;
+  r.start = rigid;
   r.seconds.rigid = t_rigid;
   r.seconds.total = seconds_since(t0);
   return r;

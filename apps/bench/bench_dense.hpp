@@ -14,7 +14,7 @@
 /// truth is left out (with a note).
 
 #include "constraints/registration/registration.hpp"
-#include "constraints/registration/uncertainty.hpp"
+#include "constraints/registration/uncertainty/uncertainty.hpp"
 #include "imaging/evaluation/calibration.hpp"
 #include "imaging/evaluation/metrics.hpp"
 

@@ -3,7 +3,7 @@
 #include "apps/workflow/intraop_frame.hpp"
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/prepare.hpp"
-#include "constraints/registration/uncertainty.hpp"
+#include "constraints/registration/uncertainty/uncertainty.hpp"
 #include "core/error.hpp"
 #include "core/mapping/barycentric_mapping.hpp"
 #include "core/timing.hpp"

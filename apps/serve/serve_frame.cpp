@@ -207,7 +207,7 @@ bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::
                      " footprint points)");
     const constraints::RegistrationResult r =
         constraints::register_model(*s.model, in.data, s.loaded.scene.options);
-    send(transform_message(r.rigid.transform, "IntraopToPreop"));
+    send(transform_message(r.start.transform, "IntraopToPreop"));
     const double latency = seconds_since(received);
     const MatrixX3d vessels =
         workflow::to_intraop_frame(r, s.model->skeleton_mapping().apply(r.positions));
@@ -256,7 +256,7 @@ bool FrameRegistrar::register_frame(const imaging::VolumeF& doppler, const std::
         {"latency_to_transform_s", latency},
         {"latency_s", seconds_since(received)},
         {"max_displacement_mm", max_displacement},
-        {"model_from_intraop", workflow::matrix_json(r.rigid.transform.matrix())}};
+        {"model_from_intraop", workflow::matrix_json(r.start.transform.matrix())}};
     if (fields.uncertainty.computed) {  // as report.json has it, without reading it back
       const nlohmann::json u = workflow::uncertainty_report(s, fields.uncertainty, in.data);
       nlohmann::json e = nlohmann::json::object();

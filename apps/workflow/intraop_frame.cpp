@@ -3,7 +3,7 @@
 namespace brainshift::workflow {
 
 Eigen::Isometry3d intraop_from_model(const constraints::RegistrationResult& r) {
-  return r.rigid.transform.inverse();
+  return r.start.transform.inverse();
 }
 
 MatrixX3d to_intraop_frame(const constraints::RegistrationResult& r, ConstRef<MatrixX3d> points) {

@@ -107,12 +107,13 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
       {"dura", {{"rows", rows(ConstraintSet::DURA)}}},
       {"landmarks", {{"rows", rows(ConstraintSet::LANDMARK)}}},
       {"total_rows", last.rows}};
-  j["rigid"] = {{"model_from_intraop", matrix_json(r.rigid.transform.matrix())},
-                {"converged", r.rigid.converged},
-                {"stop_reason", r.rigid.stop_reason},
-                {"rms_before_mm", r.rigid.rms_before_mm},
-                {"rms_after_mm", r.rigid.rms_after_mm},
-                {"weak_dofs", r.rigid.weak_dofs}};
+  j["rigid"] = {{"model_from_intraop", matrix_json(r.start.transform.matrix())},
+                {"converged", r.start.converged},
+                {"stop_reason", r.start.stop_reason},
+                {"rms_before_mm", r.start.rms_before_mm},
+                {"rms_after_mm", r.start.rms_after_mm},
+                // The weakly determined directions: why the pose is ambiguous, when it is.
+                {"weak_dofs", r.start.ambiguous ? r.start.ambiguity : std::string()}};
   // The global start's evidence for its pose (when it ran): the best distinct other pose's
   // share of the score and its distance, the points' spread, and whether it was ambiguous.
   j["rigid"]["ambiguity"] = {

@@ -10,7 +10,7 @@
 /// the uncertain pose).
 
 #include "apps/workflow/session.hpp"
-#include "constraints/registration/uncertainty.hpp"
+#include "constraints/registration/uncertainty/uncertainty.hpp"
 #include "imaging/io/volume.hpp"
 
 #include <nlohmann/json.hpp>

@@ -185,7 +185,7 @@ Eigen::Isometry3d pose_from_pre_dura(const Session& s, const DopplerExtraction& 
             doppler.file.string() << ": " << p.rows() << " vessel points, fewer than the "
                                   << options.global_start.min_points
                                   << " a pose needs (pre-dura sweep)");
-  const constraints::GlobalStartResult g = constraints::pre_dura_pose(*s.model, p, options);
+  const constraints::StartResult g = constraints::pre_dura_pose(*s.model, p, options);
   report = pre.report["doppler"];
   report["accepted"] = g.accepted;
   report["translation_mm"] = g.translation_mm;

@@ -1,9 +1,9 @@
 #include "constraints/registration/registration.hpp"
 
-#include "constraints/registration/pairing.hpp"
-#include "constraints/registration/registration_stage.hpp"
-#include "constraints/registration/registration_start.hpp"
-#include "constraints/registration/vessel_blocks.hpp"
+#include "constraints/registration/loop/registration_stage.hpp"
+#include "constraints/registration/noise/vessel_blocks.hpp"
+#include "constraints/registration/pairing/pairing.hpp"
+#include "constraints/registration/start/run_start.hpp"
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/timing.hpp"
@@ -66,7 +66,6 @@ std::string RegistrationOptions::validate() const {
   if (auto e = global_start.validate(); !e.empty()) return e;
   if (shift_stage_iterations < 0) return "shift_stage_iterations must be ≥ 0";
   if (!(refine_pair_distance_mm > 0)) return "refine_pair_distance_mm must be > 0";
-  if (auto e = shift_search.validate(); !e.empty()) return e;
   if (auto e = vessel_filter.validate(); !e.empty()) return "vessel filter: " + e;
   if (auto e = footprint_filter.validate(); !e.empty()) return "footprint filter: " + e;
   if (auto e = dura.validate(); !e.empty()) return e;
@@ -120,16 +119,16 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data,
                  model.surface().triangles.rows() > 0;
   in.landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
   in.dura = options.dura.mode != DuraOptions::Mode::NONE && model.rest_surface_index() != nullptr;
-  const Eigen::Isometry3d& T = res.rigid.transform;
+  const Eigen::Isometry3d& T = res.start.transform;
   in.vessel_points = transformed(T, data.vessel_points);
-  if (res.shift.accepted) {
+  if (res.start.bulk_accepted) {
     // Where each point was before the bulk shift: the HELD stage pairs there.
     in.held_pair_points = in.vessel_points;
     for (Eigen::Index i = 0; i < in.held_pair_points.rows(); ++i)
       in.held_pair_points.row(i) -=
           (shift_basis.empty()
-               ? Vector3d(res.shift.shift)
-               : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.shift.shift))
+               ? Vector3d(res.start.bulk_shift)
+               : Vector3d(shift_basis[static_cast<std::size_t>(i)] * res.start.bulk_shift))
               .transpose();
   }
   in.footprint_points = transformed(T, data.footprint_points);
@@ -200,7 +199,7 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
   }
   std::string reason = buf;
   if (!notes.empty()) reason += "; " + notes;
-  if (!res.shift.message.empty()) reason += "; bulk shift: " + res.shift.message;
+  if (!res.start.bulk_message.empty()) reason += "; bulk shift: " + res.start.bulk_message;
   return reason;
 }
 
@@ -245,7 +244,7 @@ StageRecord run_held_and_free(const LoopInputs& in, const RegistrationOptions& o
     budget -= last.iterations;
     return last;
   };
-  if (res.shift.accepted && options.shift_stage_iterations > 0) {
+  if (res.start.bulk_accepted && options.shift_stage_iterations > 0) {
     StageOptions held;
     held.kind = StageKind::HELD;
     held.max_iterations = std::min(options.shift_stage_iterations, budget);
@@ -257,8 +256,8 @@ StageRecord run_held_and_free(const LoopInputs& in, const RegistrationOptions& o
     free.kind = StageKind::FREE;
     free.max_iterations = budget;
     free.pair_distance_mm =
-        res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
-    free.keep_held_pairs = res.shift.accepted;
+        res.start.bulk_accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+    free.keep_held_pairs = res.start.bulk_accepted;
     free.vessel_compliance_ratio = ratio0;
     free.keep_system = in.vessels;  // for the noise model (its SMOOTH stage only when enabled)
     run(free);
@@ -317,8 +316,8 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
     smooth.kind = StageKind::SMOOTH;
     smooth.max_iterations = options.noise.max_iterations;
     smooth.pair_distance_mm =
-        res.shift.accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
-    smooth.keep_held_pairs = res.shift.accepted;
+        res.start.bulk_accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
+    smooth.keep_held_pairs = res.start.bulk_accepted;
     smooth.vessel_compliance_ratio = res.noise.ratio;
     const StageRecord sm = run_stage(in, smooth, state);
     if (sm.stop != StageStop::SETTLED) {
@@ -408,8 +407,8 @@ void return_start_if_untrusted(const RegistrationModel& model, const IntraopData
       res.stop == RegistrationStop::INSUFFICIENT_DATA && !initial && !data.pose && in.vessels;
   if (rigid_fallback) {
     detail::rigid_only_start(model, data, options, res);
-    res.shift.accepted = false;
-    res.shift.message = "not applied (insufficient data)";
+    res.start.bulk_accepted = false;
+    res.start.bulk_message = "not applied (insufficient data)";
     res.bulk_gravity.setZero();
     in = loop_inputs(model, data, options, res, {});  // no bulk load, no bulk rest
   }
@@ -529,7 +528,7 @@ RegistrationResult start_only(const RegistrationModel& model, const IntraopData&
   res.stop = RegistrationStop::CONVERGED;
   res.start_returned = true;
   res.stop_reason = std::string("the start only (rigid") +
-                    (res.shift.accepted ? " + bulk response)" : "; no bulk shift accepted)");
+                    (res.start.bulk_accepted ? " + bulk response)" : "; no bulk shift accepted)");
   res.seconds.total = seconds_since(t_start);
   return res;
 }

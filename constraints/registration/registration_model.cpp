@@ -1,6 +1,6 @@
 #include "constraints/registration/registration_model.hpp"
 
-#include "constraints/registration/pairing.hpp"
+#include "constraints/registration/pairing/pairing.hpp"
 
 #include <chrono>
 #include <set>

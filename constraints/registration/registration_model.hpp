@@ -6,7 +6,7 @@
 /// never changes it (rotations are passed per step), so replay, bench and several registrations
 /// share one model. Positions in mm, world (RAS) frame of the pre-operative images.
 
-#include "constraints/registration/constraint_builders.hpp"
+#include "constraints/registration/rows/constraint_builders.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/geometry/skeleton.hpp"
 #include "core/mapping/barycentric_mapping.hpp"

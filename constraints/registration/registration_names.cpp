@@ -1,5 +1,5 @@
 // Names of the registration's enums (registration.hpp), as written to results and reports.
-#include "constraints/registration/registration.hpp"
+#include "constraints/registration/registration_types.hpp"
 #include "core/error.hpp"
 
 namespace brainshift::constraints {

@@ -141,8 +141,8 @@ TEST(SceneIo, EveryOptionIsSettableFromTheSceneAndTheOldSpellingIsRejected) {
     "craniotomy": {"centre_mm": [1, 2, 3]}
   })"));
   const auto& o = s.options;
-  EXPECT_EQ(o.shift_search.radius_mm, 30.0);
-  EXPECT_FALSE(o.shift_search.enabled);
+  EXPECT_EQ(o.global_start.bulk_search.radius_mm, 30.0);
+  EXPECT_FALSE(o.global_start.bulk_search.enabled);
   EXPECT_EQ(o.refine_pair_distance_mm, 1.5);
   EXPECT_EQ(o.global_start.max_translation_mm, 40.0);
   EXPECT_FALSE(o.global_start.bulk_response);

@@ -1,0 +1,115 @@
+// Bulk-shift search: a dense lattice of vessels closer together than the shift, so that the
+// nearest-feature pairing at the rest shape would pick the neighbouring vessel.
+#include "constraints/registration/start/bulk_search.hpp"
+#include "constraints/registration/start/global_start.hpp"
+#include "core/error.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+namespace brainshift::constraints {
+namespace {
+
+/// Vessels 2.5 mm apart along x (varying in z) crossed by a few along y, in a 40 mm patch.
+core::Skeleton vessel_lattice() {
+  core::Skeleton s;
+  std::vector<Vector3d> pts;
+  auto line = [&](const Vector3d& a, const Vector3d& b, int n) {
+    const auto first = static_cast<index_t>(pts.size());
+    for (int k = 0; k <= n; ++k) pts.push_back(a + (b - a) * (static_cast<double>(k) / n));
+    for (int k = 0; k < n; ++k) s.segments.push_back({first + k, first + k + 1});
+  };
+  for (int j = 0; j < 16; ++j) {
+    const double y = -20.0 + 2.5 * j + 0.7 * std::sin(j);
+    line(Vector3d(-20, y, 1.5 * std::sin(0.5 * j)), Vector3d(20, y, -1.5 * std::cos(0.3 * j)), 20);
+  }
+  for (int i = 0; i < 4; ++i) {
+    const double x = -15.0 + 9.0 * i;
+    line(Vector3d(x, -20, 3.0), Vector3d(x + 4.0, 20, 2.0 - i), 20);
+  }
+  s.points.resize(static_cast<Eigen::Index>(pts.size()), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    s.points.row(static_cast<Eigen::Index>(i)) = pts[i].transpose();
+  return s;
+}
+
+/// Points on the lattice moved by `shift`, with 0.3 mm noise, keeping the middle of the patch.
+MatrixX3d seen(const core::Skeleton& s, const Vector3d& shift) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0.0, 0.3);
+  std::vector<Vector3d> out;
+  for (Eigen::Index i = 0; i < s.points.rows(); ++i) {
+    const Vector3d p = s.points.row(i).transpose();
+    if (std::abs(p.x()) > 14 || std::abs(p.y()) > 14) continue;
+    out.push_back(p + shift + Vector3d(g(rng), g(rng), g(rng)));
+  }
+  MatrixX3d m(static_cast<Eigen::Index>(out.size()), 3);
+  for (std::size_t i = 0; i < out.size(); ++i)
+    m.row(static_cast<Eigen::Index>(i)) = out[i].transpose();
+  return m;
+}
+
+TEST(BulkSearch, FindsAShiftLargerThanTheVesselSpacing) {
+  const core::Skeleton s = vessel_lattice();
+  const Vector3d shift(1.0, -1.5, -8.0);
+  const StartResult r = search_bulk_shift(s, seen(s, shift), {}, BulkSearchOptions{});
+  EXPECT_TRUE(r.bulk_accepted) << r.bulk_message;
+  EXPECT_LT((r.bulk_shift - shift).norm(), 0.75) << r.bulk_message;
+  EXPECT_GT(r.score, r.score_identity);
+}
+
+TEST(BulkSearch, ABasisScalesTheShiftPerPoint) {
+  // Each point moves by half the searched shift: with basis ½I the search reports the full one.
+  const core::Skeleton s = vessel_lattice();
+  const Vector3d shift(0.0, 1.0, -6.0);
+  const MatrixX3d p = seen(s, 0.5 * shift);
+  const std::vector<Matrix3d> half(static_cast<std::size_t>(p.rows()), 0.5 * Matrix3d::Identity());
+  const StartResult r = search_bulk_shift(s, p, half, BulkSearchOptions{});
+  EXPECT_TRUE(r.bulk_accepted) << r.bulk_message;
+  EXPECT_LT((r.bulk_shift - shift).norm(), 1.0) << r.bulk_message;
+}
+
+TEST(BulkSearch, NothingToMatchIsNotAccepted) {
+  const core::Skeleton s = vessel_lattice();
+  BulkSearchOptions o;
+  EXPECT_FALSE(search_bulk_shift(core::Skeleton{}, seen(s, Vector3d::Zero()), {}, o).bulk_accepted);
+  EXPECT_FALSE(search_bulk_shift(s, MatrixX3d(0, 3), {}, o).bulk_accepted);
+  // Points already in place: no shift beats zero by the required gain.
+  const StartResult r = search_bulk_shift(s, seen(s, Vector3d::Zero()), {}, o);
+  EXPECT_FALSE(r.bulk_accepted && r.bulk_shift.norm() > 0.75) << r.bulk_message;
+  o.min_gain = 0.5;
+  EXPECT_THROW(search_bulk_shift(s, seen(s, Vector3d::Zero()), {}, o), brainshift::Error);
+}
+
+TEST(BulkSearch, AKnownPoseIsKeptAndTheShiftIsFoundInItsFrame) {
+  // The tracked frame is off by a known pose (as a pre-dura sweep measures it): points at
+  // pose⁻¹ (skeleton + shift). start_at_pose places them by the pose and searches the shift alone;
+  // the answer is the shift that was applied (to the search's 0.75 mm, as above) and the pose
+  // itself, untouched.
+  const core::Skeleton s = vessel_lattice();
+  const Vector3d shift(-1.0, 0.5, -7.0);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(0.1, Vector3d(0.3, -0.2, 1.0).normalized()).toRotationMatrix();
+  pose.translation() = Vector3d(12.0, -4.0, 6.0);
+  const MatrixX3d in_model = seen(s, shift);
+  MatrixX3d tracked(in_model.rows(), 3);
+  for (Eigen::Index i = 0; i < in_model.rows(); ++i)
+    tracked.row(i) = (pose.inverse() * Vector3d(in_model.row(i).transpose())).transpose();
+  const GlobalStartOptions o;
+  const StartResult r = start_at_pose(s, tracked, pose, {}, o, true, "given");
+  EXPECT_TRUE(r.transform.isApprox(pose, 0.0));
+  EXPECT_TRUE(r.converged);
+  EXPECT_FALSE(r.accepted);  // the pose was given, not searched
+  EXPECT_EQ(r.stop_reason, "given");
+  EXPECT_TRUE(r.bulk_accepted) << r.bulk_message;
+  EXPECT_LT((r.bulk_shift - shift).norm(), 0.75) << r.bulk_message;
+  // Not searched: the pose alone, no bulk shift and no message.
+  const StartResult p = start_at_pose(s, tracked, pose, {}, o, false, "given");
+  EXPECT_FALSE(p.bulk_accepted);
+  EXPECT_TRUE(p.bulk_message.empty()) << p.bulk_message;
+  EXPECT_TRUE(p.bulk_shift.isZero());
+}
+
+}  // namespace
+}  // namespace brainshift::constraints

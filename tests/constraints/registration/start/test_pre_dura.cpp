@@ -1,0 +1,254 @@
+// The pose from a sweep before the dura is opened (IntraopData::pose, pre_dura_pose()) and the
+// bulk shift carried as a load (RegistrationOptions::bulk_as_load), on the analytic sag scene
+// (sag_scene.hpp): a known navigation offset is measured on the undeformed vessels and kept; the
+// deformation alone then carries the sag, so the fixed base stays where the truth has it; and the
+// load the start's bulk shift becomes reproduces that shift at the vessel points.
+#include "tests/constraints/registration/sag_scene.hpp"
+
+#include "constraints/registration/uncertainty/uncertainty.hpp"
+#include "core/error.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <numbers>
+#include <random>
+
+namespace brainshift::constraints {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+/// The navigation offset of these tests: intra-operative points are O · p_model.
+Eigen::Isometry3d navigation_offset() {
+  Eigen::Isometry3d O = Eigen::Isometry3d::Identity();
+  O.rotate(Eigen::AngleAxisd(4.0 * kDeg, Vector3d(1, -2, 0.5).normalized()));
+  O.pretranslate(Vector3d(6.0, -5.0, 3.0));
+  return O;
+}
+
+MatrixX3d apply(const Eigen::Isometry3d& T, const MatrixX3d& p) {
+  return ((p * T.linear().transpose()).rowwise() + T.translation().transpose()).eval();
+}
+
+TEST(PreDura, ThePoseOfTheUndeformedSweepIsKeptAndTheSagGoesToTheDeformation) {
+  Scene s;
+  const Eigen::Isometry3d O = navigation_offset();
+  // Before opening: the rest vessels through the offset; after: the sagged ones, same offset.
+  const MatrixX3d before = apply(O, sample_deformed(s.skeleton, 0.3, 11, 0.0));
+  IntraopData d;
+  d.vessel_points = apply(O, sample_deformed(s.skeleton, 0.3, 12, 1.0));
+  RegistrationOptions o;
+  o.start = RigidStart::RIGID;
+  o.max_iterations = 60;
+  // The loop itself (its deformation carries the sag): the noise model's choice of the start
+  // over the deformation is off, as in test_registration.cpp, on the same scene.
+  o.noise.enabled = false;
+
+  const StartResult pre = pre_dura_pose(*s.model, before, o);
+  ASSERT_TRUE(pre.accepted) << pre.message;
+  // The pose of 0.3 mm-noise points over a 60 mm field: within 0.5 mm of the truth at every fixed
+  // node (the farthest from the vessels, ≈ 50 mm away): a 0.3° error there would be 0.26 mm.
+  std::vector<index_t> fixed;
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i)
+    if (s.mesh.nodes()(i, 2) < -22) fixed.push_back(i);
+  MatrixX3d base(static_cast<Eigen::Index>(fixed.size()), 3);
+  for (std::size_t k = 0; k < fixed.size(); ++k)
+    base.row(static_cast<Eigen::Index>(k)) = s.mesh.nodes().row(fixed[k]);
+  const auto base_error = [&](const Eigen::Isometry3d& model_from_intra) {
+    // Where a registration puts the (unmoving) base in the intra-operative frame, against where
+    // the offset puts it.
+    return (apply(model_from_intra.inverse(), base) - apply(O, base)).rowwise().norm().maxCoeff();
+  };
+  EXPECT_LT(base_error(pre.transform), 0.5) << pre.message;
+
+  d.pose = pre.transform;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.converged) << r.stop_reason;
+  // The given pose is the answer's pose, bit for bit: the start searched only the bulk shift.
+  EXPECT_TRUE(r.start.transform.isApprox(pre.transform, 0.0)) << r.start.stop_reason;
+  EXPECT_NE(r.start.stop_reason.find("given pose"), std::string::npos) << r.start.stop_reason;
+  // With a given pose the bulk shift is the sag itself, and `auto` carries it as a load.
+  ASSERT_TRUE(r.start.bulk_accepted) << r.start.bulk_message;
+  EXPECT_GT(r.bulk_gravity.norm(), 0.0);
+  EXPECT_LT(base_error(r.start.transform), 0.5);
+  // The deformation carries the sag (10 mm at the top): the skeleton lands within 1 mm on average
+  // (the noise-free registration reaches ≈ 0.3 mm; 0.3 mm noise, 10 mm elements).
+  const auto [mean, max] = s.landmark_error(r.positions);
+  EXPECT_LT(mean, 1.0) << "max " << max << "; " << r.stop_reason;
+  std::cout << "[ pre-dura ] base error " << base_error(r.start.transform) << " mm; skeleton "
+            << mean << " mean, " << max << " max mm; " << r.iterations << " iterations\n";
+}
+
+TEST(PreDura, APoseThatIsNotARotationAndTranslationIsRefused) {
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  Eigen::Isometry3d scaled = Eigen::Isometry3d::Identity();
+  scaled.linear() *= 1.01;
+  d.pose = scaled;
+  EXPECT_THROW((void)register_model(*s.model, d, RegistrationOptions{}), Error);
+  d.pose = Eigen::Isometry3d::Identity();
+  d.pose->translation().x() = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW((void)register_model(*s.model, d, RegistrationOptions{}), Error);
+}
+
+TEST(PreDura, APoseSearchedOnTheSweepAddsItsMotionWhereTheSagDoesNotReach) {
+  // The predicted error's confounded-pose term (UncertaintyOptions::pose_confounded): on the
+  // fixed base (no load response) it is the pose's whole motion, exactly; near the data it is
+  // small; with the pose given by a pre-dura sweep, or switched off, it is absent.
+  Scene s;
+  const Eigen::Isometry3d O = navigation_offset();
+  IntraopData d;
+  d.vessel_points = apply(O, sample_deformed(s.skeleton, 0.3, 12, 1.0));
+  RegistrationOptions o;
+  o.start = RigidStart::RIGID;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.start.accepted) << r.start.message;
+  const UncertaintyResult u = predict_uncertainty(*s.model, r, o);
+  ASSERT_EQ(u.node_pose.size(), s.mesh.num_nodes());
+  const Eigen::Isometry3d to_intra = r.start.transform.inverse();
+  double base = 0.0, data = 0.0;
+  int nb = 0, nd = 0;
+  std::vector<bool> at_data(static_cast<std::size_t>(s.mesh.num_nodes()), false);
+  for (index_t i = 0; i < r.data_rows.size(); ++i)
+    for (int k = 0; k < r.data_rows[i].stencil.size; ++k)
+      at_data[static_cast<std::size_t>(r.data_rows[i].stencil.node[static_cast<std::size_t>(k)])] =
+          true;
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i) {
+    const Vector3d x = r.positions.row(i).transpose();
+    if (s.model->mechanics().dofs().is_fixed_node(i)) {
+      // ρ = 0 on a fixed node: the term is the pose's motion squared (round-off only).
+      EXPECT_NEAR(u.node_pose[i], (to_intra * x - x).squaredNorm(),
+                  1e-9 * (1 + (to_intra * x - x).squaredNorm()));
+      base += u.node_pose[i], ++nb;
+    }
+    if (at_data[static_cast<std::size_t>(i)]) data += u.node_pose[i], ++nd;
+  }
+  ASSERT_GT(nb, 0);
+  ASSERT_GT(nd, 0);
+  // Near the data the load response is about the data's mean, so the term nearly vanishes: at
+  // most a quarter of the base's (mm², measured far below).
+  EXPECT_LT(data / nd, 0.25 * base / nb) << data / nd << " vs " << base / nb;
+
+  RegistrationOptions off = o;
+  off.uncertainty.pose_confounded = false;
+  EXPECT_EQ(predict_uncertainty(*s.model, r, off).node_pose.norm(), 0.0);
+  IntraopData given = d;
+  given.pose = r.start.transform;
+  const RegistrationResult g = register_model(*s.model, given, o);
+  EXPECT_EQ(predict_uncertainty(*s.model, g, o).node_pose.norm(), 0.0);
+}
+
+TEST(BulkLoad, TheLoadReproducesTheStartsBulkShiftAtTheVesselPoints) {
+  // The body acceleration the loop carries is an independent check of the amplitude: the linear
+  // model's response to it, averaged over the vessel points' nearest nodes, is the start's bulk
+  // shift (load_basis()'s normalisation), to round-off.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the bulk-shift search alone: the whole sag is a bulk shift
+  o.bulk_as_load = BulkLoad::ON;
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_TRUE(r.start.bulk_accepted) << r.start.bulk_message;
+  ASSERT_GT(r.bulk_gravity.norm(), 0.0);
+  StepOptions linear;
+  linear.mechanics = Mechanics::LINEAR;
+  linear.gravity = r.bulk_gravity;
+  const MatrixX3d u =
+      s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, linear).x - s.mesh.nodes();
+  Vector3d mean = Vector3d::Zero();
+  for (Eigen::Index i = 0; i < d.vessel_points.rows(); ++i) {
+    Eigen::Index node = 0;
+    (s.mesh.nodes().rowwise() - d.vessel_points.row(i)).rowwise().squaredNorm().minCoeff(&node);
+    mean += u.row(node).transpose() / static_cast<double>(d.vessel_points.rows());
+  }
+  EXPECT_LT((mean - r.start.bulk_shift).norm(), 1e-6 * r.start.bulk_shift.norm())
+      << "mean response " << mean.transpose() << " vs shift " << r.start.bulk_shift.transpose();
+}
+
+/// The model's own linear response to a downward body load (a direct solve), scaled to `top_mm`
+/// at the top, at the skeleton points (`truth`), and those points with 0.3 mm Gaussian noise per
+/// axis as the Doppler's (`data`).
+struct LoadSag {
+  MatrixX3d truth;
+  IntraopData data;
+};
+LoadSag load_response_sag(const Scene& s, double top_mm, unsigned seed) {
+  StepOptions linear;
+  linear.mechanics = Mechanics::LINEAR;
+  linear.gravity = Vector3d(0, 0, -9810.0);
+  MatrixX3d u =
+      s.model->mechanics().step(s.mesh.nodes(), ConstraintRows{}, linear).x - s.mesh.nodes();
+  u *= top_mm / u.col(2).cwiseAbs().maxCoeff();
+  LoadSag out;
+  out.truth = s.model->skeleton_mapping().apply(s.mesh.nodes() + u);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 0.3);
+  out.data.vessel_points = out.truth;
+  for (Eigen::Index i = 0; i < out.truth.rows(); ++i)
+    out.data.vessel_points.row(i) += Vector3d(g(rng), g(rng), g(rng)).transpose();
+  return out;
+}
+
+TEST(BulkLoad, ASagThatIsTheModelsOwnLoadResponseIsMetWithoutTheCompliantRowsLag) {
+  // The truth is the model's own linear response to a downward body load (a direct solve),
+  // scaled to 10 mm at the top. Compliant vessel rows (ratio 0.2) balance the elastic force of
+  // the displacement they hold, so from the rest shape they lag the data by a share of it; with
+  // the start's bulk shift carried as the load, the elastic rest is the shifted state, which here
+  // is the truth up to the shift's amplitude, and only that remainder lags.
+  Scene s;
+  const auto [truth, d] = load_response_sag(s, 10.0, 5);
+  RegistrationOptions with, without;
+  with.start = without.start = RigidStart::IDENTITY;  // the pose is right; the sag is the shift
+  with.bulk_as_load = BulkLoad::ON;
+  without.bulk_as_load = BulkLoad::OFF;
+  const RegistrationResult a = register_model(*s.model, d, with);
+  const RegistrationResult b = register_model(*s.model, d, without);
+  std::cout << "[ bulk load ] " << to_string(a.stop) << " / " << to_string(b.stop) << "\n";
+  EXPECT_TRUE(b.bulk_gravity.isZero());
+  auto error = [&](const RegistrationResult& r) {
+    return (s.model->skeleton_mapping().apply(r.positions) - truth).rowwise().norm().mean();
+  };
+  const double ea = error(a), eb = error(b);
+  std::cout << "[ bulk load ] skeleton mean error " << ea << " mm with the load, " << eb
+            << " mm without\n";
+  // With the load the answer is at the noise floor (0.3 mm per axis, averaged by the compliant
+  // rows over neighbours: < 0.4 mm; 0.52 mm RMS per point), and clearly better than the lagging
+  // answer.
+  EXPECT_LT(ea, 0.4);
+  EXPECT_LT(ea, 0.8 * eb);
+  EXPECT_TRUE(a.converged) << a.stop_reason;
+  EXPECT_TRUE(b.converged) << b.stop_reason;
+}
+
+TEST(BulkLoad, ALargeSagUnderItsLoadSettlesFromThePreStrainedRest) {
+  // The same sag at 12 mm: on this 60 mm-high model with an 8 mm fixed base that is what the
+  // large_shift phantom's 19 mm is to a brain. Carried as a body force the corotational
+  // iteration did not settle under it (not_settling after 56 iterations, measured; 14 mm: 37
+  // elements inverted; on the large_shift phantom up to 28 and the iteration cap): the warped
+  // compliance lacks the geometric stiffness of a large load. Carried as the elastic rest
+  // (core::RestShape) the load's equilibrium is stress free and the loop only corrects the
+  // remainder: it converges (36 iterations), with no element inverted on the way.
+  Scene s;
+  auto [truth, d] = load_response_sag(s, 12.0, 7);
+  d.pose = Eigen::Isometry3d::Identity();  // as from a pre-dura sweep: the load is AUTO-on
+  RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;  // the loop from the tracked frame (the scene's own frame)
+  index_t inverted = 0;
+  o.inspect_step = [&](StepResult& r) { inverted = std::max(inverted, r.inverted_elements); };
+  const RegistrationResult r = register_model(*s.model, d, o);
+  ASSERT_GT(r.bulk_gravity.norm(), 0.0);
+  const double e = (s.model->skeleton_mapping().apply(r.positions) - truth).rowwise().norm().mean();
+  std::cout << "[ bulk load ] 12 mm sag: " << to_string(r.stop) << " in " << r.iterations
+            << " iterations, skeleton mean error " << e << " mm, " << inverted
+            << " inverted elements at most\n";
+  EXPECT_TRUE(r.converged) << r.stop_reason;
+  EXPECT_EQ(inverted, 0);
+  // The 10 mm test's floor (0.4 mm; measured 0.29 here, 0.39 with the body force).
+  EXPECT_LT(e, 0.4);
+}
+
+}  // namespace
+}  // namespace brainshift::constraints
