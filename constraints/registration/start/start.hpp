@@ -14,7 +14,7 @@ namespace brainshift::constraints {
 /// `accepted` false (with the reason in `message`) when the sweep cannot give one; the transform
 /// is then the identity.
 StartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX3d> vessel_points,
-                                const RegistrationOptions& options);
+                          const RegistrationOptions& options);
 
 /// The start's rigid part alone (options.start is ignored): the global start without the bulk
 /// response (the identity, with the reason in stop_reason, when not accepted). The "rigid only"

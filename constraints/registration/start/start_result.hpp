@@ -22,7 +22,7 @@ struct StartResult {
   /// The bulk shift was found: |s| ≥ bulk_min_mm after the pose search, or the bulk search's
   /// optimum beat s = 0 by its min_gain (else bulk_shift is zero).
   bool bulk_accepted = false;
-  double score = 0.0;  ///< fine score at the result (kernel-weighted points)
+  double score = 0.0;           ///< fine score at the result (kernel-weighted points)
   double score_identity = 0.0;  ///< fine score at the given or identity pose with s = 0
   /// The pose's distance from the identity in standard deviations of the navigation prior
   /// (√(|t|²/σ_t² + |w|²/σ_w²) per axis; 0 without a prior): above 3 the data moved the pose, and
