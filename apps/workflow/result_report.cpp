@@ -159,7 +159,8 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                             {"trust", constraints::to_string(h.trust)},
                             {"finite", h.finite},
                             {"vessel_compliance_ratio", h.vessel_compliance_ratio},
-                            {"diagnosis", h.diagnosis}});
+                            {"diagnosis", h.diagnosis},
+                            {"inverted_elements", h.inverted_elements}});
   j["stages"] = nlohmann::json::array();
   for (const auto& st : r.stages)
     j["stages"].push_back({{"stage", constraints::to_string(st.kind)},

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace brainshift::constraints {
@@ -166,7 +167,7 @@ RegistrationStop stop_of(StageStop s) {
 /// One line on why the registration stopped.
 std::string stop_reason(const RegistrationResult& res, const RegistrationOptions& options,
                         const std::string& notes) {
-  char buf[320];
+  char buf[512];
   const IterationRecord last = res.history.empty() ? IterationRecord{} : res.history.back();
   int held = 0;
   for (const StageRecord& s : res.stages)
@@ -179,6 +180,13 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
           "constraints cannot be met (inconsistent data or too large a shift); last PGS: %s",
           options.increment_tolerance_mm, res.iterations, to_string(last.stage).c_str(),
           to_string(last.pgs_stop).c_str());
+      if (last.inverted_elements > 0)
+        // What a node that flips back and forth usually is: an element the rows pulled through
+        // itself (a vessel row's pull on one small element of a fine mesh).
+        std::snprintf(buf + std::strlen(buf), sizeof buf - std::strlen(buf),
+                      "; %lld elements inverted at the last step (the rows pull elements through "
+                      "themselves: a compliance too stiff for this mesh, or wrong pairs)",
+                      static_cast<long long>(last.inverted_elements));
       break;
     case RegistrationStop::DIVERGED:
       std::snprintf(buf, sizeof buf,
@@ -265,10 +273,10 @@ StageRecord run_held_and_free(const LoopInputs& in, const RegistrationOptions& o
   return last;
 }
 
-/// After a settled FREE stage, the noise model: the vessel compliance chosen on held-out
-/// branches, then the start kept (no compliance predicts held-out vessels better than no
-/// deformation), a SMOOTH stage at the chosen compliance, or nothing. Returns the notes for the
-/// stop reason.
+/// After the FREE stage (settled, or ended without settling), the noise model: the vessel
+/// compliance chosen on held-out branches, then the start kept (no compliance predicts held-out
+/// vessels better than no deformation), a SMOOTH stage at the chosen compliance (its answer kept
+/// only if it settles), or nothing. Returns the notes for the stop reason.
 std::string choose_compliance_and_smooth(const LoopInputs& in, const RegistrationOptions& options,
                                          double ratio0, RegistrationResult& res, LoopState& state,
                                          StageRecord& last) {
@@ -480,8 +488,17 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
       options.step.compliance_ratio[static_cast<std::size_t>(ConstraintSet::VESSELS)];
   StageRecord last = run_held_and_free(in, options, res, ratio0, state);
   std::string notes;
-  if (in.vessels && last.kind == StageKind::FREE && last.stop == StageStop::SETTLED)
+  // The noise model also after a FREE stage that did not settle: the default compliance is a
+  // prior, and where it pulls one small element of a fine mesh through itself (20k nodes: an
+  // element inverted next to a vessel branch, a node flipping with it until the trust region
+  // collapsed) the compliance the data choose may settle. SMOOTH's answer is kept only if it
+  // settles; otherwise the stop stays the FREE stage's.
+  if (in.vessels && last.kind == StageKind::FREE && last.stop != StageStop::DIVERGED) {
+    const StageStop free_stop = last.stop;
     notes = choose_compliance_and_smooth(in, options, ratio0, res, state, last);
+    if (free_stop != StageStop::SETTLED)
+      notes = "the free stage ended " + to_string(free_stop) + "; " + notes;
+  }
 
   collect_result(in, options, ratio0, last, notes, state, res);
 

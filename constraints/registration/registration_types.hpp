@@ -7,11 +7,11 @@
 /// registration.hpp (the entry points, above them). Positions in mm, world (RAS) frame of the
 /// pre-operative model; intra-operative points in their tracked frame (IntraopData).
 
-#include "constraints/registration/rows/constraint_builders.hpp"
-#include "constraints/registration/pairing/filtering.hpp"
-#include "constraints/registration/start/global_start.hpp"
 #include "constraints/registration/noise/noise_model.hpp"
+#include "constraints/registration/pairing/filtering.hpp"
 #include "constraints/registration/registration_model.hpp"
+#include "constraints/registration/rows/constraint_builders.hpp"
+#include "constraints/registration/start/global_start.hpp"
 #include "constraints/registration/uncertainty/uncertainty_options.hpp"
 #include "constraints/solver/constrained_step.hpp"
 #include "core/geometry/skeleton.hpp"
@@ -256,7 +256,8 @@ struct IterationRecord {
   double vessel_compliance_ratio = 0.0;  ///< of this iteration's vessel rows
   FilterReport vessel_filter;
   FilterReport footprint_filter;
-  std::string diagnosis;  ///< the step's diagnosis, if any
+  std::string diagnosis;          ///< the step's diagnosis, if any
+  index_t inverted_elements = 0;  ///< elements inverted at the start of this iteration's step
 };
 
 enum class RegistrationStop {

@@ -219,6 +219,7 @@ StepResult take_step(const LoopInputs& in, const ConstraintRows& rows,
   rec.pgs_residual = step.pgs.residual;
   rec.pgs_stop = step.pgs.stop;
   rec.diagnosis = step.diagnosis;
+  rec.inverted_elements = step.inverted_elements;
   state.seconds.free_motion += step.seconds_free_motion;
   state.seconds.delassus += step.seconds_delassus;
   state.seconds.pgs += step.seconds_pgs;
