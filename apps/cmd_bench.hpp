@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief `brainshift bench`: speed against error on the phantom cases (issue 8); argument
+/// @brief `brainshift bench`: speed against error on the phantom cases; argument
 /// parsing over run_benchmark() (apps/bench/bench.hpp, which describes the suites and outputs).
 
 #include "apps/bench/bench.hpp"

@@ -110,7 +110,7 @@ nlohmann::json evaluate(const EvaluateArgs& args) {
                       {"unpaired_landmarks", pairs.warnings},
                       {"tre_before_mm", stats_json(before)},
                       {"tre_after_mm", stats_json(after)}};
-  // Predicted error (issue 16): RES/uncertainty.nii.gz at the pre-operative landmarks against
+  // Predicted error: RES/uncertainty.nii.gz at the pre-operative landmarks against
   // their actual errors (imaging/evaluation/calibration.hpp for the convention).
   if (const auto unc_path = args.result / "uncertainty.nii.gz"; std::filesystem::exists(unc_path)) {
     const imaging::VolumeF unc = imaging::read_volume(unc_path);

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The vocabulary of option tables (issue 17 item 3). Every Options struct of the
+/// @brief The vocabulary of option tables. Every Options struct of the
 /// registration has, next to it, a function
 ///
 ///     template <class V> void visit_fields(SomeOptions& o, V&& v);

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief elastix as the bench's image-registration peer (issue 32 item 5): what a research
+/// @brief elastix as the bench's image-registration peer: what a research
 /// engineer tries first — Debian's `elastix` / `transformix` programs (never a dependency of the
 /// product: the bench calls them as separate processes when they are installed), rigid then
 /// B-spline, Mattes mutual information, the pre-operative MRA (moving) onto the intra-operative

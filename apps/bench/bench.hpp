@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The benchmark (`brainshift bench`): speed against error on the phantom cases (issue 8).
+/// @brief The benchmark (`brainshift bench`): speed against error on the phantom cases.
 /// Every run is a real registration on a phantom with known truth — generated, prepared and
 /// registered through the same code as `phantom`, `prepare` and `register` — and records time per
 /// stage, iterations, peak memory, TRE (mean, p95, max) and the shift corrected.

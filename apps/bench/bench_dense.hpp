@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Dense calibration of the predicted error (issue 16): the predicted σ against the
+/// @brief Dense calibration of the predicted error: the predicted σ against the
 /// actual error of the registered displacement at many points inside the brain, where the
 /// phantom knows the truth everywhere (truth/displacement.nii.gz), instead of at its 14
 /// landmarks only (a Spearman on 14 points has a standard error of ≈ 0.27).

@@ -71,7 +71,7 @@ struct BenchRow {
   bool ok = false;  ///< finite answer, no exception
   std::string error;
   std::string note;  ///< e.g. why the B-mode gave no footprint
-  /// Predicted error (issue 16; runs of ours only, else unset): its cost, the median over the
+  /// Predicted error (runs of ours only, else unset): its cost, the median over the
   /// free nodes, the mean at the landmarks (all, near, far as above) and its calibration against
   /// the landmarks' actual errors (imaging/evaluation/calibration.hpp).
   std::optional<double> unc_s, unc_cpu_s, unc_median_mm, unc_landmarks_mm, unc_near_mm, unc_far_mm;
@@ -97,7 +97,7 @@ struct CaseData {
   double tracking_spec_mm = 0.0, tracking_spec_deg = 0.0;
 };
 
-/// The cases on real anatomy (ICBM152, issue 18): the named recipe after the prefix on the brain
+/// The cases on real anatomy (ICBM152): the named recipe after the prefix on the brain
 /// of REAL_DATA/icbm152/labels.nii.gz, default craniotomy and tumour.
 const std::vector<std::string>& real_anatomy_cases();
 bool is_real_anatomy_case(const std::string& name);

@@ -2,7 +2,7 @@
 /// @file
 /// @brief RES/overlay.png of `register`: axial, coronal and sagittal slices through the centre of
 /// the intra-operative vessel points — pre-operative MRI (left) and warped MRI (right) when an MRI
-/// was given, else the displacement magnitude (left) and the predicted error (right, issue 16) —
+/// was given, else the displacement magnitude (left) and the predicted error (right) —
 /// with the intra-operative vessel points (green) and footprint points (yellow) drawn in the
 /// intra-operative frame. With an MRI the predicted-error panels go to RES/overlay_uncertainty.png
 /// (displacement magnitude and predicted error), so the MRI comparison keeps its two columns.

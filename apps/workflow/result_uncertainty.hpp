@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The predicted-error outputs of `register` (issue 16; constraints/registration/
+/// @brief The predicted-error outputs of `register` (constraints/registration/
 /// uncertainty.hpp): RES/uncertainty.nii.gz and report.json → `uncertainty`.
 ///
 /// The map is on the grid of displacement.nii.gz (the pre-operative grid, rest frame): at each

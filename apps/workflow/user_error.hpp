@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The one-line error a command prints for any failure (issue 36 item 2): brainshift's
+/// @brief The one-line error a command prints for any failure: brainshift's
 /// own errors as they are (they name the file and the problem); the standard library's turned
 /// into the same contract, without its implementation's text (`std::bad_alloc`,
 /// "filesystem error: …").

@@ -58,8 +58,8 @@ CaseParameters named_case(const std::string& name, std::uint32_t seed) {
     p.truth_in_image_frame = true;  // an offset to recover, truth where the images put it (RESECT)
   } else if (name == "sparse_vessels" || name == "sparse_offset_12mm") {
     // One small tree in view; sparse_offset_12mm sees it through offset_12mm's tracking offset:
-    // few branches to pin a pose, and a large offset to find (issue 32: the confidently wrong
-    // case).
+    // few branches to pin a pose, and a large offset to find (the case a start could be
+    // confidently wrong on).
     if (name == "sparse_offset_12mm") {
       const Vector3d dir = Vector3d(2.0, -1.5, 1.5).normalized();
       p.tracking.translation = 12.0 * dir;

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Calibration of a predicted-error map against true errors (issue 16): Spearman rank
+/// @brief Calibration of a predicted-error map against true errors: Spearman rank
 /// correlation and the share of landmarks within 1 and 2 predicted sigma.
 ///
 /// Convention: the predicted error σ at a point is the RMS length of the 3-D error vector,

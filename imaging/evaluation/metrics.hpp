@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Evaluation metrics of `brainshift evaluate` (issue 7): error statistics, landmark
+/// @brief Evaluation metrics of `brainshift evaluate`: error statistics, landmark
 /// target registration errors (TRE), surface-to-surface distance percentiles (the H95, H75, H50,
 /// H25 of seeds 001/004) and the percentage of brain shift corrected. Pure functions, no I/O.
 /// Positions in world RAS mm, distances in mm.

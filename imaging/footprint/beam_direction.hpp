@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The probe's beam direction and face from a B-mode volume alone (issue 13 item 5).
+/// @brief The probe's beam direction and face from a B-mode volume alone.
 ///
 /// A tracked B-mode volume is a fan (one sector image) or a sweep of fans (a freehand
 /// reconstruction); voxels outside the swept region are 0 (or NaN). Its grid need not follow the

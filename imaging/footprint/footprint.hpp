@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The probe footprint from a B-mode volume (issue 6 item 3): where the tracked probe
+/// @brief The probe footprint from a B-mode volume: where the tracked probe
 /// touches the brain, as points with normals for the footprint constraint rows.
 ///
 /// The contact shows as a bright band at the top of the sector. Beam lines (rays parallel to

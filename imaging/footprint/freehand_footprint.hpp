@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief The probe footprint from a B-mode volume without a probe pose (issue 13 item 5):
+/// @brief The probe footprint from a B-mode volume without a probe pose:
 /// freehand reconstructions on oblique grids, and our phantoms' probe-aligned volumes alike.
 ///
 /// 1. The beam direction and the narrow (near-field) end of the swept region come from

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
-/// @brief Checks of a volume file's header before its data are read or allocated (issue 36
-/// item 1): what the header claims against a memory ceiling and against the file itself.
+/// @brief Checks of a volume file's header before its data are read or allocated: what the header
+/// claims against a memory ceiling and against the file itself.
 
 #include <string>
 

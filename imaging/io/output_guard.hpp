@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// @brief What keeps an output as it was when a run fails, is interrupted or meets another run
-/// (issue 36 item 3):
+///:
 /// - temporaries (the files and folders that write_atomically() and write_folder_atomically()
 ///   fill before renaming them into place) are registered while they exist, and a SIGINT, SIGTERM
 ///   or SIGHUP removes them before the process ends with that signal;

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Reading VTK files as hostile input (issue 36, found by fuzzing): a reader's Update()
+/// @brief Reading VTK files as hostile input (found by fuzzing): a reader's Update()
 /// whose allocations fail becomes a one-line error naming the file, and the cells of what it
 /// returns are checked before anything walks them (VTK's XML readers accept offsets and point ids
 /// that index beyond the arrays, and traversing such cells reads out of bounds).

@@ -55,7 +55,7 @@ constexpr std::array<core::EnumName<NoiseCriterion>, 2> enum_names(NoiseCriterio
 
 struct NoiseOptions {
   /// Run the SMOOTH stage at the chosen compliance, or keep the start (BLOCK_CV's ε → ∞). On by
-  /// default since 2026-12-03 (issue 14 item 3), with ε → ∞ the start's rigid + bulk state and
+  /// default since 2026-12-03, with ε → ∞ the start's rigid + bulk state and
   /// the paired test at z = 2: the deformation the loop adds beyond the start is kept only when it
   /// predicts held-out vessel branches better than the start does, by two standard errors. With
   /// the start's bulk shift bounded to a sag (GlobalStartOptions::bulk_sinks) this is never
@@ -84,7 +84,7 @@ struct NoiseOptions {
   /// minimum the cost on near-rigid cases is ≤ 0.11 mm against rigid alone
   /// (docs/history/BENCHMARKS_NOTEBOOK.md, "Never worse than rigid").
   bool one_standard_error = false;
-  /// BLOCK_CV: the paired test (issue 14 item 3). Deform only when the best finite compliance
+  /// BLOCK_CV: the paired test. Deform only when the best finite compliance
   /// predicts the held-out blocks better than ε → ∞ (no deformation beyond the start) by more
   /// than `paired_test_z` standard errors of the mean per-block difference
   /// d_B = ‖e_B(∞)‖² − ‖e_B(ε*)‖² (paired over the blocks, as the one-SE rule); otherwise keep

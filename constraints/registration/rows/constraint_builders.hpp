@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Constraint builders of the registration (issue 4 item 3): rows from filtered pairs and
+/// @brief Constraint builders of the registration: rows from filtered pairs and
 /// from the model's own surface. Positions in mm, world frame of the model.
 ///   vessels    — sliding on a line: the model's skeleton point nearest to an intra-operative
 ///                vessel point must lie on the line through that point along the segment

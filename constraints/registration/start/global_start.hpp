@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Global start of the registration (issue 14 item 2): the rigid pose (rotation and
+/// @brief Global start of the registration: the rigid pose (rotation and
 /// translation) of the intra-operative vessel points relative to the pre-operative skeleton, plus
 /// the amplitude of the model's bulk response, found by an exhaustive search that a dense tree
 /// cannot fool, then refined locally. Positions in mm, world (RAS) frame; angles in degrees.
@@ -70,7 +70,7 @@ namespace brainshift::constraints {
 /// GlobalStartOptions::navigation_accuracy_mm measured on real surgeries.
 inline constexpr double kResectNavigationAccuracyMm = 6.6;
 
-/// Options of global_start(); defaults recover offsets up to 25 mm and 5° (issue 14).
+/// Options of global_start(); defaults recover offsets up to 25 mm and 5°.
 struct GlobalStartOptions {
   double max_translation_mm = 25.0;  ///< translations searched, per axis (mm)
   double max_rotation_deg = 5.0;     ///< rotations searched, per axis (degrees)

@@ -100,7 +100,7 @@ Vector3d bulk_amplitude(const RegistrationModel& model, const LoopInputs& in,
   return a.allFinite() ? a : Vector3d::Zero();
 }
 
-/// The start's state (issue 14 item 3): the rest nodes plus the bulk response to the start's
+/// The start's state: the rest nodes plus the bulk response to the start's
 /// accepted bulk shift s, u_n = R_n a with R_n the node's load response (column k: axis k) and a
 /// from bulk_amplitude() (so the vessel points see the shift the start found); a translation by s
 /// without the load basis; the rest nodes when no bulk shift was accepted. A warm start's state

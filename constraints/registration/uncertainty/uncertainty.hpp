@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// @brief Predicted error of a registration (issue 16): the posterior covariance of the nodal
+/// @brief Predicted error of a registration: the posterior covariance of the nodal
 /// displacement under the linear-Gaussian reading of the registration's own MAP problem.
 ///
 /// Model (the same one noise_model.hpp reads the vessel compliance from): the displacement has

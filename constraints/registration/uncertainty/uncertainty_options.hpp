@@ -4,7 +4,7 @@
 /// (constraints/registration/uncertainty/uncertainty.hpp) and their table (core/option_fields.hpp):
 /// the scene's group `uncertainty`.
 ///
-/// The tracking prior (issue 16): the intra-operative data come in the tracker's frame, and an
+/// The tracking prior: the intra-operative data come in the tracker's frame, and an
 /// error of that frame (tracker, probe calibration) that every row shares is invisible to the
 /// rows: the registration follows it and no residual shows it. Its stated accuracy is a rigid-pose
 /// covariance added to Σ: a translation of RMS length `tracking_translation_mm` (isotropic) and a
