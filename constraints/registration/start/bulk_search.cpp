@@ -5,6 +5,7 @@
 #include "core/error.hpp"
 #include "core/logger.hpp"
 #include "core/mapping/closest_point.hpp"
+#include "core/parallel.hpp"
 
 #include <Eigen/Eigenvalues>
 
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <sstream>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -47,6 +49,16 @@ core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points
 
 }  // namespace detail
 
+namespace {
+
+/// Threads for the coarse grid: the machine's cores, at most 4 (the 2-core targets: both; the
+/// registration runs after the model load and the extraction, so the second core is idle).
+int scoring_threads() {
+  return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1U, 4U));
+}
+
+}  // namespace
+
 std::string BulkSearchOptions::validate() const {
   if (!(radius_mm >= 0)) return "shift search: radius_mm must be ≥ 0";
   if (!(coarse_step_mm > 0)) return "shift search: coarse_step_mm must be > 0";
@@ -79,7 +91,8 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
   const double margin = reach * R * std::sqrt(3.0) + tc + options.voxel_mm;
   const Vector3d lo = points.colwise().minCoeff().transpose().array() - margin;
   const Vector3d hi = points.colwise().maxCoeff().transpose().array() + margin;
-  const detail::DistanceGrid table(skeleton, lo, hi, options.voxel_mm, tc);
+  const detail::DistanceGrid table(skeleton, lo, hi, options.voxel_mm, tc,
+                                   /*stored_near_skeleton=*/true);
   const Eigen::Index stride = (points.rows() + options.max_points - 1) / options.max_points;
   const Eigen::Index n = (points.rows() + stride - 1) / stride;
 
@@ -105,8 +118,20 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
     return score;
   };
 
-  // Coarse: every shift of the grid.
+  // Coarse: every shift of the grid, scored on the idle cores one z-plane at a time (each plane
+  // writes its own scores), then scanned in order: the same answer on any number of threads.
   const int k = static_cast<int>(std::floor(R / options.coarse_step_mm));
+  const int side = 2 * k + 1;
+  std::vector<double> scores(static_cast<std::size_t>(side) * side * side);
+  const auto at = [side](int x, int y, int z) {
+    return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
+  };
+  core::parallel_chunks(static_cast<std::size_t>(side), scoring_threads(), [&](std::size_t c) {
+    const int z = static_cast<int>(c);
+    for (int y = 0; y < side; ++y)
+      for (int x = 0; x < side; ++x)
+        scores[at(x, y, z)] = coarse(options.coarse_step_mm * Vector3d(x - k, y - k, z - k));
+  });
   Vector3d best = Vector3d::Zero();
   double best_score = -1;
   for (int z = -k; z <= k; ++z)
@@ -114,7 +139,7 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
       for (int x = -k; x <= k; ++x) {
         const Vector3d s = options.coarse_step_mm * Vector3d(x, y, z);
         // Ties go to the smaller shift.
-        const double sc = coarse(s);
+        const double sc = scores[at(x + k, y + k, z + k)];
         if (sc > best_score + 1e-9 || (sc > best_score - 1e-9 && s.norm() < best.norm())) {
           best_score = sc;
           best = s;

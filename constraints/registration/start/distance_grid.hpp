@@ -6,6 +6,7 @@
 /// does not depend on imaging (cmake/layering.cmake).
 
 #include "core/config.hpp"
+#include "core/error.hpp"
 #include "core/geometry/skeleton.hpp"
 #include "core/mapping/closest_point.hpp"
 
@@ -20,12 +21,32 @@ namespace brainshift::constraints::detail {
 /// τ) and the kernel κ_τ quantised to 0…255, on a regular grid.
 class DistanceGrid {
  public:
+  /// The grid of voxels lo + h·(x, y, z) covering [lo, hi]. With `stored_near_skeleton`, only the
+  /// voxels within τ (and a cell) of the skeleton's segments are stored: every other voxel of the
+  /// grid holds τ², −1 and κ = 0 anyway, so nearest(), segment() and trilinear() answer exactly as
+  /// the whole grid would, for a fraction of the memory when the grid is much larger than the
+  /// skeleton (the bulk search's box grows with every shift it tries). kernel() and index() are
+  /// then unavailable (the global start, which reads the kernel directly, stores the whole grid).
   DistanceGrid(const core::Skeleton& s, const Vector3d& lo, const Vector3d& hi, double h,
-               double tau)
+               double tau, bool stored_near_skeleton = false)
       : m_lo(lo), m_h(h), m_tau2(tau * tau) {
     m_dims = (((hi - lo) / h).array().ceil().cast<int>() + 1).matrix();
-    const auto n = static_cast<std::size_t>(m_dims.x()) * static_cast<std::size_t>(m_dims.y()) *
-                   static_cast<std::size_t>(m_dims.z());
+    m_w0.setZero();
+    m_wd = m_dims;
+    if (stored_near_skeleton) {
+      Eigen::Vector3i c0 = m_dims, c1 = Eigen::Vector3i::Constant(-1);
+      for (const auto& seg : s.segments) {
+        const Vector3d a = s.points.row(seg[0]).transpose(), b = s.points.row(seg[1]).transpose();
+        c0 = c0.cwiseMin(floor_cell(a.cwiseMin(b).array() - tau));
+        c1 = c1.cwiseMax(floor_cell(a.cwiseMax(b).array() + tau) + Eigen::Vector3i::Ones());
+      }
+      m_w0 = c0.cwiseMax(0);
+      m_wd = (c1.cwiseMin(m_dims - Eigen::Vector3i::Ones()) - m_w0 + Eigen::Vector3i::Ones())
+                 .cwiseMax(0);
+    }
+    m_whole = m_w0.isZero() && m_wd == m_dims;
+    const auto n = static_cast<std::size_t>(m_wd.x()) * static_cast<std::size_t>(m_wd.y()) *
+                   static_cast<std::size_t>(m_wd.z());
     m_d2.assign(n, static_cast<float>(m_tau2));
     m_seg.assign(n, -1);
     for (std::size_t si = 0; si < s.segments.size(); ++si) {
@@ -33,14 +54,15 @@ class DistanceGrid {
                      b = s.points.row(s.segments[si][1]).transpose();
       const Eigen::Vector3i c0 = floor_cell(a.cwiseMin(b).array() - tau),
                             c1 = floor_cell(a.cwiseMax(b).array() + tau) + Eigen::Vector3i::Ones();
-      const Eigen::Vector3i l = c0.cwiseMax(0), u = c1.cwiseMin(m_dims - Eigen::Vector3i::Ones());
+      const Eigen::Vector3i l = c0.cwiseMax(m_w0),
+                            u = c1.cwiseMin(m_w0 + m_wd - Eigen::Vector3i::Ones());
       for (int z = l.z(); z <= u.z(); ++z)
         for (int y = l.y(); y <= u.y(); ++y)
           for (int x = l.x(); x <= u.x(); ++x) {
             const Vector3d q = m_lo + h * Vector3d(x, y, z);
             const double t = core::closest_point_on_segment(q, a, b);
             const auto e = static_cast<float>((q - (a + t * (b - a))).squaredNorm());
-            const std::size_t k = index(x, y, z);
+            const std::size_t k = stored(x, y, z);
             if (e < m_d2[k]) {
               m_d2[k] = e;
               m_seg[k] = static_cast<std::int32_t>(si);
@@ -54,12 +76,15 @@ class DistanceGrid {
   }
   [[nodiscard]] const Eigen::Vector3i& dims() const { return m_dims; }
   [[nodiscard]] double spacing() const { return m_h; }
-  [[nodiscard]] const std::uint8_t* kernel() const { return m_kernel.data(); }
+  /// κ quantised, the whole grid (only when it is stored whole).
+  [[nodiscard]] const std::uint8_t* kernel() const {
+    BS_ASSERT(m_whole, "the distance grid is stored near the skeleton only");
+    return m_kernel.data();
+  }
+  /// Offset of voxel (x, y, z) in kernel() (only when the grid is stored whole).
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
-    return static_cast<std::size_t>(x) +
-           static_cast<std::size_t>(m_dims.x()) *
-               (static_cast<std::size_t>(y) +
-                static_cast<std::size_t>(m_dims.y()) * static_cast<std::size_t>(z));
+    BS_ASSERT(m_whole, "the distance grid is stored near the skeleton only");
+    return stored(x, y, z);
   }
   [[nodiscard]] Eigen::Vector3i nearest_cell(const Vector3d& q) const {
     return ((q - m_lo) / m_h).array().round().cast<int>();
@@ -70,12 +95,12 @@ class DistanceGrid {
   /// Squared distance at the voxel nearest q (coarse lookup), τ² outside the grid.
   [[nodiscard]] double nearest(const Vector3d& q) const {
     const Eigen::Vector3i c = nearest_cell(q);
-    return inside(c) ? double(m_d2[index(c.x(), c.y(), c.z())]) : m_tau2;
+    return inside(c) ? double(d2_at(c.x(), c.y(), c.z())) : m_tau2;
   }
   /// Segment nearest to the voxel nearest q, −1 beyond τ or outside the grid.
   [[nodiscard]] std::int32_t segment(const Vector3d& q) const {
     const Eigen::Vector3i c = nearest_cell(q);
-    return inside(c) ? m_seg[index(c.x(), c.y(), c.z())] : -1;
+    return inside(c) && in_store(c.x(), c.y(), c.z()) ? m_seg[stored(c.x(), c.y(), c.z())] : -1;
   }
   /// Trilinear squared distance, τ² outside the grid.
   [[nodiscard]] double trilinear(const Vector3d& q) const {
@@ -89,12 +114,28 @@ class DistanceGrid {
       const int dx = k & 1, dy = (k >> 1) & 1, dz = (k >> 2) & 1;
       const double w =
           (dx ? f.x() : 1 - f.x()) * (dy ? f.y() : 1 - f.y()) * (dz ? f.z() : 1 - f.z());
-      v += w * m_d2[index(c.x() + dx, c.y() + dy, c.z() + dz)];
+      v += w * d2_at(c.x() + dx, c.y() + dy, c.z() + dz);
     }
     return v;
   }
 
  private:
+  [[nodiscard]] bool in_store(int x, int y, int z) const {
+    return x >= m_w0.x() && y >= m_w0.y() && z >= m_w0.z() && x < m_w0.x() + m_wd.x() &&
+           y < m_w0.y() + m_wd.y() && z < m_w0.z() + m_wd.z();
+  }
+  /// Offset of a stored voxel (grid indices).
+  [[nodiscard]] std::size_t stored(int x, int y, int z) const {
+    return static_cast<std::size_t>(x - m_w0.x()) +
+           static_cast<std::size_t>(m_wd.x()) *
+               (static_cast<std::size_t>(y - m_w0.y()) +
+                static_cast<std::size_t>(m_wd.y()) * static_cast<std::size_t>(z - m_w0.z()));
+  }
+  /// The squared distance of a voxel of the grid: stored, or the τ² every unstored voxel holds
+  /// (as the float a stored one would, so that trilinear() sums the same numbers either way).
+  [[nodiscard]] float d2_at(int x, int y, int z) const {
+    return in_store(x, y, z) ? m_d2[stored(x, y, z)] : static_cast<float>(m_tau2);
+  }
   [[nodiscard]] Eigen::Vector3i floor_cell(const Vector3d& p) const {
     return ((p - m_lo) / m_h).array().floor().cast<int>();
   }
@@ -102,6 +143,9 @@ class DistanceGrid {
   double m_h;
   double m_tau2;
   Eigen::Vector3i m_dims;
+  Eigen::Vector3i m_w0,
+      m_wd;  ///< the stored window: first voxel and size (the whole grid by default)
+  bool m_whole = true;
   std::vector<float> m_d2;
   std::vector<std::int32_t> m_seg;
   std::vector<std::uint8_t> m_kernel;

@@ -1,6 +1,7 @@
 // Bulk-shift search: a dense lattice of vessels closer together than the shift, so that the
 // nearest-feature pairing at the rest shape would pick the neighbouring vessel.
 #include "constraints/registration/start/bulk_search.hpp"
+#include "constraints/registration/start/distance_grid.hpp"
 #include "constraints/registration/start/global_start.hpp"
 #include "core/error.hpp"
 
@@ -109,6 +110,28 @@ TEST(BulkSearch, AKnownPoseIsKeptAndTheShiftIsFoundInItsFrame) {
   EXPECT_FALSE(p.bulk_accepted);
   EXPECT_TRUE(p.bulk_message.empty()) << p.bulk_message;
   EXPECT_TRUE(p.bulk_shift.isZero());
+}
+
+TEST(DistanceGrid, StoredNearTheSkeletonAnswersAsTheWholeGrid) {
+  // The bulk search's box is much larger than the skeleton; its table stores only the voxels
+  // near the segments. The answer must be the whole grid's, to the bit: at random points of the
+  // box, near the vessels, near the stored window's edges and outside the grid.
+  const core::Skeleton s = vessel_lattice();
+  const Vector3d lo(-70, -65, -60), hi(75, 70, 66);
+  const double h = 0.5, tau = 3.0;
+  const detail::DistanceGrid whole(s, lo, hi, h, tau);
+  const detail::DistanceGrid near(s, lo, hi, h, tau, /*stored_near_skeleton=*/true);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-80.0, 80.0), v(-27.0, 27.0), w(-8.0, 8.0);
+  int checked = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const Vector3d q = i % 2 ? Vector3d(u(rng), u(rng), u(rng)) : Vector3d(v(rng), v(rng), w(rng));
+    ASSERT_EQ(near.nearest(q), whole.nearest(q)) << q.transpose();
+    ASSERT_EQ(near.trilinear(q), whole.trilinear(q)) << q.transpose();
+    ASSERT_EQ(near.segment(q), whole.segment(q)) << q.transpose();
+    checked += whole.nearest(q) < tau * tau;
+  }
+  EXPECT_GT(checked, 1000);  // many of the points are near a vessel, not all far
 }
 
 }  // namespace
