@@ -13,6 +13,11 @@
 
 namespace brainshift::core {
 
+/// The machine's hardware threads, at least 1 and at most `most`.
+inline int hardware_threads(int most) {
+  return std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, std::max(most, 1));
+}
+
 /// @brief Runs job(c) for c = 0 .. chunks − 1 on min(threads, chunks) threads (the caller's
 /// thread is one of them); chunks are taken in increasing order, so put the largest first.
 /// The first exception thrown by a job stops the others at their next chunk and is rethrown here.

@@ -3,6 +3,8 @@
 /// @brief A minimal parallel loop for the voxel filters: [0, n) split into contiguous chunks,
 /// one per hardware thread (at most 8), the calling thread taking the first.
 
+#include "core/parallel.hpp"
+
 #include <algorithm>
 #include <thread>
 #include <vector>
@@ -13,8 +15,7 @@ namespace brainshift::imaging::filters {
 /// write data owned by its chunk. Single-threaded when n is small or one thread is available.
 template <typename F>
 void parallel_for(int n, F&& body) {
-  const int threads =
-      std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(8, std::max(1, n / 4)));
+  const int threads = std::min(core::hardware_threads(8), std::max(1, n / 4));
   if (threads <= 1) {
     body(0, n);
     return;

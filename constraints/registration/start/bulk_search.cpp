@@ -13,7 +13,6 @@
 #include <cmath>
 #include <cstdint>
 #include <sstream>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -48,16 +47,6 @@ core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points
 }
 
 }  // namespace detail
-
-namespace {
-
-/// Threads for the coarse grid: the machine's cores, at most 4 (the 2-core targets: both; the
-/// registration runs after the model load and the extraction, so the second core is idle).
-int scoring_threads() {
-  return static_cast<int>(std::clamp(std::thread::hardware_concurrency(), 1U, 4U));
-}
-
-}  // namespace
 
 std::string BulkSearchOptions::validate() const {
   if (!(radius_mm >= 0)) return "shift search: radius_mm must be ≥ 0";
@@ -126,12 +115,15 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
   const auto at = [side](int x, int y, int z) {
     return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
   };
-  core::parallel_chunks(static_cast<std::size_t>(side), scoring_threads(), [&](std::size_t c) {
-    const int z = static_cast<int>(c);
-    for (int y = 0; y < side; ++y)
-      for (int x = 0; x < side; ++x)
-        scores[at(x, y, z)] = coarse(options.coarse_step_mm * Vector3d(x - k, y - k, z - k));
-  });
+  // At most 4 threads: on the 2-core targets both, idle while the registration runs (the model
+  // load and the extraction are over).
+  core::parallel_chunks(
+      static_cast<std::size_t>(side), core::hardware_threads(4), [&](std::size_t c) {
+        const int z = static_cast<int>(c);
+        for (int y = 0; y < side; ++y)
+          for (int x = 0; x < side; ++x)
+            scores[at(x, y, z)] = coarse(options.coarse_step_mm * Vector3d(x - k, y - k, z - k));
+      });
   Vector3d best = Vector3d::Zero();
   double best_score = -1;
   for (int z = -k; z <= k; ++z)

@@ -44,7 +44,6 @@ class DistanceGrid {
       m_wd = (c1.cwiseMin(m_dims - Eigen::Vector3i::Ones()) - m_w0 + Eigen::Vector3i::Ones())
                  .cwiseMax(0);
     }
-    m_whole = m_w0.isZero() && m_wd == m_dims;
     const auto n = static_cast<std::size_t>(m_wd.x()) * static_cast<std::size_t>(m_wd.y()) *
                    static_cast<std::size_t>(m_wd.z());
     m_d2.assign(n, static_cast<float>(m_tau2));
@@ -78,12 +77,12 @@ class DistanceGrid {
   [[nodiscard]] double spacing() const { return m_h; }
   /// κ quantised, the whole grid (only when it is stored whole).
   [[nodiscard]] const std::uint8_t* kernel() const {
-    BS_ASSERT(m_whole, "the distance grid is stored near the skeleton only");
+    BS_ASSERT(whole(), "the distance grid is stored near the skeleton only");
     return m_kernel.data();
   }
   /// Offset of voxel (x, y, z) in kernel() (only when the grid is stored whole).
   [[nodiscard]] std::size_t index(int x, int y, int z) const {
-    BS_ASSERT(m_whole, "the distance grid is stored near the skeleton only");
+    BS_ASSERT(whole(), "the distance grid is stored near the skeleton only");
     return stored(x, y, z);
   }
   [[nodiscard]] Eigen::Vector3i nearest_cell(const Vector3d& q) const {
@@ -120,6 +119,7 @@ class DistanceGrid {
   }
 
  private:
+  [[nodiscard]] bool whole() const { return m_w0.isZero() && m_wd == m_dims; }
   [[nodiscard]] bool in_store(int x, int y, int z) const {
     return x >= m_w0.x() && y >= m_w0.y() && z >= m_w0.z() && x < m_w0.x() + m_wd.x() &&
            y < m_w0.y() + m_wd.y() && z < m_w0.z() + m_wd.z();
@@ -145,7 +145,6 @@ class DistanceGrid {
   Eigen::Vector3i m_dims;
   Eigen::Vector3i m_w0,
       m_wd;  ///< the stored window: first voxel and size (the whole grid by default)
-  bool m_whole = true;
   std::vector<float> m_d2;
   std::vector<std::int32_t> m_seg;
   std::vector<std::uint8_t> m_kernel;

@@ -9,13 +9,6 @@
 
 namespace brainshift::constraints {
 
-namespace detail {
-
-using core::Clock;
-using core::seconds_since;
-
-}  // namespace detail
-
 StartResult pre_dura_pose(const RegistrationModel& model, ConstRef<MatrixX3d> vessel_points,
                           const RegistrationOptions& options) {
   GlobalStartOptions o = options.global_start;
@@ -29,6 +22,9 @@ StartResult rigid_start(const RegistrationModel& model, const IntraopData& data,
 }
 
 namespace detail {
+
+using core::Clock;
+using core::seconds_since;
 
 void rigid_only_start(const RegistrationModel& model, const IntraopData& data,
                       const RegistrationOptions& options, RegistrationResult& res) {

@@ -9,7 +9,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <iostream>
+#include <limits>
 #include <tuple>
 #include <utility>
 
@@ -51,6 +53,18 @@ struct FarNodeInjection {
     std::tie(node, farthest) = farthest_free_node(s);
   }
 };
+
+/// Fault injection: the node pushed ±a (mm, along z) after each of the first `steps` steps,
+/// whatever the step (after the trust limit and DAMP's share), the steps after it left clean.
+std::function<void(StepResult&)> push_back_and_forth(const Scene& s, index_t node, double a,
+                                                     int steps) {
+  return [node, a, steps, k = 0, x_before = MatrixX3d(s.mesh.nodes())](StepResult& step) mutable {
+    if (++k > steps) return;
+    step.x(node, 2) += (k % 2 == 0 ? a : -a);
+    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
+    x_before = step.x;
+  };
+}
 
 TEST(RegistrationLoop, TrustRegionHalvesOnATurnBackAndGrowsOtherwise) {
   double radius = 4.0, damping = 1.0;
@@ -318,14 +332,8 @@ TEST(RegistrationLoop, AnOscillationNothingDampsEndsNotSettlingBeforeTheIteratio
   auto& [s, d, o, clean, node, farthest] = c;
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
   ASSERT_GE(node, 0);
-  const double a = 1.0;  // mm: far above the 0.01 mm tolerance, so no step is ever "small"
-  MatrixX3d x_before = s.mesh.nodes();
-  int k = 0;
-  o.inspect_step = [&](StepResult& step) {
-    step.x(node, 2) += (++k % 2 == 0 ? a : -a);
-    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
-    x_before = step.x;
-  };
+  // 1 mm: far above the 0.01 mm tolerance, so no step is ever "small"; pushed at every step.
+  o.inspect_step = push_back_and_forth(s, node, 1.0, std::numeric_limits<int>::max());
   const RegistrationResult r = register_model(*s.model, d, o);
   int shrinks = 0;
   for (const IterationRecord& h : r.history) shrinks += h.trust == TrustDecision::SHRINK;
@@ -350,21 +358,13 @@ TEST(RegistrationLoop, AFreeStageThatDoesNotSettleStillGetsTheNoiseModel) {
   FarNodeInjection c;
   auto& [s, d, o, clean, node, farthest] = c;
   ASSERT_GE(node, 0);
-  auto inject = [&, node = node](int steps) {
-    return [&, node, steps, k = 0, x_before = MatrixX3d(s.mesh.nodes())](StepResult& step) mutable {
-      if (++k > steps) return;
-      step.x(node, 2) += (k % 2 == 0 ? 1.0 : -1.0);
-      step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
-      x_before = step.x;
-    };
-  };
-  o.inspect_step = inject(1 << 20);
+  o.inspect_step = push_back_and_forth(s, node, 1.0, std::numeric_limits<int>::max());
   const RegistrationResult stuck = register_model(*s.model, d, o);
   ASSERT_EQ(stuck.stop, RegistrationStop::NOT_SETTLING) << stuck.stop_reason;
   const int n = stuck.iterations;
 
   o.noise.enabled = true;
-  o.inspect_step = inject(n);
+  o.inspect_step = push_back_and_forth(s, node, 1.0, n);
   const RegistrationResult r = register_model(*s.model, d, o);
   std::cout << "[ loop ] " << r.stop_reason << "\n";
   ASSERT_FALSE(r.stages.empty());
