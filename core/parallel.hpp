@@ -43,4 +43,20 @@ void parallel_chunks(std::size_t chunks, int threads, const Job& job) {
     if (e) std::rethrow_exception(e);
 }
 
+/// @brief Runs job(begin, end) over [0, count) in fixed blocks of `block` items, on up to
+/// hardware_threads(most) threads; serial (one call, no thread started) when count ≤ block. The
+/// blocks do not depend on the number of threads, so a job that writes only items [begin, end)
+/// gives the same result on any machine.
+template <class Job>
+void parallel_blocks(std::size_t count, std::size_t block, int most, const Job& job) {
+  block = std::max<std::size_t>(block, 1);
+  if (count <= block) {
+    job(std::size_t{0}, count);
+    return;
+  }
+  const std::size_t chunks = (count + block - 1) / block;
+  parallel_chunks(chunks, hardware_threads(most),
+                  [&](std::size_t c) { job(c * block, std::min(count, (c + 1) * block)); });
+}
+
 }  // namespace brainshift::core

@@ -167,7 +167,13 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             nlohmann::json ignored;
             data_pre.pose = pose_from_pre_dura(s, pre, o, ignored);
             variants["pre_dura"] = o;
-            methods.push_back("pre_dura");
+            // pre_dura_z1 — the same with the paired test at one standard error;
+            // pre_dura_start_only — the pre-dura pose and the bulk search alone, no loop: the
+            // "rigid alone" of the two-sweep workflow.
+            variants["pre_dura_z1"] = o;
+            variants["pre_dura_z1"].noise.paired_test_z = 1.0;
+            variants["pre_dura_start_only"] = o;
+            methods.insert(methods.end(), {"pre_dura", "pre_dura_z1", "pre_dura_start_only"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {
@@ -178,12 +184,14 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
               r.prepare_s = prepare_s;
               const std::string& m = method;
               const RegistrationResult res = median_of(args.repeat, [&] {
-                return m == "rigid_only"        ? rigid_only(*s.model, data, o)
-                       : m == "bulk_start_only" ? constraints::start_only(*s.model, data, o)
+                return m == "rigid_only"            ? rigid_only(*s.model, data, o)
+                       : m == "bulk_start_only"     ? constraints::start_only(*s.model, data, o)
+                       : m == "pre_dura_start_only" ? constraints::start_only(*s.model, data_pre, o)
                        : m == "prescribed_displacement"
                            ? prescribed_displacement(*s.model, data, o)
                            : constraints::register_model(
-                                 *s.model, m == "pre_dura" ? data_pre : data, variants.at(m));
+                                 *s.model, m.rfind("pre_dura", 0) == 0 ? data_pre : data,
+                                 variants.at(m));
               });
               score(r, *s.model, res, c, data);
               // Which vessel compliance the loop ended with (the noise model's choice, if applied).

@@ -2,12 +2,19 @@
 
 #include "core/error.hpp"
 #include "core/fem/rotation.hpp"
+#include "core/parallel.hpp"
 
 #include <cmath>
 
 namespace brainshift::core {
 
 namespace {
+
+/// Elements per block of the per-element loops, which run on up to kThreads threads: each block
+/// writes only its own elements, so the results are the same on any number of threads (the
+/// nodal sums stay serial, in element order). Below two blocks nothing is started.
+constexpr std::size_t kElementBlock = 4096;
+constexpr int kThreads = 2;
 
 /// The 12-vector (x0, y0, z0, …, z3) of the nodes of tetrahedron t in positions P (#N×3).
 Vector12d gather(ConstRef<MatrixX3d> P, const MatrixX4i& T, index_t t) {
@@ -48,15 +55,20 @@ ElementRotations CorotationalModel::element_rotations(ConstRef<MatrixX3d> x,
   const MatrixX4i& T = m_mesh.tets();
   ElementRotations out;
   out.rotation.resize(static_cast<std::size_t>(m_mesh.num_tets()));
-  for (index_t t = 0; t < m_mesh.num_tets(); ++t) {
-    Matrix3d Ds;
-    for (int k = 0; k < 3; ++k) Ds.col(k) = (x.row(T(t, k + 1)) - x.row(T(t, 0))).transpose();
-    const auto ut = static_cast<std::size_t>(t);
-    const Matrix3d F = Ds * (rest ? rest->edges_inv[ut] : m_shapes[ut].rest_edges_inv);
-    bool inverted = false;
-    out.rotation[static_cast<std::size_t>(t)] = rotation_from_deformation_gradient(F, &inverted);
-    if (inverted) ++out.inverted_count;
-  }
+  std::vector<std::uint8_t> inverted(out.rotation.size(), 0);
+  parallel_blocks(
+      out.rotation.size(), kElementBlock, kThreads, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t ut = begin; ut < end; ++ut) {
+          const auto t = static_cast<index_t>(ut);
+          Matrix3d Ds;
+          for (int k = 0; k < 3; ++k) Ds.col(k) = (x.row(T(t, k + 1)) - x.row(T(t, 0))).transpose();
+          const Matrix3d F = Ds * (rest ? rest->edges_inv[ut] : m_shapes[ut].rest_edges_inv);
+          bool flipped = false;
+          out.rotation[ut] = rotation_from_deformation_gradient(F, &flipped);
+          inverted[ut] = flipped ? 1 : 0;
+        }
+      });
+  for (const std::uint8_t v : inverted) out.inverted_count += v;
   return out;
 }
 
@@ -72,19 +84,28 @@ Eigen::VectorXd CorotationalModel::internal_force(ConstRef<MatrixX3d> x,
       !rest || (rest->nodes.rows() == n && rest->mesh_rest.size() == static_cast<std::size_t>(nt)),
       "the rest shape is not of this mesh");
   const MatrixX4i& T = m_mesh.tets();
+  // Each element's nodal forces R̂ K_e (R̂ᵀ x_e − X_e), on threads; then summed into the nodes
+  // in element order (serial: the same sums, to the bit, on any number of threads).
+  std::vector<Vector12d> element_force(static_cast<std::size_t>(nt));
+  parallel_blocks(
+      element_force.size(), kElementBlock, kThreads, [&](std::size_t begin, std::size_t end) {
+        for (std::size_t ut = begin; ut < end; ++ut) {
+          const auto t = static_cast<index_t>(ut);
+          const Matrix3d& R = rotations[ut];
+          const Vector12d xe = gather(x, T, t);
+          const bool own = rest && !rest->mesh_rest[ut];
+          const Vector12d Xe = gather(own ? rest->nodes : m_mesh.nodes(), T, t);
+          Vector12d d;  // R̂ᵀ x_e − X_e
+          for (int k = 0; k < 4; ++k)
+            d.segment<3>(3 * k) = R.transpose() * xe.segment<3>(3 * k) - Xe.segment<3>(3 * k);
+          const Vector12d g = m_stiffness[ut] * d;
+          for (int k = 0; k < 4; ++k) element_force[ut].segment<3>(3 * k) = R * g.segment<3>(3 * k);
+        }
+      });
   Eigen::VectorXd f = Eigen::VectorXd::Zero(3 * n);
-  for (index_t t = 0; t < nt; ++t) {
-    const Matrix3d& R = rotations[static_cast<std::size_t>(t)];
-    const Vector12d xe = gather(x, T, t);
-    const bool own = rest && !rest->mesh_rest[static_cast<std::size_t>(t)];
-    const Vector12d Xe = gather(own ? rest->nodes : m_mesh.nodes(), T, t);
-    Vector12d d;  // R̂ᵀ x_e − X_e
-    for (int k = 0; k < 4; ++k) {
-      d.segment<3>(3 * k) = R.transpose() * xe.segment<3>(3 * k) - Xe.segment<3>(3 * k);
-    }
-    const Vector12d g = m_stiffness[static_cast<std::size_t>(t)] * d;
-    for (int k = 0; k < 4; ++k) f.segment<3>(3 * T(t, k)) += R * g.segment<3>(3 * k);
-  }
+  for (index_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 4; ++k)
+      f.segment<3>(3 * T(t, k)) += element_force[static_cast<std::size_t>(t)].segment<3>(3 * k);
   return f;
 }
 

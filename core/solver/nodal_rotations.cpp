@@ -2,6 +2,7 @@
 
 #include "core/error.hpp"
 #include "core/fem/rotation.hpp"
+#include "core/parallel.hpp"
 
 namespace brainshift::core {
 
@@ -18,7 +19,11 @@ std::vector<Matrix3d> nodal_rotations(const TetMesh& mesh,
     for (int k = 0; k < 4; ++k) sum[static_cast<std::size_t>(T(t, k))] += weighted;
   }
   // A node without elements (excluded by validate()) gets nearest_rotation(0) = I.
-  for (Matrix3d& M : sum) M = nearest_rotation(M);
+  // The nodes' polar factors are independent: on threads, in fixed blocks (the same result on
+  // any number of threads).
+  parallel_blocks(sum.size(), 4096, 2, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) sum[i] = nearest_rotation(sum[i]);
+  });
   return sum;
 }
 
