@@ -169,11 +169,15 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["pre_dura"] = o;
             // pre_dura_z1 — the same with the paired test at one standard error;
             // pre_dura_start_only — the pre-dura pose and the bulk search alone, no loop: the
-            // "rigid alone" of the two-sweep workflow.
+            // "rigid alone" of the two-sweep workflow; pre_dura_from_rest — the loop started at
+            // the rest nodes instead of at the bulk load's rest (start_at_load_rest off).
             variants["pre_dura_z1"] = o;
             variants["pre_dura_z1"].noise.paired_test_z = 1.0;
             variants["pre_dura_start_only"] = o;
-            methods.insert(methods.end(), {"pre_dura", "pre_dura_z1", "pre_dura_start_only"});
+            variants["pre_dura_from_rest"] = o;
+            variants["pre_dura_from_rest"].start_at_load_rest = false;
+            methods.insert(methods.end(), {"pre_dura", "pre_dura_z1", "pre_dura_start_only",
+                                           "pre_dura_from_rest"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {

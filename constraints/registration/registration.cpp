@@ -480,6 +480,13 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
     in.start_state = start_positions(model, in, res, options, initial);
   LoopState state;
   state.positions = res.positions;
+  // Not where the load's response flattens or inverts an element (RestShape::degenerate): the
+  // iteration would start from inverted elements; from the rest nodes it never meets them.
+  if (options.start_at_load_rest && !initial && in.bulk_rest && in.bulk_rest->degenerate == 0 &&
+      in.vessels && res.start.bulk_accepted && options.shift_stage_iterations > 0) {
+    in.held_pairing_positions = state.positions;  // the HELD stage's pairs: as from the rest nodes
+    state.positions = in.bulk_rest->nodes;        // the iterate: where the load's response is
+  }
   if (initial)
     for (const auto& [k, l] : initial->lambda) state.warm[k] = l;
 

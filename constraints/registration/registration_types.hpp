@@ -110,6 +110,15 @@ struct RegistrationOptions {
   /// load, under which it did not settle (large_shift with a pre-dura pose: 28 elements inverted,
   /// iteration cap, 3.9 mm; as the rest: converged, 0.95 mm; docs/history/BENCHMARKS_NOTEBOOK.md).
   BulkLoad bulk_as_load = BulkLoad::AUTO;
+  /// With a bulk load (bulk_as_load) and no warm start, the iteration starts at the load's rest
+  /// (the rest nodes plus its linear response, where the elastic force is zero) instead of at the
+  /// rest nodes; the HELD stage's first pairs are still made at the rest nodes, so the pairs, the
+  /// equilibrium and the stop test are the same and only the path to them is shorter: from the
+  /// rest nodes the first steps are the model falling into the load's rest, cut to the trust
+  /// radius (a 15 mm sag: four 5 mm steps). Not where the load's response flattens or inverts
+  /// an element (core::RestShape::degenerate > 0). Off: the former start (bench variant
+  /// `pre_dura_from_rest`; on the 13 cases the same errors, iterations 0-25 fewer).
+  bool start_at_load_rest = true;
   /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
   /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
   double refine_pair_distance_mm = 2.0;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace brainshift::constraints {
 namespace {
@@ -124,10 +125,20 @@ void pair_and_filter(const LoopInputs& in, const StageOptions& stage, int it, bo
         model.skeleton_mapping().apply(state.positions), model.skeleton().segments);
     if (stage.kind == StageKind::HELD) {
       rec.pairing = PairingMode::HELD;
-      state.vessel_pairs = it == 1 ? fresh_pairs(index, in.held_pair_points, in.directions,
-                                                 in.segment_tets, options.pair_max_distance_mm,
-                                                 options.vessel_filter, &rec.vessel_filter)
-                                   : reclose(index, in.vessel_points, state.vessel_pairs);
+      if (it == 1) {
+        const bool elsewhere = in.held_pairing_positions.rows() > 0;
+        std::optional<FeatureIndex> at_rest;
+        if (elsewhere)
+          at_rest = FeatureIndex::segments(
+              model.skeleton_mapping().apply(in.held_pairing_positions), model.skeleton().segments);
+        const std::vector<Pair> pairs = fresh_pairs(
+            elsewhere ? *at_rest : index, in.held_pair_points, in.directions, in.segment_tets,
+            options.pair_max_distance_mm, options.vessel_filter, &rec.vessel_filter);
+        // Pairs made elsewhere are closed at the iterate (their features' nearest points there).
+        state.vessel_pairs = elsewhere ? reclose(index, in.vessel_points, pairs) : pairs;
+      } else {
+        state.vessel_pairs = reclose(index, in.vessel_points, state.vessel_pairs);
+      }
     } else if (frozen) {
       rec.pairing = PairingMode::FROZEN;
       state.vessel_pairs = reclose(index, in.vessel_points, state.vessel_pairs);

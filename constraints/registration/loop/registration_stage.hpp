@@ -42,6 +42,10 @@ struct LoopInputs {
   /// StepOptions::rest): the load's equilibrium is the stress-free state, so the corotational
   /// iteration does not carry the load itself. Null without a bulk load.
   std::shared_ptr<const core::RestShape> bulk_rest;
+  /// Where the HELD stage's first pairs are made (#N×3, model frame) when the iteration starts
+  /// elsewhere (RegistrationOptions::start_at_load_rest: the rest nodes, the iterate at the load's
+  /// rest); empty: at the iterate.
+  MatrixX3d held_pairing_positions;
 };
 
 using LambdaKey = std::array<std::int64_t, 3>;  ///< (set, feature, row within the group)
