@@ -119,6 +119,7 @@ LoopInputs loop_inputs(const RegistrationModel& model, const IntraopData& data,
   in.footprint = options.use_footprint && data.footprint_points.rows() > 0 &&
                  model.surface().triangles.rows() > 0;
   in.landmarks = options.use_landmarks && data.landmark_targets.rows() > 0;
+  in.pose_given = data.pose.has_value();
   in.dura = options.dura.mode != DuraOptions::Mode::NONE && model.rest_surface_index() != nullptr;
   const Eigen::Isometry3d& T = res.start.transform;
   in.vessel_points = transformed(T, data.vessel_points);
@@ -283,6 +284,8 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
   const core::TetMesh& mesh = in.model->mesh();
   std::string notes;
   const auto t0 = Clock::now();
+  NoiseOptions noise = options.noise;
+  if (in.pose_given) noise.paired_test_z = options.noise.paired_test_z_with_pose;
   if (options.noise.criterion == NoiseCriterion::BLOCK_CV) {
     std::vector<index_t> blocks;
     blocks.reserve(state.last_vessel_features.size());
@@ -290,14 +293,12 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
       blocks.push_back(f >= 0 && static_cast<std::size_t>(f) < in.segment_blocks.size()
                            ? in.segment_blocks[static_cast<std::size_t>(f)]
                            : -1);
-    res.noise =
-        choose_vessel_compliance(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
-                                 blocks, state.last_scale, ratio0, options.noise,
-                                 in.start_state.rows() ? &state.last_delta_start : nullptr);
+    res.noise = choose_vessel_compliance(
+        state.last_delassus, state.last_delta_free, state.last_vessel_rows, blocks,
+        state.last_scale, ratio0, noise, in.start_state.rows() ? &state.last_delta_start : nullptr);
   } else {
-    res.noise =
-        estimate_vessel_noise(state.last_delassus, state.last_delta_free, state.last_vessel_rows,
-                              state.last_scale, ratio0, options.noise);
+    res.noise = estimate_vessel_noise(state.last_delassus, state.last_delta_free,
+                                      state.last_vessel_rows, state.last_scale, ratio0, noise);
   }
   state.seconds.noise += seconds_since(t0);
   notes = res.noise.message;

@@ -62,7 +62,7 @@ TEST(Bench, QuickWritesResultsTablePlotAndFiniteFigures) {
   }
   EXPECT_EQ(methods, (std::set<std::string>{"constraint_icp", "old_loop", "navigation_prior",
                                             "bulk_start_only", "rigid_only",
-                                            "prescribed_displacement", "pre_dura", "pre_dura_z1",
+                                            "prescribed_displacement", "pre_dura", "pre_dura_z2",
                                             "pre_dura_start_only", "pre_dura_from_rest"}));
   // The pose from the pre-dura sweep keeps the unmoving brain where it is: over 500 points in
   // the whole brain the error is measured 2.9 mm against 9.0 mm with the pose searched after the

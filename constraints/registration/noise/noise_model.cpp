@@ -17,6 +17,7 @@ std::string NoiseOptions::validate() const {
   if (max_iterations < 1) return "noise model: max_iterations must be ≥ 1";
   if (max_rows < 8) return "noise model: max_rows must be ≥ 8";
   if (!(paired_test_z >= 0)) return "noise model: paired_test_z must be ≥ 0";
+  if (!(paired_test_z_with_pose >= 0)) return "noise model: paired_test_z_with_pose must be ≥ 0";
   if (paired_test && !consider_start) return "noise model: the paired test needs consider_start";
   return {};
 }

@@ -284,5 +284,34 @@ TEST(BulkLoad, StartingAtTheLoadsRestReachesTheSameAnswerInFewerIterations) {
   EXPECT_LT(error(a), 0.4);
 }
 
+TEST(PreDura, ThePairedTestUsesItsOwnBarWhenThePoseIsGiven) {
+  // NoiseOptions::paired_test_z_with_pose replaces paired_test_z exactly when IntraopData::pose is
+  // set. On the 10 mm load sag the deformation's held-out gain is positive, so a bar of 0 keeps
+  // the deformation and a bar of 100 standard errors keeps the start; without a pose the same
+  // key changes nothing.
+  Scene s;
+  auto [truth, d] = load_response_sag(s, 10.0, 11);
+  d.pose = Eigen::Isometry3d::Identity();
+  RegistrationOptions low, high;
+  low.start = high.start = RigidStart::IDENTITY;
+  low.noise.paired_test_z = high.noise.paired_test_z = 0.0;  // the one-sweep bar: no effect here
+  low.noise.paired_test_z_with_pose = 0.0;
+  high.noise.paired_test_z_with_pose = 100.0;
+  const RegistrationResult a = register_model(*s.model, d, low);
+  const RegistrationResult b = register_model(*s.model, d, high);
+  ASSERT_TRUE(a.noise.valid) << a.noise.message;
+  ASSERT_TRUE(b.noise.valid) << b.noise.message;
+  std::cout << "[ paired test with pose ] " << a.noise.message << "\n";
+  EXPECT_FALSE(a.noise.keep_start) << a.noise.message;
+  EXPECT_TRUE(b.noise.keep_start) << b.noise.message;
+  IntraopData no_pose = d;
+  no_pose.pose.reset();
+  const RegistrationResult c = register_model(*s.model, no_pose, low);
+  const RegistrationResult e = register_model(*s.model, no_pose, high);
+  EXPECT_EQ(c.noise.keep_start, e.noise.keep_start) << c.noise.message << "\n" << e.noise.message;
+  EXPECT_EQ(c.iterations, e.iterations);
+  EXPECT_EQ((c.positions - e.positions).cwiseAbs().maxCoeff(), 0.0);  // the same computation
+}
+
 }  // namespace
 }  // namespace brainshift::constraints
