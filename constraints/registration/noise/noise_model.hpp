@@ -103,7 +103,8 @@ struct NoiseOptions {
   /// (bench, 13 cases, seeds 1-3, docs/BENCHMARKS.md): z = 1 changes the decision on 10 of 39
   /// runs, 7 of them closer at the landmarks (mean -0.43 mm), 3 behind (+0.41 mm mean; one is
   /// `tracking_error`, whose Doppler is in a wrong tracked frame); over the whole brain closer on
-  /// 8 of 10. Bench variant `pre_dura_z2`: the former default.
+  /// 8 of 10. Bench variant `pre_dura_z2`: the former default. Not a scene key (a decision
+  /// rule, as the criterion: the product's rule is the default, the bench compares).
   double paired_test_z_with_pose = 1.0;
   /// Search range of the ratio ε / median(diag W) (dimensionless, as
   /// StepOptions::compliance_ratio).
@@ -130,8 +131,6 @@ void visit_fields(NoiseOptions& o, V&& v) {
   v("paired_test_z", o.paired_test_z, core::Range{0, 100},
     "deform only when the deformation predicts held-out vessel blocks better than none by this "
     "many standard errors");
-  v("paired_test_z_with_pose", o.paired_test_z_with_pose, core::Range{0, 100},
-    "the same with the pose given (a pre-dura pose): the sag is no longer confounded with it");
   v("min_ratio", o.min_ratio, core::Range{1e-12, 1e9}, "smallest compliance ratio searched");
   v("max_ratio", o.max_ratio, core::Range{1e-12, 1e9}, "largest compliance ratio searched");
   v("grid", o.grid, core::Range{2, 10000}, "log-spaced candidates between the two");
