@@ -23,8 +23,9 @@ struct LoopInputs {
   const RegistrationModel* model = nullptr;
   const RegistrationOptions* options = nullptr;
   bool vessels = false, footprint = false, landmarks = false, dura = false;
-  bool pose_given =
-      false;  ///< IntraopData::pose (a pre-dura pose): NoiseOptions::paired_test_z_with_pose
+  /// IntraopData::pose is set (a pre-dura pose): the paired test's bar is then
+  /// NoiseOptions::paired_test_z_with_pose.
+  bool pose_given = false;
   MatrixX3d vessel_points;  ///< model frame
   MatrixX3d
       held_pair_points;  ///< where the HELD stage makes its pairs (the points less the bulk shift)
