@@ -177,8 +177,12 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             variants["pre_dura_start_only"] = o;
             variants["pre_dura_from_rest"] = o;
             variants["pre_dura_from_rest"].start_at_load_rest = false;
+            // pre_dura_no_tail — every step of a stage's contracting tail taken, none jumped
+            // (RegistrationOptions::extrapolate_tails off).
+            variants["pre_dura_no_tail"] = o;
+            variants["pre_dura_no_tail"].extrapolate_tails = false;
             methods.insert(methods.end(), {"pre_dura", "pre_dura_z2", "pre_dura_start_only",
-                                           "pre_dura_from_rest"});
+                                           "pre_dura_from_rest", "pre_dura_no_tail"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {

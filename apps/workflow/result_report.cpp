@@ -160,7 +160,8 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                             {"finite", h.finite},
                             {"vessel_compliance_ratio", h.vessel_compliance_ratio},
                             {"diagnosis", h.diagnosis},
-                            {"inverted_elements", h.inverted_elements}});
+                            {"inverted_elements", h.inverted_elements},
+                            {"extrapolated_mm", h.extrapolated_mm}});
   j["stages"] = nlohmann::json::array();
   for (const auto& st : r.stages)
     j["stages"].push_back({{"stage", constraints::to_string(st.kind)},

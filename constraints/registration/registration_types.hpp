@@ -119,6 +119,12 @@ struct RegistrationOptions {
   /// an element (core::RestShape::degenerate > 0). Off: the former start (bench variant
   /// `pre_dura_from_rest`; on the 13 cases the same errors, iterations 0-25 fewer).
   bool start_at_load_rest = true;
+  /// A stage's tail, contracting along one mode with the same pairs (two successive steps'
+  /// ratios agree: tail_jump_factor(), registration_stage.hpp), takes the rest of its geometric
+  /// series at once instead of step by step. The fixed point and the stop test are unchanged (the
+  /// step after the jump must still be below the tolerance). Off: every step taken (bench variant
+  /// `pre_dura_no_tail`).
+  bool extrapolate_tails = true;
   /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
   /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
   double refine_pair_distance_mm = 2.0;
@@ -267,6 +273,8 @@ struct IterationRecord {
   FilterReport footprint_filter;
   std::string diagnosis;          ///< the step's diagnosis, if any
   index_t inverted_elements = 0;  ///< elements inverted at the start of this iteration's step
+  /// Max nodal length of the TAIL jump taken after this iteration's step (0: none), mm.
+  double extrapolated_mm = 0.0;
 };
 
 enum class RegistrationStop {

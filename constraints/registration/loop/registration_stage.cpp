@@ -99,6 +99,23 @@ TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, doub
   return TrustDecision::SHRINK;
 }
 
+std::optional<double> tail_ratio(const SuccessiveSteps& steps) {
+  if (!steps.cosine || !steps.same_pairing || !steps.same_damping || steps.limited)
+    return std::nullopt;
+  if (std::abs(*steps.cosine) < tail_cosine) return std::nullopt;
+  if (!(std::abs(steps.projected_ratio) <= contraction_bound && steps.projected_ratio != 0.0))
+    return std::nullopt;
+  return steps.projected_ratio;
+}
+
+std::optional<double> tail_jump_factor(std::optional<double> previous_ratio,
+                                       std::optional<double> ratio) {
+  if (!previous_ratio || !ratio || (*previous_ratio > 0.0) != (*ratio > 0.0) ||
+      std::abs(*ratio - *previous_ratio) > tail_ratio_agreement)
+    return std::nullopt;
+  return *ratio / (1.0 - *ratio);
+}
+
 namespace {
 
 /// What one stage carries from an iteration to the next: the trust region, the damping, the
@@ -112,6 +129,7 @@ struct StageLoop {
   double previous_increment = 0.0;           // its max nodal |Δx| (mm)
   std::vector<std::set<PairKey>> pair_sets;  // per iteration of this stage
   bool frozen = false;
+  std::optional<double> previous_tail_ratio;  // the last step's tail_ratio()
 };
 
 /// Algorithm 1, steps 1-2: the vessel and footprint pairs of iteration `it`, by the stage's rule
@@ -287,6 +305,10 @@ SuccessiveSteps trust_and_stop(const RegistrationOptions& options, const StageOp
   if (!settled && loop.previous_dx.size() > 0) {
     const double denom = dx.norm() * loop.previous_dx.norm();
     steps.cosine = denom > 0 ? (dx.array() * loop.previous_dx.array()).sum() / denom : 1.0;
+    const double previous_squared = loop.previous_dx.squaredNorm();
+    steps.projected_ratio = previous_squared > 0
+                                ? (dx.array() * loop.previous_dx.array()).sum() / previous_squared
+                                : 0.0;
     // In the norm of the radius and of the stop test (max nodal |Δx|), so that the history's
     // max_increment_mm shows why the radius was held or halved.
     steps.length_ratio = loop.previous_increment > 0
@@ -298,6 +320,30 @@ SuccessiveSteps trust_and_stop(const RegistrationOptions& options, const StageOp
   loop.previous_increment = rec.max_increment_mm;
   loop.previous_damping = rec.damping;  // this step's, before any DAMP
   return steps;
+}
+
+/// TAIL: after a step `dx` whose contraction ratio agrees with the previous step's, the rest of
+/// the geometric series at once (tail_jump_factor()), cut to the trust radius; into `state`, its
+/// length into `rec`.
+void take_tail(const SuccessiveSteps& steps, const MatrixX3d& dx, StageLoop& loop, LoopState& state,
+               IterationRecord& rec) {
+  const std::optional<double> ratio = tail_ratio(steps);
+  const std::optional<double> factor = tail_jump_factor(loop.previous_tail_ratio, ratio);
+  loop.previous_tail_ratio = ratio;
+  if (!factor) return;
+  MatrixX3d jump = *factor * dx;
+  double length = jump.rowwise().norm().maxCoeff();
+  if (!std::isfinite(length) || length == 0.0) return;
+  if (length > loop.radius) {
+    jump *= loop.radius / length;
+    length = loop.radius;
+  }
+  state.positions += jump;
+  rec.extrapolated_mm = length;
+  // The next step answers the jump, not the map's own contraction: it is compared with nothing
+  // (as a stage's first step is), and two fresh ratios come before another jump.
+  loop.previous_dx.resize(0, 3);
+  loop.previous_tail_ratio.reset();
 }
 
 /// The iteration's line of the debug log.
@@ -373,6 +419,8 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
 
     bool settled = false;
     const SuccessiveSteps steps = trust_and_stop(options, stage, dx, loop, rec, settled);
+    if (!settled && options.extrapolate_tails && loop.radius >= options.increment_tolerance_mm)
+      take_tail(steps, dx, loop, state, rec);
     rec.seconds = seconds_since(t_it);
     state.history.push_back(rec);
     record.iterations = it;

@@ -134,7 +134,10 @@ struct SuccessiveSteps {
   /// a stage's first step. Negative: the step turned back.
   std::optional<double> cosine;
   double length_ratio = 1.0;  ///< this step's max nodal |Δx| over the previous step's
-  bool limited = false;       ///< this step was scaled down to the radius
+  /// This step projected on the previous one, Δx_k·Δx_{k−1} / |Δx_{k−1}|² (all nodes): the
+  /// factor of a map's iteration along the mode the two steps share (signed; 0 without one).
+  double projected_ratio = 0.0;
+  bool limited = false;  ///< this step was scaled down to the radius
   /// Both steps were made with the same pairs (HELD, FROZEN, or fresh pairs unchanged), so both
   /// iterate one map and their length ratio measures its contraction. Across a pairing change
   /// the steps answer different data and their ratio measures nothing of the kind.
@@ -165,5 +168,30 @@ struct SuccessiveSteps {
 /// @param[in,out] damping the share of the next step taken, in [min_damping, 1].
 TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, double& radius,
                            double& damping);
+
+/// TAIL: a step made with the previous step's pairs and damping, neither cut to the radius,
+/// along it or turned back (|cosine| ≥ tail_cosine) and contracting (|projected_ratio| ≤
+/// contraction_bound), iterates one map near its fixed point along the modes the two steps
+/// share: Δx_{k+1} ≈ ρ Δx_k with ρ = projected_ratio (signed). Returns ρ, or nullopt when the
+/// step is not of that kind.
+std::optional<double> tail_ratio(const SuccessiveSteps& steps);
+
+/// Two successive steps' ratios (tail_ratio()) agree within this: the contraction is one mode's,
+/// not a transient, and the rest of the geometric series can be taken at once.
+inline constexpr double tail_ratio_agreement = 0.1;
+/// |cosine| of a TAIL step: the increment keeps its direction (or reverses it) to within 45°.
+/// Several modes contracting at nearly one rate turn the increment a little from step to step
+/// (the tails of the 1.6k-node phantom: cosines 0.83-0.93 at ratios 0.62-0.66); the series'
+/// sum is the same for all of them as long as the ratios agree, which the jump asks as well.
+inline constexpr double tail_cosine = 0.7;
+
+/// The factor f of the jump x ← x + f Δx that takes the rest of the geometric series
+/// Σ_{j≥1} ρʲ Δx = ρ / (1 − ρ) Δx at once, when this step's ratio ρ and the previous step's agree
+/// (both of the same sign, within tail_ratio_agreement); nullopt otherwise. With ρ exact (one
+/// linear mode) the jump lands on the fixed point: Aitken's Δ² extrapolation, per mode. The
+/// loop's fixed point does not move: the next step is taken from there with the same pairs, and
+/// the stop test still asks that step to be below the tolerance.
+std::optional<double> tail_jump_factor(std::optional<double> previous_ratio,
+                                       std::optional<double> ratio);
 
 }  // namespace brainshift::constraints

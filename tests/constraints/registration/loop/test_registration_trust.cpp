@@ -12,8 +12,10 @@
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <tuple>
 #include <utility>
+#include <vector>
 
 namespace brainshift::constraints {
 namespace {
@@ -378,6 +380,78 @@ TEST(RegistrationLoop, AFreeStageThatDoesNotSettleStillGetsTheNoiseModel) {
   EXPECT_NE(r.stop_reason.find("the free stage ended not_settling"), std::string::npos)
       << r.stop_reason;
   EXPECT_TRUE(r.positions.allFinite());
+}
+
+/// The successive-steps record of two increments as the loop makes it (cosine, max-nodal
+/// length ratio, projection), for the same pairs and damping, neither limited.
+SuccessiveSteps successive(const Eigen::VectorXd& previous, const Eigen::VectorXd& current) {
+  SuccessiveSteps s;
+  s.cosine = current.dot(previous) / (current.norm() * previous.norm());
+  s.length_ratio = current.cwiseAbs().maxCoeff() / previous.cwiseAbs().maxCoeff();
+  s.projected_ratio = current.dot(previous) / previous.squaredNorm();
+  return s;
+}
+
+TEST(RegistrationLoop, ATailJumpLandsOnTheFixedPointOfAContractingMap) {
+  // Closed form: the affine map x ← x* + A (x − x*) with A = ρ (I + 0.05 N), N a fixed symmetric
+  // matrix of unit norm, is a contraction with eigenvalues ρ(1 ± 0.05 ...): one rate, nearly.
+  // Its fixed point x* is known; from any x₀, the jump after two steps whose ratios agree must
+  // land much nearer to x* than the plain iterate, for a monotone (ρ > 0) and an oscillating
+  // (ρ < 0) tail, and exactly on it when A = ρ I (Aitken's Δ² is exact for one geometric mode).
+  const int n = 12;
+  Eigen::MatrixXd N = Eigen::MatrixXd::Zero(n, n);
+  for (int i = 0; i + 1 < n; ++i) N(i, i + 1) = N(i + 1, i) = 0.5;
+  const Eigen::VectorXd x_star = Eigen::VectorXd::LinSpaced(n, -3.0, 4.0);
+  Eigen::VectorXd x0(n);
+  for (int i = 0; i < n; ++i) x0(i) = std::sin(1.3 * i) + 0.2;
+  for (const double rho : {0.8, 0.5, -0.7}) {
+    for (const double spread : {0.0, 0.05}) {
+      const Eigen::MatrixXd A = rho * (Eigen::MatrixXd::Identity(n, n) + spread * N);
+      const auto G = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd {
+        return x_star + A * (x - x_star);
+      };
+      const Eigen::VectorXd x1 = G(x0), x2 = G(x1), x3 = G(x2);
+      const SuccessiveSteps s12 = successive(x1 - x0, x2 - x1);
+      const SuccessiveSteps s23 = successive(x2 - x1, x3 - x2);
+      const std::optional<double> f = tail_jump_factor(tail_ratio(s12), tail_ratio(s23));
+      ASSERT_TRUE(f.has_value()) << "rho " << rho << " spread " << spread;
+      const Eigen::VectorXd jumped = x3 + *f * (x3 - x2);
+      const double plain = (x3 - x_star).norm(), after = (jumped - x_star).norm();
+      std::cout << "[ tail ] rho " << rho << " spread " << spread << ": |x3 - x*| " << plain
+                << ", after the jump " << after << "\n";
+      if (spread == 0.0)
+        EXPECT_LT(after, 1e-12 * x_star.norm());  // exact up to round-off
+      else
+        // Mode j of rate ρⱼ keeps |1 − f (1 − ρⱼ) / ρⱼ| of its distance, f the jump's factor:
+        // ≤ 0.27 for ρⱼ within ±5 % of 0.8, less for 0.5 and −0.7.
+        EXPECT_LT(after, 0.3 * plain);
+    }
+  }
+}
+
+TEST(RegistrationLoop, ATailJumpNeedsTwoAgreeingContractingSteps) {
+  // The rule's refusals, each against the condition it protects.
+  SuccessiveSteps ok;
+  ok.cosine = 0.95;
+  ok.length_ratio = ok.projected_ratio = 0.6;
+  ASSERT_TRUE(tail_ratio(ok).has_value());
+  EXPECT_NEAR(*tail_jump_factor(0.62, 0.6), 0.6 / 0.4, 1e-15);
+  // Ratios that disagree (a transient, not a mode) or change sign: no jump.
+  EXPECT_FALSE(tail_jump_factor(0.45, 0.6).has_value());
+  EXPECT_FALSE(tail_jump_factor(-0.6, 0.6).has_value());
+  EXPECT_FALSE(tail_jump_factor(std::nullopt, 0.6).has_value());
+  // Steps of another map (new pairs, a DAMP between them), a step cut to the radius, a stage's
+  // first step, a turn across the 45° cone, a step that does not contract: no ratio.
+  for (const auto& spoil : std::vector<std::function<void(SuccessiveSteps&)>>{
+           [](SuccessiveSteps& s) { s.same_pairing = false; },
+           [](SuccessiveSteps& s) { s.same_damping = false; },
+           [](SuccessiveSteps& s) { s.limited = true; },
+           [](SuccessiveSteps& s) { s.cosine.reset(); }, [](SuccessiveSteps& s) { s.cosine = 0.5; },
+           [](SuccessiveSteps& s) { s.projected_ratio = 0.95; }}) {
+    SuccessiveSteps s = ok;
+    spoil(s);
+    EXPECT_FALSE(tail_ratio(s).has_value());
+  }
 }
 
 }  // namespace
