@@ -475,16 +475,21 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   else if (options.bulk_as_load == BulkLoad::ON ||
            (options.bulk_as_load == BulkLoad::AUTO && data.pose))
     in.bulk_gravity = bulk_gravity(bulk_amplitude(model, in, res, options), options);
+  double share = 1.0;  // of the bulk load carried as the rest (detail::bulk_rest())
+  if (!in.bulk_gravity.isZero()) {
+    in.bulk_rest = detail::bulk_rest(model, in.bulk_gravity, options, &share);
+    in.bulk_gravity *= share;  // the load the rest carries (a warm start carries the same)
+  }
   res.bulk_gravity = in.bulk_gravity;
-  if (!in.bulk_gravity.isZero()) in.bulk_rest = detail::bulk_rest(model, in.bulk_gravity, options);
   if (options.noise.enabled && options.noise.start_is_bulk_state && in.vessels)
     in.start_state = start_positions(model, in, res, options, initial);
   LoopState state;
   state.positions = res.positions;
-  // Not where the load's response flattens or inverts an element (RestShape::degenerate): the
-  // iteration would start from inverted elements; from the rest nodes it never meets them.
+  // Not where the whole load's response flattens or inverts an element (RestShape::degenerate,
+  // or a share of the load carried): its nearly flat elements would be the first iterate, and the
+  // rows' first pull inverts them; from the rest nodes the loop meets them gradually.
   if (options.start_at_load_rest && !initial && in.bulk_rest && in.bulk_rest->degenerate == 0 &&
-      in.vessels && res.start.bulk_accepted && options.shift_stage_iterations > 0) {
+      share == 1.0 && in.vessels && res.start.bulk_accepted && options.shift_stage_iterations > 0) {
     in.held_pairing_positions = state.positions;  // the HELD stage's pairs: as from the rest nodes
     state.positions = in.bulk_rest->nodes;        // the iterate: where the load's response is
   }

@@ -42,8 +42,15 @@ void rigid_only_start(const RegistrationModel& model, const IntraopData& data,
 
 /// The elastic rest of the bulk load `gravity` (bulk_gravity()'s units): the rest nodes plus its
 /// linear response (the load responses scaled back to amplitudes). Null when there is no load.
+/// Where the whole response flattens or inverts an element (core::RestShape::degenerate > 0: a
+/// linear response is not a large deformation's shape, and on a finer mesh its steepest
+/// gradients do so first), the rest is the largest share of the load under which none does
+/// (bisected to 1/4096), and `share` (when given) says which; the vessel rows carry the
+/// remainder. Where even 1/4096 of it degenerates, the whole load's rest with its degenerate
+/// elements at the mesh's rest (share 1).
 std::shared_ptr<const core::RestShape> bulk_rest(const RegistrationModel& model,
                                                  const Vector3d& gravity,
-                                                 const RegistrationOptions& options);
+                                                 const RegistrationOptions& options,
+                                                 double* share = nullptr);
 
 }  // namespace brainshift::constraints::detail
