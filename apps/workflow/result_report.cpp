@@ -181,6 +181,7 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                 {"paired_se_mm2", r.noise.paired_se_mm2},
                 {"message", r.noise.message}};
   j["cold_retry"] = r.cold_retry;
+  j["load_retry"] = r.load_retry;
   j["max_displacement_mm"] =
       r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
   return j;

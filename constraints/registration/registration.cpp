@@ -519,6 +519,23 @@ RegistrationResult register_model(const RegistrationModel& model, const IntraopD
   return_start_if_untrusted(model, data, options, initial, in, state, res);
   res.seconds.total = seconds_since(t_start);
 
+  if (!initial && options.load_retry && !res.converged && !res.bulk_gravity.isZero() &&
+      (res.stop == RegistrationStop::NOT_SETTLING ||
+       res.stop == RegistrationStop::MAX_ITERATIONS)) {
+    RegistrationOptions no_load = options;
+    no_load.bulk_as_load = BulkLoad::OFF;
+    RegistrationResult retry = register_model(model, data, no_load, nullptr);
+    if (retry.converged) {
+      retry.load_retry = true;
+      std::string reason = "with the bulk shift carried as a load the loop ended ";
+      reason += to_string(res.stop);
+      reason += ", without it: ";
+      reason += retry.stop_reason;
+      retry.stop_reason = std::move(reason);
+      retry.seconds.total += res.seconds.total;
+      return retry;
+    }
+  }
   if (initial && options.cold_retry && !res.converged &&
       res.stop != RegistrationStop::INSUFFICIENT_DATA) {
     RegistrationResult cold = register_model(model, data, options, nullptr);

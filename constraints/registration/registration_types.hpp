@@ -149,6 +149,14 @@ struct RegistrationOptions {
   /// A warm-started registration (replay) that does not converge is run again from the rest
   /// shape with the full start; the cold answer is kept when it converges.
   bool cold_retry = true;
+  /// A cold registration that carried the bulk shift as a load (bulk_as_load) and ended
+  /// NOT_SETTLING or at the iteration cap is run again with the bulk shift as the start's
+  /// positions only (BulkLoad::OFF); that answer is kept when it converges (load_retry in the
+  /// result). Where the load's pre-strained rest and the held pairs pull elements of a fine mesh
+  /// through themselves (ICBM152 at 5,894 nodes: 13-17 inverted, exit 2), the load-free path
+  /// settles (99 iterations, TRE 0.98 mm); elsewhere the load is the better path (ICBM152 at
+  /// 3,982 nodes: 0.68 against 1.02 mm), so it stays first.
+  bool load_retry = true;
   /// The predicted error of the answer (uncertainty.hpp: predict_uncertainty()); not used by
   /// the loop itself.
   UncertaintyOptions uncertainty;
@@ -330,6 +338,9 @@ struct RegistrationResult {
   std::vector<StageRecord> stages;  ///< in the order run
   NoiseEstimate noise;              ///< the noise model's estimate (valid = false when not run)
   bool cold_retry = false;          ///< a warm start did not converge and this is the cold answer
+  /// The bulk load's path did not converge and this is the answer without it
+  /// (RegistrationOptions::load_retry).
+  bool load_retry = false;
   /// The loop stopped DIVERGED or INSUFFICIENT_DATA, so its deformed state is not returned:
   /// positions are the start's state instead — the model at rest plus the global start's bulk
   /// response (DIVERGED, and INSUFFICIENT_DATA with a given pose), the model at rest in the

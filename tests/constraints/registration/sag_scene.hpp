@@ -11,9 +11,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <memory>
 #include <numbers>
 #include <random>
+#include <utility>
 #include <vector>
 
 namespace brainshift::constraints {
@@ -102,6 +104,35 @@ struct Scene {
     return {sum / static_cast<double>(p.rows()), mx};
   }
 };
+
+/// The free node farthest from the vessels (the pairing does not feel it) and its distance (mm);
+/// node −1 when every node is fixed.
+inline std::pair<index_t, double> farthest_free_node(const Scene& s) {
+  const MatrixX3d& rest = s.mesh.nodes();
+  index_t node = -1;
+  double farthest = 0.0;
+  for (index_t i = 0; i < s.mesh.num_nodes(); ++i) {
+    if (rest(i, 2) < -22) continue;  // fixed
+    const double dist = (s.skeleton.points.rowwise() - rest.row(i)).rowwise().norm().minCoeff();
+    if (dist > farthest) {
+      farthest = dist;
+      node = i;
+    }
+  }
+  return {node, farthest};
+}
+
+/// Fault injection: the node pushed ±a (mm, along z) after each of the first `steps` steps,
+/// whatever the step (after the trust limit and DAMP's share), the steps after it left clean.
+inline std::function<void(StepResult&)> push_back_and_forth(const Scene& s, index_t node, double a,
+                                                            int steps) {
+  return [node, a, steps, k = 0, x_before = MatrixX3d(s.mesh.nodes())](StepResult& step) mutable {
+    if (++k > steps) return;
+    step.x(node, 2) += (k % 2 == 0 ? a : -a);
+    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
+    x_before = step.x;
+  };
+}
 
 }  // namespace
 }  // namespace brainshift::constraints

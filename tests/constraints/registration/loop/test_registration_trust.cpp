@@ -20,23 +20,6 @@
 namespace brainshift::constraints {
 namespace {
 
-/// The free node farthest from the vessels (the pairing does not feel it) and its distance (mm);
-/// node −1 when every node is fixed.
-std::pair<index_t, double> farthest_free_node(const Scene& s) {
-  const MatrixX3d& rest = s.mesh.nodes();
-  index_t node = -1;
-  double farthest = 0.0;
-  for (index_t i = 0; i < s.mesh.num_nodes(); ++i) {
-    if (rest(i, 2) < -22) continue;  // fixed
-    const double dist = (s.skeleton.points.rowwise() - rest.row(i)).rowwise().norm().minCoeff();
-    if (dist > farthest) {
-      farthest = dist;
-      node = i;
-    }
-  }
-  return {node, farthest};
-}
-
 /// The scene for fault injection at one node: the sagged vessels sampled with 0.3 mm noise, one
 /// FREE stage from the rest shape (no shift search, no noise model), the clean run's answer and
 /// the free node farthest from the vessels (the pairing does not feel it).
@@ -55,18 +38,6 @@ struct FarNodeInjection {
     std::tie(node, farthest) = farthest_free_node(s);
   }
 };
-
-/// Fault injection: the node pushed ±a (mm, along z) after each of the first `steps` steps,
-/// whatever the step (after the trust limit and DAMP's share), the steps after it left clean.
-std::function<void(StepResult&)> push_back_and_forth(const Scene& s, index_t node, double a,
-                                                     int steps) {
-  return [node, a, steps, k = 0, x_before = MatrixX3d(s.mesh.nodes())](StepResult& step) mutable {
-    if (++k > steps) return;
-    step.x(node, 2) += (k % 2 == 0 ? a : -a);
-    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
-    x_before = step.x;
-  };
-}
 
 TEST(RegistrationLoop, TrustRegionHalvesOnATurnBackAndGrowsOtherwise) {
   double radius = 4.0, damping = 1.0;
