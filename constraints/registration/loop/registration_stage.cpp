@@ -303,12 +303,11 @@ SuccessiveSteps trust_and_stop(const RegistrationOptions& options, const StageOp
   steps.same_damping = loop.previous_damping == loop.damping;
   steps.same_pairing = same_pairing;
   if (!settled && loop.previous_dx.size() > 0) {
-    const double denom = dx.norm() * loop.previous_dx.norm();
-    steps.cosine = denom > 0 ? (dx.array() * loop.previous_dx.array()).sum() / denom : 1.0;
+    const double dot = (dx.array() * loop.previous_dx.array()).sum();
     const double previous_squared = loop.previous_dx.squaredNorm();
-    steps.projected_ratio = previous_squared > 0
-                                ? (dx.array() * loop.previous_dx.array()).sum() / previous_squared
-                                : 0.0;
+    const double denom = dx.norm() * std::sqrt(previous_squared);
+    steps.cosine = denom > 0 ? dot / denom : 1.0;
+    steps.projected_ratio = previous_squared > 0 ? dot / previous_squared : 0.0;
     // In the norm of the radius and of the stop test (max nodal |Δx|), so that the history's
     // max_increment_mm shows why the radius was held or halved.
     steps.length_ratio = loop.previous_increment > 0

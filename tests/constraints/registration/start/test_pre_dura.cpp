@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -195,6 +196,32 @@ LoadSag load_response_sag(const Scene& s, double top_mm, unsigned seed) {
   return out;
 }
 
+/// The load sag (load_response_sag()) registered twice from the tracked frame with a pre-dura
+/// pose: with the default options (`a`) and with `change` applied (`b`); their skeleton mean
+/// errors against the truth (mm) and the largest node gap between the two answers (mm).
+struct OnOff {
+  RegistrationResult a, b;
+  double error_a = 0.0, error_b = 0.0, node_gap = 0.0;
+};
+OnOff register_with_and_without(const Scene& s, double top_mm, unsigned seed,
+                                const std::function<void(RegistrationOptions&)>& change) {
+  auto [truth, d] = load_response_sag(s, top_mm, seed);
+  d.pose = Eigen::Isometry3d::Identity();  // as from a pre-dura sweep: the load is AUTO-on
+  RegistrationOptions on, off;
+  on.start = off.start = RigidStart::IDENTITY;
+  change(off);
+  OnOff r;
+  r.a = register_model(*s.model, d, on);
+  r.b = register_model(*s.model, d, off);
+  const auto error = [&](const RegistrationResult& x) {
+    return (s.model->skeleton_mapping().apply(x.positions) - truth).rowwise().norm().mean();
+  };
+  r.error_a = error(r.a);
+  r.error_b = error(r.b);
+  r.node_gap = (r.a.positions - r.b.positions).rowwise().norm().maxCoeff();
+  return r;
+}
+
 TEST(BulkLoad, ASagThatIsTheModelsOwnLoadResponseIsMetWithoutTheCompliantRowsLag) {
   // The truth is the model's own linear response to a downward body load (a direct solve),
   // scaled to 10 mm at the top. Compliant vessel rows (ratio 0.2) balance the elastic force of
@@ -338,31 +365,22 @@ TEST(BulkLoad, StartingAtTheLoadsRestReachesTheSameAnswerInFewerIterations) {
   // answer: the same registration with the option off, and the sag's truth. At 10 mm (the 12 mm
   // sag's linear response inverts two elements, and there the option stands aside).
   Scene s;
-  auto [truth, d] = load_response_sag(s, 10.0, 7);
-  d.pose = Eigen::Isometry3d::Identity();  // as from a pre-dura sweep: the load is AUTO-on
-  RegistrationOptions on, off;
-  on.start = off.start = RigidStart::IDENTITY;
-  off.start_at_load_rest = false;
-  const RegistrationResult a = register_model(*s.model, d, on);
-  const RegistrationResult b = register_model(*s.model, d, off);
-  ASSERT_GT(a.bulk_gravity.norm(), 0.0);
-  const auto error = [&](const RegistrationResult& r) {
-    return (s.model->skeleton_mapping().apply(r.positions) - truth).rowwise().norm().mean();
-  };
-  const double node_gap = (a.positions - b.positions).rowwise().norm().maxCoeff();
-  std::cout << "[ load rest ] " << a.iterations << " vs " << b.iterations
-            << " iterations; skeleton error " << error(a) << " vs " << error(b)
-            << " mm; largest node gap " << node_gap << " mm\n";
-  EXPECT_TRUE(a.converged) << a.stop_reason;
-  EXPECT_TRUE(b.converged) << b.stop_reason;
+  const OnOff r = register_with_and_without(
+      s, 10.0, 7, [](RegistrationOptions& o) { o.start_at_load_rest = false; });
+  ASSERT_GT(r.a.bulk_gravity.norm(), 0.0);
+  std::cout << "[ load rest ] " << r.a.iterations << " vs " << r.b.iterations
+            << " iterations; skeleton error " << r.error_a << " vs " << r.error_b
+            << " mm; largest node gap " << r.node_gap << " mm\n";
+  EXPECT_TRUE(r.a.converged) << r.a.stop_reason;
+  EXPECT_TRUE(r.b.converged) << r.b.stop_reason;
   // From the rest nodes the first steps are the fall into the load's rest, cut to the 5 mm
   // trust radius: for a 10 mm sag at least two (measured 16 against 22 iterations).
-  EXPECT_LT(a.iterations, b.iterations);
+  EXPECT_LT(r.a.iterations, r.b.iterations);
   // Both stop on the same test (a relative change of the iterate): the two answers differ by
   // what the stop test leaves, well under the 0.3 mm noise of the data; the error stays at the
   // 10 mm test's floor.
-  EXPECT_LT(node_gap, 0.3);
-  EXPECT_LT(error(a), 0.4);
+  EXPECT_LT(r.node_gap, 0.3);
+  EXPECT_LT(r.error_a, 0.4);
 }
 
 TEST(BulkLoad, TailJumpsReachTheSameAnswer) {
@@ -372,24 +390,15 @@ TEST(BulkLoad, TailJumpsReachTheSameAnswer) {
   // taken, and the sag's truth (the model's own linear response to the 12 mm load, sampled with
   // 0.3 mm noise; the 10 mm sag settles in 16 iterations with no tail to take).
   Scene s;
-  auto [truth, d] = load_response_sag(s, 12.0, 7);
-  d.pose = Eigen::Isometry3d::Identity();
-  RegistrationOptions on, off;
-  on.start = off.start = RigidStart::IDENTITY;
-  off.extrapolate_tails = false;
-  const RegistrationResult a = register_model(*s.model, d, on);
-  const RegistrationResult b = register_model(*s.model, d, off);
-  const auto error = [&](const RegistrationResult& r) {
-    return (s.model->skeleton_mapping().apply(r.positions) - truth).rowwise().norm().mean();
-  };
+  const OnOff r = register_with_and_without(
+      s, 12.0, 7, [](RegistrationOptions& o) { o.extrapolate_tails = false; });
   int jumps = 0;
-  for (const IterationRecord& h : a.history) jumps += h.extrapolated_mm > 0.0;
-  const double node_gap = (a.positions - b.positions).rowwise().norm().maxCoeff();
-  std::cout << "[ tail ] " << a.iterations << " vs " << b.iterations << " iterations, " << jumps
-            << " jumps; skeleton error " << error(a) << " vs " << error(b)
-            << " mm; largest node gap " << node_gap << " mm\n";
-  EXPECT_TRUE(a.converged) << a.stop_reason;
-  EXPECT_TRUE(b.converged) << b.stop_reason;
+  for (const IterationRecord& h : r.a.history) jumps += h.extrapolated_mm > 0.0;
+  std::cout << "[ tail ] " << r.a.iterations << " vs " << r.b.iterations << " iterations, " << jumps
+            << " jumps; skeleton error " << r.error_a << " vs " << r.error_b
+            << " mm; largest node gap " << r.node_gap << " mm\n";
+  EXPECT_TRUE(r.a.converged) << r.a.stop_reason;
+  EXPECT_TRUE(r.b.converged) << r.b.stop_reason;
   EXPECT_GE(jumps, 1);
   // The iterations are not asserted: a jump saves the steps of a tail it takes, and costs a step
   // where the next one turns back (here 37 against 35 iterations; over the 13 bench cases
@@ -397,8 +406,8 @@ TEST(BulkLoad, TailJumpsReachTheSameAnswer) {
   // Both stop below 0.01 mm a step; what that leaves of a tail contracting at ≤ 0.9 is
   // ≤ 0.09 mm on each side: 0.2 mm, under the data's 0.3 mm noise. The error stays at the
   // 10 mm test's floor.
-  EXPECT_LT(node_gap, 0.2);
-  EXPECT_LT(error(a), 0.4);
+  EXPECT_LT(r.node_gap, 0.2);
+  EXPECT_LT(r.error_a, 0.4);
 }
 
 TEST(PreDura, ThePairedTestUsesItsOwnBarWhenThePoseIsGiven) {
