@@ -25,11 +25,30 @@ struct Chunk {
   std::string error;
 };
 
+/// Where a chunk's input comes from: straight from memory, or block by block from a ByteSource
+/// into a buffer of one block (so no copy of the whole input is ever made).
+struct Input {
+  const unsigned char* data = nullptr;  ///< the whole input, or null
+  const ByteSource* source = nullptr;   ///< used when data is null
+  std::vector<unsigned char> buffer;    ///< one block, for `source`
+
+  const unsigned char* block(std::size_t offset, std::size_t n) {
+    if (!source) return data + offset;  // data may be null for an empty input
+    buffer.resize(kGzipBlockBytes);
+    (*source)(offset, n, buffer.data());
+    return buffer.data();
+  }
+};
+
+/// Output staging: deflate writes here, the bytes are appended to the chunk's output, so that only
+/// the compressed bytes are ever touched (no buffer of the input's size is zero-filled).
+constexpr std::size_t kStageBytes = std::size_t(256) << 10;
+
 #ifdef BS_HAVE_ISAL
 /// deflate_chunk() by ISA-L's igzip at level min(level, 3) (its highest; run_length has no
 /// counterpart there): the same raw-deflate chunk contract, other (equally valid) bytes.
-void isal_deflate_chunk(const unsigned char* in, std::size_t n, bool last, const GzipOptions& o,
-                        Chunk& c) {
+void isal_deflate_chunk(Input& in, std::size_t begin, std::size_t end, bool last,
+                        const GzipOptions& o, Chunk& c) {
   const int level = std::min(o.level, 3);
   std::vector<unsigned char> level_buffer(level == 1   ? ISAL_DEF_LVL1_DEFAULT
                                           : level == 2 ? ISAL_DEF_LVL2_DEFAULT
@@ -40,37 +59,46 @@ void isal_deflate_chunk(const unsigned char* in, std::size_t n, bool last, const
   z.level_buf = level_buffer.data();
   z.level_buf_size = static_cast<std::uint32_t>(level_buffer.size());
   z.gzip_flag = IGZIP_DEFLATE;
-  z.end_of_stream = last ? 1 : 0;
-  z.flush = last ? NO_FLUSH : SYNC_FLUSH;      // a chunk before the last ends on a byte boundary
-  z.next_in = const_cast<unsigned char*>(in);  // ISA-L's API is not const-correct
-  z.avail_in = static_cast<std::uint32_t>(n);
-  // igzip has no bound function: start at the input size plus 1/8 and grow while it fills the
-  // output (its documented calling pattern: call again while avail_out comes back 0).
-  c.out.resize(n + n / 8 + 65536);
-  std::size_t done = 0;
-  for (;;) {
-    z.next_out = c.out.data() + done;
-    z.avail_out = static_cast<std::uint32_t>(c.out.size() - done);
-    if (isal_deflate(&z) != COMP_OK) {
-      c.error = "isal_deflate failed";
+  std::vector<unsigned char> stage(kStageBytes);
+  std::size_t offset = begin;
+  do {  // once even for an empty chunk: the last one must still end the stream
+    const std::size_t n = std::min(kGzipBlockBytes, end - offset);
+    const unsigned char* p = in.block(offset, n);
+    c.crc = crc32_z(c.crc, p, n);
+    offset += n;
+    const bool final_block = offset == end;
+    z.end_of_stream = (last && final_block) ? 1 : 0;
+    // A chunk before the last ends on a byte boundary.
+    z.flush = (final_block && !last) ? SYNC_FLUSH : NO_FLUSH;
+    z.next_in = const_cast<unsigned char*>(p);  // ISA-L's API is not const-correct
+    z.avail_in = static_cast<std::uint32_t>(n);
+    // Called again while it fills the output (igzip's documented calling pattern).
+    for (;;) {
+      z.next_out = stage.data();
+      z.avail_out = static_cast<std::uint32_t>(stage.size());
+      if (isal_deflate(&z) != COMP_OK) {
+        c.error = "isal_deflate failed";
+        return;
+      }
+      c.out.insert(c.out.end(), stage.data(), stage.data() + (stage.size() - z.avail_out));
+      if (z.avail_out != 0) break;
+    }
+    if (z.avail_in != 0) {
+      c.error = "isal_deflate did not take its input";
       return;
     }
-    done = c.out.size() - z.avail_out;
-    if (z.avail_out != 0) break;
-    c.out.resize(c.out.size() + c.out.size() / 2);
-  }
-  if (z.avail_in != 0 || (last && z.internal_state.state != ZSTATE_END))
-    c.error = "isal_deflate did not finish";
-  c.out.resize(done);
+  } while (offset < end);
+  if (last && z.internal_state.state != ZSTATE_END) c.error = "isal_deflate did not finish";
 }
 #endif
 
-void deflate_chunk(const unsigned char* in, std::size_t n, bool last, const GzipOptions& o,
+/// Deflates the input bytes [begin, end) block by block into `c`.
+void deflate_chunk(Input& in, std::size_t begin, std::size_t end, bool last, const GzipOptions& o,
                    Chunk& c) {
-  c.crc = crc32_z(crc32_z(0L, Z_NULL, 0), in, n);
+  c.crc = crc32_z(0L, Z_NULL, 0);
 #ifdef BS_HAVE_ISAL
   if (o.fast && o.level > 0) {
-    isal_deflate_chunk(in, n, last, o, c);
+    isal_deflate_chunk(in, begin, end, last, o, c);
     return;
   }
 #endif
@@ -80,15 +108,28 @@ void deflate_chunk(const unsigned char* in, std::size_t n, bool last, const Gzip
     c.error = "deflateInit2 failed";
     return;
   }
-  c.out.resize(deflateBound(&z, uLong(n)) + 64);
-  z.next_in = const_cast<unsigned char*>(in);  // zlib's API is not const-correct
-  z.avail_in = uInt(n);
-  z.next_out = c.out.data();
-  z.avail_out = uInt(c.out.size());
-  const int rc = deflate(&z, last ? Z_FINISH : Z_SYNC_FLUSH);
-  if ((last && rc != Z_STREAM_END) || (!last && rc != Z_OK) || z.avail_in != 0)
+  std::vector<unsigned char> stage(kStageBytes);
+  std::size_t offset = begin;
+  int rc = Z_OK;
+  do {  // once even for an empty chunk: the last one must still end the stream
+    const std::size_t n = std::min(kGzipBlockBytes, end - offset);
+    const unsigned char* p = in.block(offset, n);
+    c.crc = crc32_z(c.crc, p, n);
+    offset += n;
+    const int flush = offset < end ? Z_NO_FLUSH : last ? Z_FINISH : Z_SYNC_FLUSH;
+    z.next_in = const_cast<unsigned char*>(p);  // zlib's API is not const-correct
+    z.avail_in = uInt(n);
+    do {  // zlib's calling pattern: again while the output fills
+      z.next_out = stage.data();
+      z.avail_out = uInt(stage.size());
+      rc = deflate(&z, flush);
+      if (rc == Z_STREAM_ERROR) break;
+      c.out.insert(c.out.end(), stage.data(), stage.data() + (stage.size() - z.avail_out));
+    } while (z.avail_out == 0);
+    if (rc == Z_STREAM_ERROR || z.avail_in != 0) break;
+  } while (offset < end);
+  if (rc == Z_STREAM_ERROR || z.avail_in != 0 || offset != end || (last && rc != Z_STREAM_END))
     c.error = "deflate failed";
-  c.out.resize(c.out.size() - z.avail_out);
   deflateEnd(&z);
 }
 
@@ -109,28 +150,32 @@ bool gzip_has_fast_deflate() {
 #endif
 }
 
-void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path& target,
-                 const GzipOptions& options) {
+namespace {
+
+void gzip_input(Input& input, std::size_t size, const std::filesystem::path& target,
+                const GzipOptions& options) {
   BS_VERIFY(options.level >= 0 && options.level <= 9 && options.threads >= 1,
             target.string() << ": gzip level must be 0-9 and threads >= 1, got " << options.level
                             << " and " << options.threads);
-  // Chunks of at least 1 MiB, each below zlib's 32-bit avail_in.
-  constexpr std::size_t min_chunk = std::size_t(1) << 20, max_chunk = std::size_t(1) << 30;
-  std::size_t chunks =
-      std::max<std::size_t>(1, std::min<std::size_t>(options.threads, size / min_chunk));
-  chunks = std::max(chunks, (size + max_chunk - 1) / max_chunk);
-  const auto* in = static_cast<const unsigned char*>(data);
+  // Chunks of whole blocks (at least one), each far below zlib's 32-bit counters.
+  const std::size_t blocks =
+      std::max<std::size_t>(1, (size + kGzipBlockBytes - 1) / kGzipBlockBytes);
+  const std::size_t chunks = std::min<std::size_t>(std::size_t(options.threads), blocks);
   std::vector<Chunk> out(chunks);
-  auto run = [&](std::size_t c) {
-    const std::size_t b = size * c / chunks, e = size * (c + 1) / chunks;
-    deflate_chunk(in + b, e - b, c + 1 == chunks, options, out[c]);
-  };
-  core::parallel_chunks(chunks, static_cast<int>(chunks), run);
+  core::parallel_chunks(chunks, static_cast<int>(chunks), [&](std::size_t c) {
+    const std::size_t b = std::min(size, blocks * c / chunks * kGzipBlockBytes);
+    const std::size_t e = std::min(size, blocks * (c + 1) / chunks * kGzipBlockBytes);
+    Input own{input.data, input.source, {}};  // each chunk its own block buffer
+    deflate_chunk(own, b, e, c + 1 == chunks, options, out[c]);
+  });
   uLong crc = out[0].crc;
   for (std::size_t c = 0; c < chunks; ++c) {
     BS_VERIFY(out[c].error.empty(), target.string() << ": cannot compress: " << out[c].error);
-    if (c > 0)
-      crc = crc32_combine(crc, out[c].crc, z_off_t(size * (c + 1) / chunks - size * c / chunks));
+    if (c > 0) {
+      const std::size_t b = std::min(size, blocks * c / chunks * kGzipBlockBytes);
+      const std::size_t e = std::min(size, blocks * (c + 1) / chunks * kGzipBlockBytes);
+      crc = crc32_combine(crc, out[c].crc, z_off_t(e - b));
+    }
   }
   std::ofstream f(target, std::ios::binary | std::ios::trunc);
   BS_VERIFY(f.good(), target.string() << ": cannot open for writing");
@@ -143,6 +188,22 @@ void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path
   put_le32(f, std::uint32_t(size & 0xffffffffU));
   f.flush();
   BS_VERIFY(f.good(), target.string() << ": cannot write (disk full?)");
+}
+
+}  // namespace
+
+void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path& target,
+                 const GzipOptions& options) {
+  Input input;
+  input.data = static_cast<const unsigned char*>(data);
+  gzip_input(input, size, target, options);
+}
+
+void gzip_source(std::size_t size, const ByteSource& source, const std::filesystem::path& target,
+                 const GzipOptions& options) {
+  Input input;
+  input.source = &source;
+  gzip_input(input, size, target, options);
 }
 
 void gzip_file(const std::filesystem::path& source, const std::filesystem::path& target,

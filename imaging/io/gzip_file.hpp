@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 namespace brainshift::imaging {
@@ -35,6 +36,21 @@ bool gzip_has_fast_deflate();
 /// call in write_atomically() for an atomic file).
 /// \throws brainshift::Error (one line naming `target`) on bad options or a failed write.
 void gzip_buffer(const void* data, std::size_t size, const std::filesystem::path& target,
+                 const GzipOptions& options = {});
+
+/// The input is deflated in blocks of this many bytes; chunks (one per thread) are whole blocks.
+inline constexpr std::size_t kGzipBlockBytes = std::size_t(1) << 20;
+
+/// Writes the input's bytes [offset, offset + n) to `out`. gzip_source() asks for each block once,
+/// in order within a chunk, with `offset` a multiple of kGzipBlockBytes and n ≤ kGzipBlockBytes,
+/// possibly from several threads at once (one per chunk).
+using ByteSource = std::function<void(std::size_t offset, std::size_t n, unsigned char* out)>;
+
+/// gzip_buffer() of `size` bytes made block by block by `source`: what a writer uses whose file
+/// bytes are not in memory as one buffer (a reordered or converted volume), so that no copy of the
+/// whole file is made. The same bytes as gzip_buffer() of the same input and options.
+/// \throws brainshift::Error as gzip_buffer().
+void gzip_source(std::size_t size, const ByteSource& source, const std::filesystem::path& target,
                  const GzipOptions& options = {});
 
 /// Compresses the file `source` into the gzip file `target` (see gzip_buffer()).

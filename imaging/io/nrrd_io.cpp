@@ -204,18 +204,27 @@ void write_nrrd_impl(const std::filesystem::path& path, const Volume<T>& volume,
   }
   h << '\n';
 
-  std::vector<T> data = volume.data;
-  if (vector && space == NrrdSpace::LPS) {
-    for (std::size_t v = 0; v + 2 < data.size(); v += 3) {
-      data[v] = -data[v];
-      data[v + 1] = -data[v + 1];
-    }
-  }
+  // The voxels in blocks of 1 MiB (whole vectors), LPS components negated block by block: no
+  // copy of the whole volume (a displacement field at the MRI's size is 100 MB).
+  const bool flip = vector && space == NrrdSpace::LPS;
   std::ofstream out(path, std::ios::binary);
   const std::string header = h.str();
   out.write(header.data(), static_cast<std::streamsize>(header.size()));
-  out.write(reinterpret_cast<const char*>(data.data()),
-            static_cast<std::streamsize>(data.size() * sizeof(T)));
+  constexpr std::size_t block = (std::size_t(1) << 20) / (3 * sizeof(T)) * 3;
+  std::vector<T> buffer;
+  for (std::size_t b = 0; b < volume.data.size() && out.good(); b += block) {
+    const std::size_t n = std::min(block, volume.data.size() - b);
+    const T* src = volume.data.data() + b;
+    if (flip) {
+      buffer.assign(src, src + n);
+      for (std::size_t v = 0; v + 2 < n; v += 3) {
+        buffer[v] = -buffer[v];
+        buffer[v + 1] = -buffer[v + 1];
+      }
+      src = buffer.data();
+    }
+    out.write(reinterpret_cast<const char*>(src), static_cast<std::streamsize>(n * sizeof(T)));
+  }
   out.close();
   BS_VERIFY(out.good(), path.string() << ": cannot write the NRRD file");
 }

@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <mutex>
 #include <random>
 #include <string>
 #include <vector>
@@ -103,6 +105,43 @@ TEST(GzipFile, FastDeflateIsAnotherValidStreamOfTheSameBytes) {
           // and it compresses (the zero half): below 80 % as with zlib.
           EXPECT_LT(double(file_bytes(dir / "fast.gz").size()), 0.8 * double(size));
         }
+      }
+  }
+}
+
+TEST(GzipFile, SourceGivesTheBufferStreamBlockByBlock) {
+  // gzip_source() deflates blocks made on demand (a writer's reordered volume) instead of one
+  // buffer: the file must be gzip_buffer()'s byte for byte, for zlib and igzip, any chunking, with
+  // every block asked once, at a multiple of kGzipBlockBytes, no longer than one block.
+  const tests::TempFolder dir;
+  for (const std::size_t size : {std::size_t(0), std::size_t(1), std::size_t(5'000'003)}) {
+    const std::vector<char> data = test_data(size);
+    for (const int threads : {1, 2, 3})
+      for (const bool fast : {true, false}) {
+        SCOPED_TRACE("size " + std::to_string(size) + ", threads " + std::to_string(threads) +
+                     ", fast " + std::to_string(fast));
+        GzipOptions o;
+        o.threads = threads;
+        o.fast = fast;
+        std::mutex m;
+        std::vector<std::size_t> asked;
+        bool aligned = true;
+        const ByteSource source = [&](std::size_t offset, std::size_t n, unsigned char* out) {
+          const std::lock_guard lock(m);
+          asked.push_back(offset);
+          aligned = aligned && offset % kGzipBlockBytes == 0 && n <= kGzipBlockBytes &&
+                    offset + n <= size;
+          if (n > 0) std::memcpy(out, data.data() + offset, n);
+        };
+        gzip_source(size, source, dir / "source.gz", o);
+        gzip_buffer(data.data(), data.size(), dir / "buffer.gz", o);
+        EXPECT_TRUE(file_bytes(dir / "source.gz") == file_bytes(dir / "buffer.gz"));
+        EXPECT_EQ(gunzip(dir / "source.gz"), data);
+        EXPECT_TRUE(aligned);
+        std::sort(asked.begin(), asked.end());
+        EXPECT_TRUE(std::adjacent_find(asked.begin(), asked.end()) == asked.end());
+        EXPECT_EQ(asked.size(),
+                  std::max<std::size_t>(1, (size + kGzipBlockBytes - 1) / kGzipBlockBytes));
       }
   }
 }

@@ -102,6 +102,18 @@ TEST_P(ImageIoRoundTrip, VectorVolumeKeepsRasVectors) {
   expect_same_volume(volume, read_volume(dir / ("vector" + GetParam())));
 }
 
+TEST_P(ImageIoRoundTrip, VectorVolumeOfManyWriteBlocksKeepsRasVectors) {
+  // 2.5 MB of vectors: the NIfTI and NRRD writers stream 1 MiB blocks (no copy of the volume), so
+  // blocks end inside vectors' planes and across them; every value must still come back.
+  SCOPED_TRACE(GetParam());
+  const tests::TempFolder dir;
+  ImageGeometry g = oblique_geometry();
+  g.size = {70, 61, 50};
+  const VolumeF volume = random_volume(g, 3, 4);
+  write_volume(dir / ("vector" + GetParam()), volume);
+  expect_same_volume(volume, read_volume(dir / ("vector" + GetParam())));
+}
+
 TEST_P(ImageIoRoundTrip, LabelsRoundTrip) {
   SCOPED_TRACE(GetParam());
   const tests::TempFolder dir;
@@ -218,6 +230,24 @@ TEST(SlicerDisplacement, TranslationIsWrittenInLpsWithFlippedVectorsAndGeometry)
     if (data[v] != -1.5f || data[v + 1] != 2.0f || data[v + 2] != 3.25f) ++wrong;
   EXPECT_EQ(wrong, 0);
   // And our reader takes it back to RAS.
+  expect_same_volume(u, read_volume(dir / "u.nrrd"));
+}
+
+TEST(SlicerDisplacement, AFieldOfManyWriteBlocksIsFlippedVectorByVector) {
+  // 2.5 MB: written in 1 MiB blocks of whole vectors, each negated in x and y on its way out.
+  // Every stored vector must be the RAS one with x, y negated, and the reader must take it back.
+  const tests::TempFolder dir;
+  ImageGeometry g = oblique_geometry();
+  g.size = {70, 61, 50};
+  const VolumeF u = random_volume(g, 3, 5);
+  write_displacement_for_slicer(dir / "u.nrrd", u);
+  const auto [header, data] = split_nrrd(dir / "u.nrrd");
+  ASSERT_EQ(data.size(), u.data.size());
+  int wrong = 0;
+  for (std::size_t v = 0; v < data.size(); v += 3)
+    if (data[v] != -u.data[v] || data[v + 1] != -u.data[v + 1] || data[v + 2] != u.data[v + 2])
+      ++wrong;
+  EXPECT_EQ(wrong, 0);
   expect_same_volume(u, read_volume(dir / "u.nrrd"));
 }
 

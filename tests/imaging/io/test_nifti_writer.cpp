@@ -4,6 +4,7 @@
 #include "file_bytes.hpp"
 #include "temp_folder.hpp"
 
+#include "imaging/io/gzip_file.hpp"
 #include "imaging/io/image_io.hpp"
 
 #include <Eigen/Geometry>
@@ -101,6 +102,27 @@ TEST(NiftiWriter, HeaderAndVoxelsAreVtksByteForByte) {
     write_labels(dir / "ours.nii", labels);
     EXPECT_TRUE(file_bytes(dir / "ours.nii") == file_bytes(dir / "vtk.nii"));
   }
+}
+
+TEST(NiftiWriter, VectorVolumeAcrossManyBlocksIsVtksByteForByte) {
+  // A displacement-field-like volume of 2.5 MB: written block by block (1 MiB), its blocks start
+  // and end inside a component's plane and across the planes' boundaries; the file must still be
+  // VTK's exactly, uncompressed and gzipped.
+  const tests::TempFolder dir;
+  ImageGeometry g = geometry(1);
+  g.size = {70, 61, 50};
+  VolumeF v(g, 3);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> u(-20.0F, 20.0F);
+  for (float& x : v.data) x = u(rng);
+  write_with_vtk(dir / "vtk.nii", v);
+  write_volume(dir / "ours.nii", v);
+  write_volume(dir / "ours.nii.gz", v);
+  const std::vector<char> reference = file_bytes(dir / "vtk.nii");
+  ASSERT_EQ(reference.size(), 352 + v.data.size() * sizeof(float));
+  ASSERT_GT(reference.size(), 2 * kGzipBlockBytes);
+  EXPECT_TRUE(file_bytes(dir / "ours.nii") == reference);
+  EXPECT_TRUE(gunzip(dir / "ours.nii.gz") == reference);
 }
 
 }  // namespace
