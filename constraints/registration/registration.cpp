@@ -157,6 +157,7 @@ RegistrationStop stop_of(StageStop s) {
       return RegistrationStop::CONVERGED;
     case StageStop::ITERATION_CAP:
       return RegistrationStop::MAX_ITERATIONS;
+    case StageStop::STALLED:
     case StageStop::NOT_SETTLING:
       return RegistrationStop::NOT_SETTLING;
     case StageStop::DIVERGED:
@@ -328,6 +329,7 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
         res.start.bulk_accepted ? options.refine_pair_distance_mm : options.pair_max_distance_mm;
     smooth.keep_held_pairs = res.start.bulk_accepted;
     smooth.vessel_compliance_ratio = res.noise.ratio;
+    smooth.stop_when_stalled = options.stop_stalled_smoothing;
     const StageRecord sm = run_stage(in, smooth, state);
     if (sm.stop != StageStop::SETTLED) {
       settled.history = std::move(state.history);  // keep the record of what was tried

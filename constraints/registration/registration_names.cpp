@@ -74,6 +74,8 @@ std::string to_string(StageStop stop) {
       return "not_settling";
     case StageStop::DIVERGED:
       return "diverged";
+    case StageStop::STALLED:
+      return "stalled";
   }
   BS_UNREACHABLE();
 }

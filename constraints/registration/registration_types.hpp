@@ -125,6 +125,10 @@ struct RegistrationOptions {
   /// step after the jump must still be below the tolerance). Off: every step taken (bench variant
   /// `pre_dura_no_tail`).
   bool extrapolate_tails = true;
+  /// The SMOOTH stage, whose answer is discarded unless it settles, ends STALLED as soon as its
+  /// clean steps' contraction cannot reach the tolerance before its cap (stage_stalled(),
+  /// registration_stage.hpp): the same answer (the FREE stage's) without the steps to the cap.
+  bool stop_stalled_smoothing = true;
   /// After the bulk-shift stage, fresh pairs only within this distance (mm): the shift is taken
   /// out, so a feature farther away is another vessel. A point with none keeps its stage-1 feature.
   double refine_pair_distance_mm = 2.0;
@@ -310,6 +314,10 @@ enum class StageStop : std::uint8_t {
   ITERATION_CAP,  ///< its iteration cap
   NOT_SETTLING,   ///< its trust region shrank below the increment tolerance
   DIVERGED,       ///< a non-finite step
+  /// Its clean steps (same pairs and damping, none cut) stopped contracting: at their measured
+  /// rate the increment tolerance would not be reached within the cap (stage_stalled()); only
+  /// in a stage whose unsettled answer is discarded (StageOptions::stop_when_stalled).
+  STALLED,
 };
 std::string to_string(StageStop stop);
 

@@ -130,6 +130,7 @@ struct StageLoop {
   std::vector<std::set<PairKey>> pair_sets;  // per iteration of this stage
   bool frozen = false;
   std::optional<double> previous_tail_ratio;  // the last step's tail_ratio()
+  std::vector<double> clean_increments;       // the current run of clean steps (stage_stalled())
 };
 
 /// Algorithm 1, steps 1-2: the vessel and footprint pairs of iteration `it`, by the stage's rule
@@ -418,8 +419,16 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
 
     bool settled = false;
     const SuccessiveSteps steps = trust_and_stop(options, stage, dx, loop, rec, settled);
+    // A clean step creeps on: its pairs and damping are the last step's, it is not cut, and it
+    // does not turn back (GROW; a turn-back is the trust region's to damp or shrink).
+    if (!steps.limited && steps.same_damping && steps.same_pairing &&
+        rec.trust == TrustDecision::GROW)
+      loop.clean_increments.push_back(rec.max_increment_mm);
+    else
+      loop.clean_increments.clear();
     if (!settled && options.extrapolate_tails && loop.radius >= options.increment_tolerance_mm)
       take_tail(steps, dx, loop, state, rec);
+    if (rec.extrapolated_mm > 0.0) loop.clean_increments.clear();  // the next step answers it
     rec.seconds = seconds_since(t_it);
     state.history.push_back(rec);
     record.iterations = it;
@@ -432,9 +441,32 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
       record.stop = StageStop::NOT_SETTLING;
       break;
     }
+    if (stage.stop_when_stalled &&
+        stage_stalled(loop.clean_increments, options.increment_tolerance_mm * rec.damping,
+                      stage.max_iterations - it)) {
+      record.stop = StageStop::STALLED;
+      logger().debug(
+          "registration iteration {}: {} stage stalled (|dx| {:.4f} -> {:.4f} mm over "
+          "{} clean steps)",
+          state.history.size(), to_string(stage.kind),
+          loop.clean_increments[loop.clean_increments.size() - stall_window],
+          loop.clean_increments.back(), stall_window);
+      break;
+    }
   }
   if (stage.kind == StageKind::HELD) state.held_pairs = state.vessel_pairs;
   return record;
+}
+
+bool stage_stalled(const std::vector<double>& clean_increments, double tolerance, int remaining) {
+  const auto w = static_cast<std::size_t>(stall_window);
+  if (clean_increments.size() < w) return false;
+  const double first = clean_increments[clean_increments.size() - w];
+  const double last = clean_increments.back();
+  if (!(last > tolerance) || !(first > 0.0)) return false;  // settling, or nothing to read
+  const double rate = std::pow(last / first, 1.0 / double(w - 1));
+  if (!(rate < 1.0)) return true;
+  return std::log(tolerance / last) / std::log(rate) > double(remaining);
 }
 
 ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {

@@ -83,6 +83,10 @@ struct StageOptions {
   bool keep_held_pairs = false;    ///< a point without a fresh pair keeps its HELD-stage feature
   double vessel_compliance_ratio = 0.2;
   bool keep_system = false;  ///< keep the last step's W and δ_free in the state (noise model)
+  /// End the stage STALLED when stage_stalled() says its clean steps cannot reach the tolerance
+  /// within the cap: for a stage whose unsettled answer is discarded (SMOOTH), where running on
+  /// to the cap would only cost time.
+  bool stop_when_stalled = false;
 };
 
 /// Runs one stage from `state` (updated in place: positions, pairs, λ, history, times).
@@ -193,5 +197,21 @@ inline constexpr double tail_cosine = 0.7;
 /// the stop test still asks that step to be below the tolerance.
 std::optional<double> tail_jump_factor(std::optional<double> previous_ratio,
                                        std::optional<double> ratio);
+
+/// Clean steps (the same pairs and damping as the step before, not cut to the radius, not turned
+/// back from it (TrustDecision::GROW: an oscillation is the trust region's to damp or shrink), not
+/// answering a tail jump) whose increments stage_stalled() reads: its window.
+inline constexpr int stall_window = 6;
+
+/// Whether a stage can still settle before its cap, from its last clean steps' increments a
+/// (max nodal |Δx|, mm, oldest first, the latest last): with the pairs fixed, near its fixed point
+/// the loop contracts geometrically, |Δx_{k+1}| ≈ ρ |Δx_k|, so ρ = (a_last / a_first)^(1/(w−1))
+/// over the last w = stall_window of them, and the tolerance is reached after
+/// log(tolerance / a_last) / log ρ more steps (never when ρ ≥ 1). True when that is more than
+/// `remaining` (the iterations left before the cap), or when ρ ≥ 1 with a_last above the
+/// tolerance; false with fewer than w clean steps. The fine meshes' SMOOTH stages creep at a
+/// constant 0.025-0.03 mm per step for 30 steps, with 2-3 elements flipping, to the cap
+/// (ICBM152 at 5,329 nodes; docs/BENCHMARKS.md).
+bool stage_stalled(const std::vector<double>& clean_increments, double tolerance, int remaining);
 
 }  // namespace brainshift::constraints

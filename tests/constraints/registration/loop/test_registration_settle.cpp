@@ -7,6 +7,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <iostream>
+#include <vector>
+
 namespace brainshift::constraints {
 namespace {
 
@@ -59,6 +63,84 @@ TEST(RegistrationSettle, ASagIsRegisteredUntilThePairingIsStable) {
   const RegistrationResult r = register_model(*s.model, d, settle_options());
   ASSERT_TRUE(r.converged) << r.stop_reason;
   expect_settled_on_a_confirmed_pairing(r);
+}
+
+TEST(RegistrationSettle, StalledWhenTheMeasuredContractionMissesTheCap) {
+  // stage_stalled() against the closed form of a geometric sequence a_k = a_0 ρ^k: the tolerance
+  // is reached after log(tol / a_last) / log ρ more steps; stalled iff that exceeds the steps left.
+  const double tol = 0.01;
+  const auto geometric = [](double a0, double rho, int n) {
+    std::vector<double> a;
+    for (int k = 0; k < n; ++k) a.push_back(a0 * std::pow(rho, k));
+    return a;
+  };
+  // ρ = 0.9 from 0.03 over the window: a_last = 0.03 · 0.9⁵ = 0.0177, 5.42 steps to go.
+  const std::vector<double> slow = geometric(0.03, 0.9, stall_window);
+  const double to_go = std::log(tol / slow.back()) / std::log(0.9);
+  ASSERT_NEAR(to_go, 5.42, 0.01);
+  EXPECT_TRUE(stage_stalled(slow, tol, 5));
+  EXPECT_FALSE(stage_stalled(slow, tol, 6));
+  // A constant or growing creep never reaches it, however many steps are left.
+  EXPECT_TRUE(stage_stalled(geometric(0.025, 1.0, stall_window), tol, 1000));
+  EXPECT_TRUE(stage_stalled(geometric(0.025, 1.01, stall_window), tol, 1000));
+  // A fast contraction (0.5 per step) from 1 mm needs 6.6 steps: not stalled with 10 left.
+  EXPECT_FALSE(stage_stalled(geometric(1.0, 0.5, stall_window), tol, 10));
+  // Too few clean steps to read a rate, or already below the tolerance: never stalled.
+  EXPECT_FALSE(stage_stalled(geometric(0.025, 1.0, stall_window - 1), tol, 0));
+  EXPECT_FALSE(stage_stalled(geometric(0.009, 1.0, stall_window), tol, 0));
+  // Only the last window counts: an early plateau followed by a fast contraction is not stalled.
+  std::vector<double> recovered = geometric(0.025, 1.0, 4);
+  for (const double a : geometric(0.02, 0.5, stall_window)) recovered.push_back(a);
+  EXPECT_FALSE(stage_stalled(recovered, tol, 10));
+}
+
+TEST(RegistrationSettle, ASmoothingStageThatCreepsEndsStalledWithTheAnswerOfTheCap) {
+  // A SMOOTH stage whose answer is discarded unless it settles, made to creep (fault injection:
+  // the node farthest from the vessels pushed 0.05 mm further along z after each of its steps,
+  // as the fine meshes' flipping elements creep at 0.025-0.03 mm per step): it cannot settle, so
+  // with the rule it ends STALLED after the window of clean steps, and the registration's answer
+  // is the one it gives when the stage runs on to its cap (the FREE stage's), to the bit.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o = settle_options();
+  o.noise.enabled = true;
+  o.noise.change_factor = 1.0;  // smooth at the data's compliance even when close to the default
+  const RegistrationResult clean = register_model(*s.model, d, o);
+  ASSERT_GE(clean.stages.size(), 2U) << clean.stop_reason;
+  ASSERT_EQ(clean.stages.back().kind, StageKind::SMOOTH) << clean.stop_reason;
+  const int before_smooth = clean.stages.back().first_iteration - 1;
+  const index_t node = farthest_free_node(s).first;
+  ASSERT_GE(node, 0);
+  const auto creep = [&] {
+    return [node, before_smooth, k = 0](StepResult& step) mutable {
+      if (++k <= before_smooth) return;
+      step.x(node, 2) += 0.05 * (k - before_smooth);
+    };
+  };
+  o.inspect_step = creep();
+  o.stop_stalled_smoothing = false;
+  const RegistrationResult to_cap = register_model(*s.model, d, o);
+  o.inspect_step = creep();
+  o.stop_stalled_smoothing = true;
+  const RegistrationResult stalled = register_model(*s.model, d, o);
+  std::cout << "[ stall ] to the cap: " << to_cap.iterations << " iterations ("
+            << to_string(to_cap.stages.back().stop) << "); with the rule: " << stalled.iterations
+            << " (" << to_string(stalled.stages.back().stop) << ")\n";
+  ASSERT_EQ(to_cap.stages.back().kind, StageKind::SMOOTH);
+  ASSERT_EQ(stalled.stages.back().kind, StageKind::SMOOTH);
+  EXPECT_EQ(to_cap.stages.back().stop, StageStop::ITERATION_CAP);
+  EXPECT_EQ(stalled.stages.back().stop, StageStop::STALLED);
+  // At least the window (its first step has nothing to compare with), once the stage's pairs
+  // and radius have settled into the creep; well before the cap.
+  EXPECT_GE(stalled.stages.back().iterations, stall_window + 1);
+  EXPECT_LT(stalled.stages.back().iterations, o.noise.max_iterations);
+  EXPECT_LT(stalled.iterations, to_cap.iterations);
+  EXPECT_EQ(stalled.stop, to_cap.stop);
+  EXPECT_EQ(stalled.converged, to_cap.converged);
+  EXPECT_EQ((stalled.positions - to_cap.positions).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_NE(stalled.stop_reason.find("the smoothing stage ended stalled"), std::string::npos)
+      << stalled.stop_reason;
 }
 
 }  // namespace
