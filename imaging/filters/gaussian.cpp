@@ -127,15 +127,24 @@ VolumeF downsample(const VolumeF& image, const Eigen::Vector3i& factor, bool max
       for (int j = 0; j < g.size[1]; ++j) {
         const std::int64_t row = c.linear_index(0, j / factor[1], k / factor[2]);
         const float* in = &image.data[std::size_t(g.linear_index(0, j, k))];
-        for (int i = 0; i < g.size[0]; ++i) {
-          const float v = in[i];
-          if (!std::isfinite(v)) continue;
-          const std::size_t o = std::size_t(row + i / factor[0]);
-          if (maximum)
-            out.data[o] = count[o] == 0.0F ? v : std::max(out.data[o], v);
-          else
-            out.data[o] += v;
-          count[o] += 1.0F;
+        // Output voxel by output voxel, its inputs of this row in order, held in registers: the
+        // same additions in the same order as one voxel at a time (the same bits), without a
+        // division per input voxel.
+        for (int io = 0; io < c.size[0]; ++io) {
+          const std::size_t o = std::size_t(row + io);
+          float acc = out.data[o], n = count[o];
+          const int i1 = std::min(g.size[0], (io + 1) * factor[0]);
+          for (int i = io * factor[0]; i < i1; ++i) {
+            const float v = in[i];
+            if (!std::isfinite(v)) continue;
+            if (maximum)
+              acc = n == 0.0F ? v : std::max(acc, v);
+            else
+              acc += v;
+            n += 1.0F;
+          }
+          out.data[o] = acc;
+          count[o] = n;
         }
       }
     if (!maximum) {
