@@ -158,8 +158,11 @@ int run_demo(const DemoArgs& args, std::ostream& out) {
   out << "  two sweeps (pre-dura pose + after opening): " << errors_line(ev) << "; max deformation "
       << two.max_displacement_mm << " mm; shift corrected "
       << ev["shift_corrected_pct"].get<double>() << " %\n";
+  nlohmann::json report_one;
+  std::ifstream(one_sweep / "report.json") >> report_one;
   out << "  one sweep (after opening alone):            " << errors_line(ev_one)
-      << "; max deformation " << one.max_displacement_mm << " mm\n";
+      << "; max deformation " << one.max_displacement_mm << " mm; the pose moves the fixed base "
+      << report_one["rigid"]["fixed_base_moved_mm"]["mean"].get<double>() << " mm\n";
   if (!brain) out << "  (no whole-brain figure: " << note << ")\n";
   out << "  outputs: " << result.string()
       << "/{report.json, evaluation.json, deformed.vtu, displacement.nii.gz, "

@@ -43,6 +43,8 @@ int run_register(const RegisterArgs& args, std::ostream& out) {
   out << "registered in " << r.iterations << " iterations (" << r.stop_reason << "); registration "
       << r.seconds.total << " s, total " << progress.seconds() << " s; max displacement "
       << o.max_displacement_mm << " mm; results in " << args.out.string() << "\n";
+  if (!o.fixed_base_note.empty())
+    std::cerr << "brainshift register: note: " << o.fixed_base_note << "\n";
   if (r.converged) return 0;
   std::cerr << "brainshift register: did not converge: " << r.stop_reason
             << " (results written; see report.json)\n";

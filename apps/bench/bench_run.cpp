@@ -179,6 +179,7 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
   row.t = r.seconds;
   row.max_displacement_mm =
       r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
+  row.fixed_base_moved_mm = fixed_base_motion(r, model).mean_mm;
   core::MappingOptions mo;
   mo.max_outside_distance = 20.0;
   const core::BarycentricMapping map(model.mesh(), c.truth.a, mo);

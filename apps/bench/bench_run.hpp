@@ -68,6 +68,10 @@ struct BenchRow {
   /// truth's intra-operative one, mm): the whole-brain figure a registration must beat.
   std::optional<double> dense_before_mean;
   double max_displacement_mm = 0.0;
+  /// Mean motion of the model's fixed base by the answer's rigid part (workflow::
+  /// fixed_base_motion(), mm): on a case without a navigation offset all of it is error; on the
+  /// offset cases the true pose moves the base too.
+  double fixed_base_moved_mm = 0.0;
   bool ok = false;  ///< finite answer, no exception
   std::string error;
   std::string note;  ///< e.g. why the B-mode gave no footprint

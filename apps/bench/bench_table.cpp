@@ -97,6 +97,7 @@ nlohmann::json row_json(const BenchRow& r) {
       {"dense_before_mean_mm",
        r.dense_before_mean ? nlohmann::json(*r.dense_before_mean) : nlohmann::json(nullptr)},
       {"max_displacement_mm", r.max_displacement_mm},
+      {"fixed_base_moved_mm", r.fixed_base_moved_mm},
       {"ok", r.ok},
       {"stop_reason", r.stop_reason},
       {"error", r.error},

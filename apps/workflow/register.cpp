@@ -1,5 +1,6 @@
 #include "apps/workflow/register.hpp"
 
+#include "apps/workflow/intraop_frame.hpp"
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/pose_file.hpp"
 #include "apps/workflow/result_report.hpp"
@@ -106,6 +107,8 @@ RegisterOutcome register_and_write(const RegisterOptions& args, const Progress& 
                {{"timing", {{"elapsed_before_outputs", progress.seconds()}}}});
   const constraints::RegistrationResult& r = o.result;
   o.max_displacement_mm = r.displacement.rows() ? r.displacement.rowwise().norm().maxCoeff() : 0.0;
+  o.fixed_base_note = fixed_base_note(fixed_base_motion(r, *s.model), in.data.pose.has_value(),
+                                      navigation_yardstick_mm(options));
   return o;
 }
 

@@ -43,6 +43,9 @@ struct RegisterOptions {
 struct RegisterOutcome {
   constraints::RegistrationResult result;  ///< positions in the model frame, mm
   double max_displacement_mm = 0.0;        ///< largest nodal displacement (model frame)
+  /// fixed_base_note() of the result (report.json rigid.fixed_base_moved_mm.note); empty when the
+  /// pose was given or moved the fixed base no further than the navigation's accuracy.
+  std::string fixed_base_note;
 };
 
 /// Loads the model, reads the images, registers and writes RES (report.json and the fields);

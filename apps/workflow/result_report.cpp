@@ -1,5 +1,6 @@
 #include "apps/workflow/result_report.hpp"
 
+#include "apps/workflow/intraop_frame.hpp"
 #include "apps/workflow/model_folder.hpp"
 #include "apps/workflow/pose_file.hpp"
 #include "apps/workflow/result_fields.hpp"
@@ -193,6 +194,16 @@ nlohmann::json result_report(const Session& s, const constraints::RegistrationRe
   report["intraop"] = in.report;
   if (extra.is_object()) report.merge_patch(extra);
   report["model"] = s.model_report;
+  // The rigid part's motion of the fixed base, against the navigation's accuracy (issue 32: the
+  // base must not move beyond what the navigation allows unless the data demand it).
+  const FixedBaseMotion base = fixed_base_motion(r, *s.model);
+  const double yardstick = navigation_yardstick_mm(s.loaded.scene.options);
+  report["rigid"]["fixed_base_moved_mm"] = {
+      {"mean", base.mean_mm},
+      {"max", base.max_mm},
+      {"nodes", base.nodes},
+      {"navigation_accuracy_mm", yardstick},
+      {"note", fixed_base_note(base, in.data.pose.has_value(), yardstick)}};
   report["timing"]["load_model"] = s.seconds_load;
   report["timing"]["extraction"] = in.seconds;
   return report;

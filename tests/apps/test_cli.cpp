@@ -198,6 +198,17 @@ TEST(Cli, DemoRunsTheWholeWorkflowAndCorrectsMostOfTheShift) {
   // A visible deformation: the model's own, not the rigid start alone (measured 15.7 mm; the
   // phantom's cortical shift is 10 mm at most).
   EXPECT_GT(report["max_displacement_mm"].get<double>(), 3.0);
+  // The phantom's navigation is exact (the identity), so any motion of the fixed base by the pose
+  // is error. The two-sweep result keeps the base (the pre-dura pose is the identity here); the
+  // one-sweep pose takes the sag and tilts the whole brain (measured 15.1 mm on average at the
+  // base, whole brain 9.32 mm): its report must say so, beyond RESECT's 6.6 mm accuracy.
+  EXPECT_LT(report["rigid"]["fixed_base_moved_mm"]["mean"].get<double>(), 1.0);
+  EXPECT_EQ(report["rigid"]["fixed_base_moved_mm"]["note"], "");
+  const auto one = nlohmann::json::parse(read_all(out / "result_one_sweep" / "report.json"));
+  EXPECT_GT(one["rigid"]["fixed_base_moved_mm"]["mean"].get<double>(), 6.6);
+  EXPECT_NE(one["rigid"]["fixed_base_moved_mm"]["note"].get<std::string>().find("pre-dura"),
+            std::string::npos);
+  EXPECT_NE(r.out.find("the pose moves the fixed base"), std::string::npos) << r.out;
 }
 
 }  // namespace
