@@ -44,6 +44,21 @@ struct Input {
 /// the compressed bytes are ever touched (no buffer of the input's size is zero-filled).
 constexpr std::size_t kStageBytes = std::size_t(256) << 10;
 
+/// Hands the input bytes [begin, end) to `step(p, n, final_block)` block by block, each block's
+/// CRC-32 into `c.crc`; once, with n = 0, for an empty range (the last chunk must still end the
+/// stream). Stops when `step` returns false.
+template <typename Step>
+void for_each_block(Input& in, std::size_t begin, std::size_t end, Chunk& c, Step step) {
+  std::size_t offset = begin;
+  do {
+    const std::size_t n = std::min(kGzipBlockBytes, end - offset);
+    const unsigned char* p = in.block(offset, n);
+    c.crc = crc32_z(c.crc, p, n);
+    offset += n;
+    if (!step(p, n, offset == end)) return;
+  } while (offset < end);
+}
+
 #ifdef BS_HAVE_ISAL
 /// deflate_chunk() by ISA-L's igzip at level min(level, 3) (its highest; run_length has no
 /// counterpart there): the same raw-deflate chunk contract, other (equally valid) bytes.
@@ -60,35 +75,27 @@ void isal_deflate_chunk(Input& in, std::size_t begin, std::size_t end, bool last
   z.level_buf_size = static_cast<std::uint32_t>(level_buffer.size());
   z.gzip_flag = IGZIP_DEFLATE;
   std::vector<unsigned char> stage(kStageBytes);
-  std::size_t offset = begin;
-  do {  // once even for an empty chunk: the last one must still end the stream
-    const std::size_t n = std::min(kGzipBlockBytes, end - offset);
-    const unsigned char* p = in.block(offset, n);
-    c.crc = crc32_z(c.crc, p, n);
-    offset += n;
-    const bool final_block = offset == end;
+  for_each_block(in, begin, end, c, [&](const unsigned char* p, std::size_t n, bool final_block) {
     z.end_of_stream = (last && final_block) ? 1 : 0;
     // A chunk before the last ends on a byte boundary.
     z.flush = (final_block && !last) ? SYNC_FLUSH : NO_FLUSH;
     z.next_in = const_cast<unsigned char*>(p);  // ISA-L's API is not const-correct
     z.avail_in = static_cast<std::uint32_t>(n);
     // Called again while it fills the output (igzip's documented calling pattern).
-    for (;;) {
+    do {
       z.next_out = stage.data();
       z.avail_out = static_cast<std::uint32_t>(stage.size());
       if (isal_deflate(&z) != COMP_OK) {
         c.error = "isal_deflate failed";
-        return;
+        return false;
       }
       c.out.insert(c.out.end(), stage.data(), stage.data() + (stage.size() - z.avail_out));
-      if (z.avail_out != 0) break;
-    }
-    if (z.avail_in != 0) {
-      c.error = "isal_deflate did not take its input";
-      return;
-    }
-  } while (offset < end);
-  if (last && z.internal_state.state != ZSTATE_END) c.error = "isal_deflate did not finish";
+    } while (z.avail_out == 0);
+    if (z.avail_in != 0) c.error = "isal_deflate did not take its input";
+    return c.error.empty();
+  });
+  if (c.error.empty() && last && z.internal_state.state != ZSTATE_END)
+    c.error = "isal_deflate did not finish";
 }
 #endif
 
@@ -109,26 +116,21 @@ void deflate_chunk(Input& in, std::size_t begin, std::size_t end, bool last, con
     return;
   }
   std::vector<unsigned char> stage(kStageBytes);
-  std::size_t offset = begin;
   int rc = Z_OK;
-  do {  // once even for an empty chunk: the last one must still end the stream
-    const std::size_t n = std::min(kGzipBlockBytes, end - offset);
-    const unsigned char* p = in.block(offset, n);
-    c.crc = crc32_z(c.crc, p, n);
-    offset += n;
-    const int flush = offset < end ? Z_NO_FLUSH : last ? Z_FINISH : Z_SYNC_FLUSH;
+  for_each_block(in, begin, end, c, [&](const unsigned char* p, std::size_t n, bool final_block) {
+    const int flush = !final_block ? Z_NO_FLUSH : last ? Z_FINISH : Z_SYNC_FLUSH;
     z.next_in = const_cast<unsigned char*>(p);  // zlib's API is not const-correct
     z.avail_in = uInt(n);
     do {  // zlib's calling pattern: again while the output fills
       z.next_out = stage.data();
       z.avail_out = uInt(stage.size());
       rc = deflate(&z, flush);
-      if (rc == Z_STREAM_ERROR) break;
+      if (rc == Z_STREAM_ERROR) return false;
       c.out.insert(c.out.end(), stage.data(), stage.data() + (stage.size() - z.avail_out));
     } while (z.avail_out == 0);
-    if (rc == Z_STREAM_ERROR || z.avail_in != 0) break;
-  } while (offset < end);
-  if (rc == Z_STREAM_ERROR || z.avail_in != 0 || offset != end || (last && rc != Z_STREAM_END))
+    return z.avail_in == 0;
+  });
+  if (rc == Z_STREAM_ERROR || z.avail_in != 0 || (last && rc != Z_STREAM_END))
     c.error = "deflate failed";
   deflateEnd(&z);
 }
@@ -161,21 +163,18 @@ void gzip_input(Input& input, std::size_t size, const std::filesystem::path& tar
   const std::size_t blocks =
       std::max<std::size_t>(1, (size + kGzipBlockBytes - 1) / kGzipBlockBytes);
   const std::size_t chunks = std::min<std::size_t>(std::size_t(options.threads), blocks);
+  const auto first_byte = [&](std::size_t c) {  // of chunk c; chunks' first byte is its end
+    return std::min(size, blocks * c / chunks * kGzipBlockBytes);
+  };
   std::vector<Chunk> out(chunks);
   core::parallel_chunks(chunks, static_cast<int>(chunks), [&](std::size_t c) {
-    const std::size_t b = std::min(size, blocks * c / chunks * kGzipBlockBytes);
-    const std::size_t e = std::min(size, blocks * (c + 1) / chunks * kGzipBlockBytes);
     Input own{input.data, input.source, {}};  // each chunk its own block buffer
-    deflate_chunk(own, b, e, c + 1 == chunks, options, out[c]);
+    deflate_chunk(own, first_byte(c), first_byte(c + 1), c + 1 == chunks, options, out[c]);
   });
   uLong crc = out[0].crc;
   for (std::size_t c = 0; c < chunks; ++c) {
     BS_VERIFY(out[c].error.empty(), target.string() << ": cannot compress: " << out[c].error);
-    if (c > 0) {
-      const std::size_t b = std::min(size, blocks * c / chunks * kGzipBlockBytes);
-      const std::size_t e = std::min(size, blocks * (c + 1) / chunks * kGzipBlockBytes);
-      crc = crc32_combine(crc, out[c].crc, z_off_t(e - b));
-    }
+    if (c > 0) crc = crc32_combine(crc, out[c].crc, z_off_t(first_byte(c + 1) - first_byte(c)));
   }
   std::ofstream f(target, std::ios::binary | std::ios::trunc);
   BS_VERIFY(f.good(), target.string() << ": cannot open for writing");
