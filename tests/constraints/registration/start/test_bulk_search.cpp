@@ -7,7 +7,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <random>
+#include <vector>
 
 namespace brainshift::constraints {
 namespace {
@@ -129,9 +131,52 @@ TEST(DistanceGrid, StoredNearTheSkeletonAnswersAsTheWholeGrid) {
     ASSERT_EQ(near.nearest(q), whole.nearest(q)) << q.transpose();
     ASSERT_EQ(near.trilinear(q), whole.trilinear(q)) << q.transpose();
     ASSERT_EQ(near.segment(q), whole.segment(q)) << q.transpose();
+    // The bulk search's lookup: a voxel within τ, with nearest()'s value, exactly when nearest()
+    // is below τ² (elsewhere the kernel is ≤ 0 and the search adds nothing).
+    for (const detail::DistanceGrid* g : {&near, &whole}) {
+      double d2 = -1;
+      ASSERT_EQ(g->nearest_within_tau(q, d2), whole.nearest(q) < tau * tau) << q.transpose();
+      if (whole.nearest(q) < tau * tau) {
+        ASSERT_EQ(d2, whole.nearest(q)) << q.transpose();
+      }
+    }
+    // The voxel is std::round's, as it was before the rounding lost its library call.
+    ASSERT_EQ(near.nearest_cell(q), ((q - lo) / h).array().round().cast<int>().matrix());
     checked += whole.nearest(q) < tau * tau;
   }
   EXPECT_GT(checked, 1000);  // many of the points are near a vessel, not all far
+}
+
+TEST(DistanceGrid, RoundsHalvesAwayFromZeroAsStdRound) {
+  // round_half_away replaces std::round on the searches' hot path: it must give the same integer
+  // everywhere, the halves and the doubles next to them included (a voxel one off moves a score).
+  std::vector<double> v = {0.0,
+                           -0.0,
+                           0.5,
+                           -0.5,
+                           1.5,
+                           -1.5,
+                           2.5,
+                           -2.5,
+                           1e-300,
+                           -1e-300,
+                           std::nextafter(0.5, 0.0),
+                           std::nextafter(-0.5, 0.0),
+                           std::nextafter(0.5, 1.0),
+                           std::nextafter(-0.5, -1.0),
+                           std::nextafter(2.5, 0.0),
+                           std::nextafter(-2.5, 0.0),
+                           1073741823.5,
+                           -1073741823.5};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> wide(-1e6, 1e6), narrow(-3.0, 3.0);
+  for (int i = 0; i < 100000; ++i) v.push_back(i % 2 ? wide(rng) : narrow(rng));
+  for (int i = -2000; i <= 2000; ++i) v.push_back(0.25 * i);  // every quarter: halves on the way
+  for (const double x : v)
+    ASSERT_EQ(detail::round_half_away(x), static_cast<int>(std::round(x))) << std::hexfloat << x;
+  // Far beyond any grid: clamped, finite and on the right side, never undefined.
+  EXPECT_EQ(detail::round_half_away(1e300), 1 << 30);
+  EXPECT_EQ(detail::round_half_away(-1e300), -(1 << 30));
 }
 
 }  // namespace
