@@ -90,10 +90,12 @@ class DistanceGrid {
             }
       }
     });
-    m_within.assign((n + 63) / 64, 0);
-    for (std::size_t k = 0; k < n; ++k)
-      if (double(m_d2[k]) < m_tau2) m_within[k >> 6] |= std::uint64_t{1} << (k & 63);
-    if (!whole()) return;  // kernel() is the whole grid's only (the global start's)
+    if (!whole()) {  // the bulk search's table: a mask of the voxels within τ, no kernel
+      m_within.assign((n + 63) / 64, 0);
+      for (std::size_t k = 0; k < n; ++k)
+        if (double(m_d2[k]) < m_tau2) m_within[k >> 6] |= std::uint64_t{1} << (k & 63);
+      return;
+    }
     m_kernel.resize(n);
     for (std::size_t k = 0; k < n; ++k)
       m_kernel[k] =
@@ -131,6 +133,10 @@ class DistanceGrid {
     const Eigen::Vector3i c = nearest_cell(q);
     if (!in_store(c.x(), c.y(), c.z())) return false;  // outside the store: τ² (or the grid)
     const std::size_t k = stored(c.x(), c.y(), c.z());
+    if (whole()) {  // no mask (the global start's grid): the table itself
+      d2 = m_d2[k];
+      return d2 < m_tau2;
+    }
     if (!((m_within[k >> 6] >> (k & 63)) & 1U)) return false;
     d2 = m_d2[k];
     return true;
@@ -186,7 +192,8 @@ class DistanceGrid {
       m_wd;  ///< the stored window: first voxel and size (the whole grid by default)
   std::vector<float> m_d2;
   std::vector<std::int32_t> m_seg;
-  std::vector<std::uint64_t> m_within;  ///< bit k: stored voxel k's squared distance is below τ²
+  /// Bit k: stored voxel k's squared distance is below τ² (only when stored near the skeleton).
+  std::vector<std::uint64_t> m_within;
   std::vector<std::uint8_t> m_kernel;
 };
 
