@@ -46,6 +46,38 @@ core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points
   return out.segments.empty() ? s : out;
 }
 
+std::vector<double> coarse_shift_scores(const DistanceGrid& table, ConstRef<MatrixX3d> points,
+                                        const std::vector<Matrix3d>& basis, Eigen::Index stride,
+                                        int k, double step, double tau) {
+  const Eigen::Index n = (points.rows() + stride - 1) / stride;
+  const int side = 2 * k + 1;
+  std::vector<double> scores(static_cast<std::size_t>(side) * side * side, 0.0);
+  const auto at = [side](int x, int y, int z) {
+    return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
+  };
+  // Each plane writes its own scores: the same answer on any number of threads. Point by point
+  // within a plane, one point's moves stay in a few cache lines of the table. At most 4 threads:
+  // on the 2-core targets both, idle while the registration runs (the model load and the
+  // extraction are over).
+  core::parallel_chunks(
+      static_cast<std::size_t>(side), core::hardware_threads(4), [&](std::size_t c) {
+        const int z = static_cast<int>(c);
+        for (Eigen::Index j = 0; j < n; ++j) {
+          const Eigen::Index i = j * stride;
+          for (int y = 0; y < side; ++y)
+            for (int x = 0; x < side; ++x) {
+              const Vector3d s = step * Vector3d(x - k, y - k, z - k);
+              const Vector3d q =
+                  points.row(i).transpose() -
+                  (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
+              if (double d2 = 0; table.nearest_within_tau(q, d2))
+                scores[at(x, y, z)] += std::max(0.0, 1.0 - d2 / (tau * tau));
+            }
+        }
+      });
+  return scores;
+}
+
 }  // namespace detail
 
 std::string BulkSearchOptions::validate() const {
@@ -99,31 +131,15 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
     return score;
   };
 
-  // Coarse: every shift of the grid, scored on the idle cores one z-plane at a time (each plane
-  // writes its own scores), then scanned in order: the same answer on any number of threads.
-  // Each plane's scores are summed point by point (one point's moves stay in a few cache lines
-  // of the table), in the points' order as one shift's sum would be. A moved point whose voxel
-  // lies beyond τ adds exactly +0 to table.nearest()'s kernel: it is skipped on the table's bit
-  // mask, which is most of them (95 % on ICBM152's sweep), and the same sums come out.
+  // Coarse: every shift of the grid scored (coarse_shift_scores(): 95 % of the moved points on
+  // ICBM152's sweep land beyond τ and are skipped on a bit), then scanned in order.
   const int k = static_cast<int>(std::floor(R / options.coarse_step_mm));
   const int side = 2 * k + 1;
-  std::vector<double> scores(static_cast<std::size_t>(side) * side * side);
+  const std::vector<double> scores =
+      detail::coarse_shift_scores(table, points, basis, stride, k, options.coarse_step_mm, tc);
   const auto at = [side](int x, int y, int z) {
     return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
   };
-  // At most 4 threads: on the 2-core targets both, idle while the registration runs (the model
-  // load and the extraction are over).
-  core::parallel_chunks(
-      static_cast<std::size_t>(side), core::hardware_threads(4), [&](std::size_t c) {
-        const int z = static_cast<int>(c);
-        for (Eigen::Index i = 0; i < n; ++i)
-          for (int y = 0; y < side; ++y)
-            for (int x = 0; x < side; ++x) {
-              const Vector3d s = options.coarse_step_mm * Vector3d(x - k, y - k, z - k);
-              if (double d2 = 0; table.nearest_within_tau(moved(i, s), d2))
-                scores[at(x, y, z)] += std::max(0.0, 1.0 - d2 / (tc * tc));
-            }
-      });
   Vector3d best = Vector3d::Zero();
   double best_score = -1;
   for (int z = -k; z <= k; ++z)

@@ -75,6 +75,19 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
 
 namespace detail {
 
+class DistanceGrid;
+
+/// The bulk search's coarse scores: for every shift s = step · (x − k, y − k, z − k) of the
+/// (2k + 1)³ grid (x fastest, then y, then z), Σ_j max(0, 1 − table.nearest(p_j − B_j s) / τ²)
+/// over the points p_j = points.row(j · stride) (B_j their basis rows, I without a basis), summed
+/// in the order of j. On the idle cores, a z-plane of shifts at a time and point by point within
+/// it; a moved point beyond τ (DistanceGrid::nearest_within_tau()) adds exactly +0 and is skipped,
+/// so each sum is the one a plain loop over the points makes, to the bit. `table` must be built
+/// with `tau`.
+std::vector<double> coarse_shift_scores(const DistanceGrid& table, ConstRef<MatrixX3d> points,
+                                        const std::vector<Matrix3d>& basis, Eigen::Index stride,
+                                        int k, double step, double tau);
+
 /// T · p for every row of p (#N×3, mm).
 MatrixX3d transformed(const Eigen::Isometry3d& T, ConstRef<MatrixX3d> p);
 

@@ -114,6 +114,118 @@ TEST(BulkSearch, AKnownPoseIsKeptAndTheShiftIsFoundInItsFrame) {
   EXPECT_TRUE(p.bulk_shift.isZero());
 }
 
+/// The bulk search as it was written first, without its shortcuts: the whole distance grid,
+/// every point's nearest() term added, shift after shift, then the fine grid. The same options'
+/// geometry (margin, grid, stride), so the search must return its very numbers.
+StartResult reference_bulk_search(const core::Skeleton& skeleton, const MatrixX3d& points,
+                                  const std::vector<Matrix3d>& basis, const BulkSearchOptions& o) {
+  const double R = o.radius_mm, tc = o.coarse_kernel_mm, tf = o.fine_kernel_mm;
+  double reach = 1.0;
+  for (const Matrix3d& b : basis) reach = std::max(reach, b.operatorNorm());
+  const double margin = reach * R * std::sqrt(3.0) + tc + o.voxel_mm;
+  const Vector3d lo = points.colwise().minCoeff().transpose().array() - margin;
+  const Vector3d hi = points.colwise().maxCoeff().transpose().array() + margin;
+  const detail::DistanceGrid table(skeleton, lo, hi, o.voxel_mm, tc);
+  const Eigen::Index stride = (points.rows() + o.max_points - 1) / o.max_points;
+  const Eigen::Index n = (points.rows() + stride - 1) / stride;
+  const auto moved = [&](Eigen::Index j, const Vector3d& s) -> Vector3d {
+    const Eigen::Index i = j * stride;
+    return points.row(i).transpose() -
+           (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
+  };
+  const auto score = [&](const Vector3d& s, bool coarse) {
+    double sum = 0;
+    for (Eigen::Index i = 0; i < n; ++i)
+      sum += coarse ? std::max(0.0, 1.0 - table.nearest(moved(i, s)) / (tc * tc))
+                    : std::max(0.0, 1.0 - table.trilinear(moved(i, s)) / (tf * tf));
+    return sum;
+  };
+  const int k = static_cast<int>(std::floor(R / o.coarse_step_mm));
+  Vector3d best = Vector3d::Zero();
+  double best_score = -1;
+  for (int z = -k; z <= k; ++z)
+    for (int y = -k; y <= k; ++y)
+      for (int x = -k; x <= k; ++x) {
+        const Vector3d s = o.coarse_step_mm * Vector3d(x, y, z);
+        const double sc = score(s, true);
+        if (sc > best_score + 1e-9 || (sc > best_score - 1e-9 && s.norm() < best.norm())) {
+          best_score = sc;
+          best = s;
+        }
+      }
+  const Vector3d centre = best;
+  double fine_best = score(centre, false);
+  const double h = o.coarse_step_mm / 4;
+  for (int z = -4; z <= 4; ++z)
+    for (int y = -4; y <= 4; ++y)
+      for (int x = -4; x <= 4; ++x) {
+        const Vector3d s = centre + h * Vector3d(x, y, z);
+        if (const double sc = score(s, false); sc > fine_best) {
+          fine_best = sc;
+          best = s;
+        }
+      }
+  StartResult r;
+  r.score = fine_best;
+  r.score_identity = score(Vector3d::Zero(), false);
+  r.bulk_shift = best;
+  return r;
+}
+
+TEST(BulkSearch, GivesThePlainSearchsNumbersToTheBit) {
+  // The coarse scan skips the voxels beyond τ on a bit mask, rounds without std::round and sums
+  // point by point on threads: none of it may change a score. Against the plain search above,
+  // with and without a per-point basis (each point moving by its own 3×3 response), the coarse
+  // scores, the best shift, its score and the score at zero must be the same doubles.
+  const core::Skeleton s = vessel_lattice();
+  const MatrixX3d p = seen(s, Vector3d(1.0, -1.5, -8.0));
+  std::vector<Matrix3d> basis;
+  for (Eigen::Index i = 0; i < p.rows(); ++i) {
+    Matrix3d b = 0.7 * Matrix3d::Identity();
+    b(0, 2) = 0.05 * std::sin(0.3 * static_cast<double>(i));
+    b(2, 2) += 0.1 * std::cos(0.2 * static_cast<double>(i));
+    basis.push_back(b);
+  }
+  for (const auto& B : {std::vector<Matrix3d>{}, basis}) {
+    BulkSearchOptions o;
+    o.radius_mm = 14.0;  // a 29³ grid of shifts (the scaled shift is 11.4 mm deep): short
+    // The coarse scores themselves (which only pick the fine search's centre, so the answer
+    // below would hide most changes to them): every one the plain sum over the whole grid's
+    // nearest(), to the bit, every second point (a stride).
+    {
+      const double tau = o.coarse_kernel_mm, step = o.coarse_step_mm;
+      const int k = 14;
+      const Vector3d lo = p.colwise().minCoeff().transpose().array() - 30.0;
+      const Vector3d hi = p.colwise().maxCoeff().transpose().array() + 30.0;
+      const detail::DistanceGrid whole(s, lo, hi, o.voxel_mm, tau);
+      const detail::DistanceGrid near(s, lo, hi, o.voxel_mm, tau, /*stored_near_skeleton=*/true);
+      const std::vector<double> scores = detail::coarse_shift_scores(near, p, B, 2, k, step, tau);
+      std::size_t c = 0, positive = 0;
+      for (int z = -k; z <= k; ++z)
+        for (int y = -k; y <= k; ++y)
+          for (int x = -k; x <= k; ++x, ++c) {
+            const Vector3d sh = step * Vector3d(x, y, z);
+            double plain = 0;
+            for (Eigen::Index i = 0; i < p.rows(); i += 2) {
+              const Vector3d q = p.row(i).transpose() -
+                                 (B.empty() ? sh : Vector3d(B[static_cast<std::size_t>(i)] * sh));
+              plain += std::max(0.0, 1.0 - whole.nearest(q) / (tau * tau));
+            }
+            ASSERT_EQ(scores[c], plain) << "shift " << sh.transpose();
+            positive += plain > 0;
+          }
+      ASSERT_EQ(c, scores.size());
+      EXPECT_GT(positive, scores.size() / 4);  // many shifts reach a vessel: sums of many terms
+    }
+    const StartResult r = search_bulk_shift(s, p, B, o);
+    const StartResult ref = reference_bulk_search(s, p, B, o);
+    EXPECT_EQ(r.score, ref.score) << r.bulk_message;
+    EXPECT_EQ(r.score_identity, ref.score_identity) << r.bulk_message;
+    ASSERT_TRUE(r.bulk_accepted) << r.bulk_message;
+    EXPECT_EQ(r.bulk_shift, ref.bulk_shift) << r.bulk_message;
+  }
+}
+
 TEST(DistanceGrid, StoredNearTheSkeletonAnswersAsTheWholeGrid) {
   // The bulk search's box is much larger than the skeleton; its table stores only the voxels
   // near the segments. The answer must be the whole grid's, to the bit: at random points of the
