@@ -49,6 +49,12 @@ core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points
 std::vector<double> coarse_shift_scores(const DistanceGrid& table, ConstRef<MatrixX3d> points,
                                         const std::vector<Matrix3d>& basis, Eigen::Index stride,
                                         int k, double step, double tau) {
+  BS_VERIFY(stride >= 1 && k >= 0 && step > 0 && tau > 0,
+            "coarse shift scores: stride " << stride << " and k " << k << " (≥ 1, ≥ 0), step "
+                                           << step << " mm and τ " << tau << " mm (> 0)");
+  BS_VERIFY(basis.empty() || static_cast<Eigen::Index>(basis.size()) == points.rows(),
+            "coarse shift scores: " << basis.size() << " basis matrices for " << points.rows()
+                                    << " points");
   const Eigen::Index n = (points.rows() + stride - 1) / stride;
   const int side = 2 * k + 1;
   std::vector<double> scores(static_cast<std::size_t>(side) * side * side, 0.0);

@@ -215,6 +215,12 @@ TEST(BulkSearch, GivesThePlainSearchsNumbersToTheBit) {
             positive += plain > 0;
           }
       ASSERT_EQ(c, scores.size());
+      // A stride of 0 or a basis of the wrong size: an error, not a division by zero.
+      EXPECT_THROW((void)detail::coarse_shift_scores(near, p, B, 0, k, step, tau),
+                   brainshift::Error);
+      EXPECT_THROW(
+          (void)detail::coarse_shift_scores(near, p, std::vector<Matrix3d>(3), 1, k, step, tau),
+          brainshift::Error);
       EXPECT_GT(positive, scores.size() / 4);  // many shifts reach a vessel: sums of many terms
     }
     const StartResult r = search_bulk_shift(s, p, B, o);
