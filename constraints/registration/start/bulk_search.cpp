@@ -46,6 +46,23 @@ core::Skeleton skeleton_near(const core::Skeleton& s, ConstRef<MatrixX3d> points
   return out.segments.empty() ? s : out;
 }
 
+namespace {
+
+/// Point i moved back by the shift s: p_i − B_i s (B_i = I without a basis). One expression for
+/// the coarse and the fine scores.
+Vector3d moved_point(ConstRef<MatrixX3d> points, const std::vector<Matrix3d>& basis, Eigen::Index i,
+                     const Vector3d& s) {
+  return points.row(i).transpose() -
+         (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
+}
+
+/// Offset of shift (x, y, z) (grid indices 0 … side − 1, x fastest) in the coarse scores.
+std::size_t shift_offset(int side, int x, int y, int z) {
+  return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
+}
+
+}  // namespace
+
 std::vector<double> coarse_shift_scores(const DistanceGrid& table, ConstRef<MatrixX3d> points,
                                         const std::vector<Matrix3d>& basis, Eigen::Index stride,
                                         int k, double step, double tau) {
@@ -58,9 +75,6 @@ std::vector<double> coarse_shift_scores(const DistanceGrid& table, ConstRef<Matr
   const Eigen::Index n = (points.rows() + stride - 1) / stride;
   const int side = 2 * k + 1;
   std::vector<double> scores(static_cast<std::size_t>(side) * side * side, 0.0);
-  const auto at = [side](int x, int y, int z) {
-    return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
-  };
   // Each plane writes its own scores: the same answer on any number of threads. Point by point
   // within a plane, one point's moves stay in a few cache lines of the table. At most 4 threads:
   // on the 2-core targets both, idle while the registration runs (the model load and the
@@ -73,11 +87,8 @@ std::vector<double> coarse_shift_scores(const DistanceGrid& table, ConstRef<Matr
           for (int y = 0; y < side; ++y)
             for (int x = 0; x < side; ++x) {
               const Vector3d s = step * Vector3d(x - k, y - k, z - k);
-              const Vector3d q =
-                  points.row(i).transpose() -
-                  (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
-              if (double d2 = 0; table.nearest_within_tau(q, d2))
-                scores[at(x, y, z)] += std::max(0.0, 1.0 - d2 / (tau * tau));
+              if (double d2 = 0; table.nearest_within_tau(moved_point(points, basis, i, s), d2))
+                scores[shift_offset(side, x, y, z)] += std::max(0.0, 1.0 - d2 / (tau * tau));
             }
         }
       });
@@ -123,15 +134,10 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
   const Eigen::Index stride = (points.rows() + options.max_points - 1) / options.max_points;
   const Eigen::Index n = (points.rows() + stride - 1) / stride;
 
-  auto moved = [&](Eigen::Index j, const Vector3d& s) -> Vector3d {
-    const Eigen::Index i = j * stride;
-    return points.row(i).transpose() -
-           (basis.empty() ? s : Vector3d(basis[static_cast<std::size_t>(i)] * s));
-  };
   auto fine = [&](const Vector3d& s) {
     double score = 0;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Vector3d q = moved(i, s);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const Vector3d q = detail::moved_point(points, basis, j * stride, s);
       score += std::max(0.0, 1.0 - table.trilinear(q) / (tf * tf));
     }
     return score;
@@ -143,9 +149,6 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
   const int side = 2 * k + 1;
   const std::vector<double> scores =
       detail::coarse_shift_scores(table, points, basis, stride, k, options.coarse_step_mm, tc);
-  const auto at = [side](int x, int y, int z) {
-    return static_cast<std::size_t>(x) + static_cast<std::size_t>(side) * (y + side * z);
-  };
   Vector3d best = Vector3d::Zero();
   double best_score = -1;
   for (int z = -k; z <= k; ++z)
@@ -153,7 +156,7 @@ StartResult search_bulk_shift(const core::Skeleton& skeleton, ConstRef<MatrixX3d
       for (int x = -k; x <= k; ++x) {
         const Vector3d s = options.coarse_step_mm * Vector3d(x, y, z);
         // Ties go to the smaller shift.
-        const double sc = scores[at(x + k, y + k, z + k)];
+        const double sc = scores[detail::shift_offset(side, x + k, y + k, z + k)];
         if (sc > best_score + 1e-9 || (sc > best_score - 1e-9 && s.norm() < best.norm())) {
           best_score = sc;
           best = s;
