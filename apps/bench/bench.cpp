@@ -167,13 +167,15 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             nlohmann::json ignored;
             data_pre.pose = pose_from_pre_dura(s, pre, o, ignored);
             variants["pre_dura"] = o;
-            // pre_dura_z2 — the same with the paired test at two standard errors (the former
-            // default with a pose: NoiseOptions::paired_test_z_with_pose);
+            // pre_dura_z1, pre_dura_z2 — the same with the paired test at one and two standard
+            // errors (the former defaults with a pose: NoiseOptions::paired_test_z_with_pose);
             // pre_dura_start_only — the pre-dura pose and the bulk search alone, no loop: the
             // "rigid alone" of the two-sweep workflow; pre_dura_from_rest — the loop started at
             // the rest nodes instead of at the bulk load's rest (start_at_load_rest off).
             variants["pre_dura_z2"] = o;
             variants["pre_dura_z2"].noise.paired_test_z_with_pose = 2.0;
+            variants["pre_dura_z1"] = o;
+            variants["pre_dura_z1"].noise.paired_test_z_with_pose = 1.0;
             variants["pre_dura_start_only"] = o;
             variants["pre_dura_from_rest"] = o;
             variants["pre_dura_from_rest"].start_at_load_rest = false;
@@ -181,8 +183,9 @@ BenchResult run_benchmark(const BenchOptions& args, const Progress& progress) {
             // (RegistrationOptions::extrapolate_tails off).
             variants["pre_dura_no_tail"] = o;
             variants["pre_dura_no_tail"].extrapolate_tails = false;
-            methods.insert(methods.end(), {"pre_dura", "pre_dura_z2", "pre_dura_start_only",
-                                           "pre_dura_from_rest", "pre_dura_no_tail"});
+            methods.insert(methods.end(),
+                           {"pre_dura", "pre_dura_z1", "pre_dura_z2", "pre_dura_start_only",
+                            "pre_dura_from_rest", "pre_dura_no_tail"});
           }
           methods.insert(methods.end(), {"rigid_only", "prescribed_displacement"});
           for (const std::string& method : methods) {
