@@ -86,12 +86,19 @@ TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, doub
   }
   // A turn-back. It is a converging oscillation, which halving would only race, when it is one
   // map's iteration (the same pairs) and clearly shorter than the previous step; a limited
-  // step's length is the radius's and says nothing about contraction.
-  if (steps.same_pairing && !steps.limited &&
-      (steps.length_ratio <= contraction_bound || !steps.same_damping))
-    return TrustDecision::HOLD;
-  if (steps.same_pairing && !steps.limited && *steps.cosine <= reversal_cosine &&
+  // step's length is the radius's and says nothing about contraction. A reversal that contracts
+  // slowly is damped (its mode taken near 0), one that contracts fast or that follows a DAMP is
+  // held.
+  const bool one_map = steps.same_pairing && !steps.limited;
+  if (one_map && steps.same_damping && *steps.cosine <= reversal_cosine &&
+      steps.length_ratio > slow_reversal_ratio && steps.length_ratio <= contraction_bound &&
       damping * damp_factor >= min_damping) {
+    damping *= damp_factor;
+    return TrustDecision::DAMP;
+  }
+  if (one_map && (steps.length_ratio <= contraction_bound || !steps.same_damping))
+    return TrustDecision::HOLD;
+  if (one_map && *steps.cosine <= reversal_cosine && damping * damp_factor >= min_damping) {
     damping *= damp_factor;
     return TrustDecision::DAMP;
   }

@@ -131,6 +131,16 @@ inline constexpr double min_damping = 0.2;
 /// only slow (on the 20k-node model a turn-back at −0.12 was damped, and the loop then crept
 /// at 0.9 a step), so it shrinks the radius as before.
 inline constexpr double reversal_cosine = -0.5;
+/// A reversal that contracts (same pairs and damping, not limited, cosine ≤ reversal_cosine)
+/// with a length ratio r above this is damped as well, not held: its dominant mode is λ ≈ −r,
+/// which left alone loses a decade only every ln 10 / ln(1/r) steps (6.5 at r = 0.7), and one
+/// DAMP takes it to 1 − damp_factor (1 + r), within ±0.14 for r in (0.5, 0.9]. The price is that
+/// a mode λ₊ > 0 slows to 1 − damp_factor (1 − λ₊) (0.5 → 0.7), which the tail jump takes at
+/// once when it is the last one left. Below r = 0.5 the oscillation halves at each step by itself
+/// and damping would only slow the rest. Measured: ICBM152 with a pre-dura pose, 3,982 nodes,
+/// SMOOTH turning back at −0.57 to −0.77 and 0.69–0.75 a step: 38 → 33 iterations; 20.8k nodes
+/// 70 → 63; the 13 cases × 3 seeds, every answer within 0.001 mm (docs/BENCHMARKS.md).
+inline constexpr double slow_reversal_ratio = 0.5;
 
 /// What the trust region reads of a step, against the step before it in the same stage.
 struct SuccessiveSteps {
@@ -160,15 +170,17 @@ struct SuccessiveSteps {
 /// @return NONE without a previous step; GROW (× 1.5, up to `max_radius`) when the step did not
 ///   turn back (cosine ≥ 0); HOLD (unchanged)
 ///   when it turned back but contracted: same pairs, not limited and length_ratio ≤
-///   contraction_bound (a converging oscillation, which halving would race to a NOT_SETTLING stop);
+///   contraction_bound (a converging oscillation, which halving would race to a NOT_SETTLING stop)
+///   and DAMP below does not take it;
 ///   DAMP (damping × damp_factor, radius unchanged) when it reversed (cosine ≤ reversal_cosine)
-///   without contracting, same pairs, not limited, and the damping is still above
-///   min_damping: the oscillation is the step's own overshoot, below the radius; HOLD too for a
-///   turn-back right after a DAMP (same_damping false); SHRINK (× 0.5) otherwise: an oscillation
-///   that damping did not end, or a turn-back across a pairing change, or a limited step (whose
-///   length is the radius's and says nothing about contraction). Data the model cannot meet keep
-///   turning back without contracting, and a radius below the increment tolerance ends the stage
-///   NOT_SETTLING.
+///   without contracting, or contracting slowly (slow_reversal_ratio < length_ratio ≤
+///   contraction_bound, same damping as the step before), same pairs, not limited, and the damping
+///   is still above min_damping: the oscillation is the step's own overshoot, below the radius;
+///   HOLD too for a turn-back right after a DAMP (same_damping false); SHRINK (× 0.5) otherwise: an
+///   oscillation that damping did not end, or a turn-back across a pairing change, or a limited
+///   step (whose length is the radius's and says nothing about contraction). Data the model cannot
+///   meet keep turning back without contracting, and a radius below the increment tolerance ends
+///   the stage NOT_SETTLING.
 /// @param[in,out] damping the share of the next step taken, in [min_damping, 1].
 TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, double& radius,
                            double& damping);
