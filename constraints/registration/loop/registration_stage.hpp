@@ -138,7 +138,7 @@ inline constexpr double reversal_cosine = -0.5;
 /// a mode λ₊ > 0 slows to 1 − damp_factor (1 − λ₊) (0.5 → 0.7), which the tail jump takes at
 /// once when it is the last one left. Below r = 0.5 the oscillation halves at each step by itself
 /// and damping would only slow the rest. Measured: ICBM152 with a pre-dura pose, 3,982 nodes,
-/// SMOOTH turning back at −0.57 to −0.77 and 0.69–0.75 a step: 38 → 33 iterations; 20.8k nodes
+/// SMOOTH turning back at −0.57 to −0.77 and 0.69–0.83 a step: 38 → 33 iterations; 20.8k nodes
 /// 70 → 63; the 13 cases × 3 seeds, every answer within 0.001 mm (docs/BENCHMARKS.md).
 inline constexpr double slow_reversal_ratio = 0.5;
 
