@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <iostream>
@@ -267,6 +268,24 @@ TEST(RegistrationLoop, AContractingOscillationKeepsItsRadiusAndConverges) {
   EXPECT_LT(off_clean, 0.05);
 }
 
+/// Fault injection: `node` overshoots every step it takes by `beta` of it, so about its
+/// equilibrium e its error maps as (x − e) ← (1 − α (1 + β)) (x − e) under damping α.
+std::function<void(StepResult&)> overshoot(const Scene& s, index_t node, double beta) {
+  return [node, beta, x_before = MatrixX3d(s.mesh.nodes())](StepResult& step) mutable {
+    const Eigen::RowVector3d taken = step.x.row(node) - x_before.row(node);
+    step.x.row(node) += beta * taken;
+    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
+    x_before = step.x;
+  };
+}
+
+/// How many of a run's iterations the trust region answered with `decision`.
+int decisions(const RegistrationResult& r, TrustDecision decision) {
+  return static_cast<int>(
+      std::count_if(r.history.begin(), r.history.end(),
+                    [&](const IterationRecord& h) { return h.trust == decision; }));
+}
+
 TEST(RegistrationLoop, AGrowingOscillationBelowTheRadiusIsDampedAndConverges) {
   // issue 14 item 4 (the ICBM152 pre-dura case): an iteration whose map has an eigenvalue of
   // −1.05 turns back every step by a little more than the step before, below the trust radius,
@@ -278,18 +297,9 @@ TEST(RegistrationLoop, AGrowingOscillationBelowTheRadiusIsDampedAndConverges) {
   auto& [s, d, o, clean, node, farthest] = c;
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
   ASSERT_GE(node, 0);
-  const MatrixX3d& rest = s.mesh.nodes();
-  const double beta = 1.05;
-  MatrixX3d x_before = rest;  // the positions each step starts from
-  o.inspect_step = [&](StepResult& step) {
-    const Eigen::RowVector3d taken = step.x.row(node) - x_before.row(node);
-    step.x.row(node) += beta * taken;
-    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
-    x_before = step.x;
-  };
+  o.inspect_step = overshoot(s, node, 1.05);
   const RegistrationResult r = register_model(*s.model, d, o);
-  int damps = 0;
-  for (const IterationRecord& h : r.history) damps += h.trust == TrustDecision::DAMP;
+  const int damps = decisions(r, TrustDecision::DAMP);
   const double off_clean = (r.positions - clean.positions).rowwise().norm().maxCoeff();
   std::cout << "[ loop ] node " << node << " (" << farthest
             << " mm from the vessels): " << r.iterations << " iterations (clean "
@@ -318,17 +328,9 @@ TEST(RegistrationLoop, ASlowlyContractingOscillationIsDampedAndSettlesSoon) {
   auto& [s, d, o, clean, node, farthest] = c;
   ASSERT_TRUE(clean.converged) << clean.stop_reason;
   ASSERT_GE(node, 0);
-  const double beta = 0.7;
-  MatrixX3d x_before = s.mesh.nodes();
-  o.inspect_step = [&](StepResult& step) {
-    const Eigen::RowVector3d taken = step.x.row(node) - x_before.row(node);
-    step.x.row(node) += beta * taken;
-    step.max_increment = (step.x - x_before).rowwise().norm().maxCoeff();
-    x_before = step.x;
-  };
+  o.inspect_step = overshoot(s, node, 0.7);
   const RegistrationResult r = register_model(*s.model, d, o);
-  int damps = 0;
-  for (const IterationRecord& h : r.history) damps += h.trust == TrustDecision::DAMP;
+  const int damps = decisions(r, TrustDecision::DAMP);
   const double off_clean = (r.positions - clean.positions).rowwise().norm().maxCoeff();
   std::cout << "[ loop ] node " << node << ": " << r.iterations << " iterations (clean "
             << clean.iterations << "), " << damps << " damped, final damping "
