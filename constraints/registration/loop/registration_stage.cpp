@@ -84,24 +84,19 @@ TrustDecision trust_update(const SuccessiveSteps& steps, double max_radius, doub
     radius = std::min(max_radius, 1.5 * radius);
     return TrustDecision::GROW;
   }
-  // A turn-back. It is a converging oscillation, which halving would only race, when it is one
-  // map's iteration (the same pairs) and clearly shorter than the previous step; a limited
-  // step's length is the radius's and says nothing about contraction. A reversal that contracts
-  // slowly is damped (its mode taken near 0), one that contracts fast or that follows a DAMP is
-  // held.
+  // A turn-back. A reversal (one map's iteration: the same pairs and damping, not limited) that
+  // does not contract, or contracts only slowly, is the step's own overshoot: damped. Any other
+  // turn-back of one map that contracts, or that follows a DAMP, is a converging oscillation,
+  // which halving would only race: held. A limited step's length is the radius's and says nothing
+  // about contraction.
   const bool one_map = steps.same_pairing && !steps.limited;
   if (one_map && steps.same_damping && *steps.cosine <= reversal_cosine &&
-      steps.length_ratio > slow_reversal_ratio && steps.length_ratio <= contraction_bound &&
-      damping * damp_factor >= min_damping) {
+      steps.length_ratio > slow_reversal_ratio && damping * damp_factor >= min_damping) {
     damping *= damp_factor;
     return TrustDecision::DAMP;
   }
   if (one_map && (steps.length_ratio <= contraction_bound || !steps.same_damping))
     return TrustDecision::HOLD;
-  if (one_map && *steps.cosine <= reversal_cosine && damping * damp_factor >= min_damping) {
-    damping *= damp_factor;
-    return TrustDecision::DAMP;
-  }
   radius *= 0.5;
   return TrustDecision::SHRINK;
 }
