@@ -269,7 +269,12 @@ nlohmann::json model_scene(const PrepareOptions& o, const nlohmann::json& defaul
     std::ifstream in(*o.scene_options);
     BS_VERIFY(in.good(), o.scene_options->string() << ": cannot open");
     try {
-      scene.merge_patch(nlohmann::json::parse(in));
+      const nlohmann::json patch = nlohmann::json::parse(in);
+      // A fixed region given replaces prepare's: 'nodes' and 'below' are alternatives, and a
+      // merge would keep prepare's 'nodes' beside the user's 'below'.
+      if (patch.is_object() && patch.contains("fixed") && patch["fixed"].is_object())
+        scene.erase("fixed");
+      scene.merge_patch(patch);
     } catch (const nlohmann::json::parse_error& e) {
       BS_VERIFY(false, o.scene_options->string() << ": not valid JSON (at byte " << e.byte << ")");
     } catch (const nlohmann::json::exception&) {  // e.g. a number beyond double's range
@@ -409,6 +414,7 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   note_scene_overrides(manifest, scene, default_fixed, default_craniotomy);
 
   progress.stage("writing the model");
+  std::size_t fixed_nodes = fixed.nodes.size();
   write_folder_atomically(o.out, [&](const std::filesystem::path& dir) {
     imaging::write_tet_mesh(dir / "mesh.vtu", mesh);
     imaging::write_surface_vtp(dir / "surface.vtp", surface);
@@ -427,6 +433,9 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
     // once, and keep the block (register adopts it after checking it belongs to this model).
     progress.stage("factorising the stiffness and precomputing the compliance block");
     const auto& sc = loaded.scene;
+    // fixed.csv holds the nodes the model is fixed at, also when the scene chose them.
+    if (sc.fixed_nodes != fixed.nodes) imaging::write_node_list(dir / "fixed.csv", sc.fixed_nodes);
+    fixed_nodes = sc.fixed_nodes.size();
     constraints::RegistrationModel model(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
                                          sc.compliance);
     const auto& op = model.mechanics().compliance();
@@ -447,7 +456,7 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
   result.nodes = mesh.num_nodes();
   result.tets = mesh.num_tets();
   result.surface_vertices = static_cast<index_t>(surface.vertices.rows());
-  result.fixed_nodes = fixed.nodes.size();
+  result.fixed_nodes = fixed_nodes;
   result.vessel_branches = skeleton.branches.size();
   result.vessel_length_mm = skeleton.total_length();
   result.vessel_points_snapped = fit.snapped;

@@ -4,7 +4,10 @@
 
 #include "../cli_helpers.hpp"
 
+#include "apps/workflow/scene_io.hpp"
+#include "imaging/io/csv.hpp"
 #include "imaging/io/image_io.hpp"
+#include "imaging/io/mesh_io.hpp"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -66,6 +69,28 @@ TEST(PrepareSceneOptions, AGoodFileIsMergedIntoTheScene) {
   EXPECT_EQ(scene["noise"]["paired_test_z"], 3);
   EXPECT_EQ(scene["mesh"], "mesh.vtu");
   EXPECT_TRUE(scene["craniotomy"].contains("centre_mm"));
+}
+
+TEST(PrepareSceneOptions, AFixedRegionGivenReplacesPreparesAndFixedCsvHoldsItsNodes) {
+  // The scene's two forms of the fixed region, 'nodes' (prepare's fixed.csv) and 'below', are
+  // alternatives: a 'below' given must replace prepare's 'nodes', not sit beside it (a merge
+  // did, and the model was refused: "'fixed' needs exactly one of 'nodes' or 'below'").
+  const BallInputs in;
+  const auto out = in.dir / "model";
+  const CliRun r = in.prepare(R"({"fixed": {"below": {"height_mm": 12}}})", out);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream scene_file(out / "scene.json");
+  const nlohmann::json scene = nlohmann::json::parse(scene_file);
+  EXPECT_EQ(scene["fixed"], nlohmann::json::parse(R"({"below": {"height_mm": 12}})"));
+  std::ifstream manifest_file(out / "model.json");
+  const nlohmann::json manifest = nlohmann::json::parse(manifest_file);
+  EXPECT_EQ(manifest["fixed"]["rule"], "given by --scene-options");
+  // fixed.csv lists the nodes the model is fixed at: the scene's slab (every node within 12 mm of
+  // the lowest along −z), not prepare's own region (the 15 mm floor's boundary nodes).
+  const core::TetMesh mesh = imaging::read_tet_mesh(out / "mesh.vtu");
+  const std::vector<index_t> expected = workflow::nodes_below(mesh, Vector3d(0, 0, -1), 12.0);
+  EXPECT_GE(expected.size(), 3u);
+  EXPECT_EQ(imaging::read_node_list(out / "fixed.csv", mesh.num_nodes()), expected);
 }
 
 TEST(PrepareSceneOptions, AnUnknownKeyOrTheOldSpellingIsAOneLineErrorAndNothingIsWritten) {
