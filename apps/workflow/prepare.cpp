@@ -434,7 +434,11 @@ PrepareResult prepare_model(const PrepareOptions& o, const Progress& progress) {
     progress.stage("factorising the stiffness and precomputing the compliance block");
     const auto& sc = loaded.scene;
     // fixed.csv holds the nodes the model is fixed at, also when the scene chose them.
-    if (sc.fixed_nodes != fixed.nodes) imaging::write_node_list(dir / "fixed.csv", sc.fixed_nodes);
+    if (sc.fixed_nodes != fixed.nodes) {
+      imaging::write_node_list(dir / "fixed.csv", sc.fixed_nodes);
+      progress.stage("fixed region: " + std::to_string(sc.fixed_nodes.size()) +
+                     " nodes, given by --scene-options (in place of the rule above)");
+    }
     fixed_nodes = sc.fixed_nodes.size();
     constraints::RegistrationModel model(sc.mesh, sc.fixed_nodes, sc.skeleton, sc.surface,
                                          sc.compliance);
