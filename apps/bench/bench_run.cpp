@@ -209,11 +209,26 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
   }
   if (c.dense.pre.rows() > 0) {
     const core::BarycentricMapping dense_map(model.mesh(), c.dense.pre, mo);
-    const auto e = imaging::error_stats(
-        imaging::landmark_errors(to_intraop_frame(r, dense_map.apply(r.positions)), c.dense.intra));
-    row.dense_error_mean = e.mean;
+    const MatrixX3d mapped = to_intraop_frame(r, dense_map.apply(r.positions));
+    row.dense_error_mean =
+        imaging::error_stats(imaging::landmark_errors(mapped, c.dense.intra)).mean;
     row.dense_before_mean =
         imaging::error_stats(imaging::landmark_errors(c.dense.pre, c.dense.intra)).mean;
+    double deep_after = 0.0, deep_before = 0.0;
+    index_t n = 0;
+    for (Eigen::Index i = 0; i < c.dense.intra.rows() && data.vessel_points.rows() > 0; ++i) {
+      const double d =
+          (data.vessel_points.rowwise() - c.dense.intra.row(i)).rowwise().norm().minCoeff();
+      if (d <= kDeepFromVesselsMm) continue;
+      deep_after += (mapped.row(i) - c.dense.intra.row(i)).norm();
+      deep_before += (c.dense.pre.row(i) - c.dense.intra.row(i)).norm();
+      ++n;
+    }
+    row.dense_deep_points = n;
+    if (n > 0) {
+      row.dense_deep_error_mean = deep_after / static_cast<double>(n);
+      row.dense_deep_before_mean = deep_before / static_cast<double>(n);
+    }
   }
   if (!r.data_rows.empty() && row.method != "prescribed_displacement")
     score_uncertainty(row, model, r, c, data, predicted);

@@ -26,6 +26,11 @@ namespace brainshift::workflow {
 /// nodes ≈ 1,600 r^2.7, not r³, as the boundary and the tumour keep their own sizing).
 inline constexpr double bench_refinements[] = {0.85, 1.1, 1.6, 2.1, 2.75, 3.9};
 
+/// The "deep" dense points: farther than this from every intra-operative vessel point (mm). The
+/// cases' probe images 60 mm below its face (data_synth's ProbeOptions::depth), so a point this far
+/// from every vessel the sweep saw is one no data reach.
+inline constexpr double kDeepFromVesselsMm = 60.0;
+
 /// One benchmark run: a row of results.csv.
 struct BenchRow {
   std::string suite;  ///< cases | sweeps
@@ -67,6 +72,11 @@ struct BenchRow {
   /// The same points' mean error with no registration (pre-operative position against the
   /// truth's intra-operative one, mm): the whole-brain figure a registration must beat.
   std::optional<double> dense_before_mean;
+  /// The same two over the dense points deeper than kDeepFromVesselsMm from every
+  /// intra-operative vessel point (the distance as for tre_far_mean), where no data reach and
+  /// only the mechanics carries the answer; unset without a dense truth or vessel points.
+  std::optional<double> dense_deep_error_mean, dense_deep_before_mean;
+  index_t dense_deep_points = 0;
   double max_displacement_mm = 0.0;
   /// Mean motion of the model's fixed base by the answer's rigid part (workflow::
   /// fixed_base_motion(), mm): on a case without a navigation offset all of it is error; on the

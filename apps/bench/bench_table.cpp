@@ -96,6 +96,13 @@ nlohmann::json row_json(const BenchRow& r) {
        r.dense_error_mean ? nlohmann::json(*r.dense_error_mean) : nlohmann::json(nullptr)},
       {"dense_before_mean_mm",
        r.dense_before_mean ? nlohmann::json(*r.dense_before_mean) : nlohmann::json(nullptr)},
+      {"dense_deep_error_mean_mm", r.dense_deep_error_mean
+                                       ? nlohmann::json(*r.dense_deep_error_mean)
+                                       : nlohmann::json(nullptr)},
+      {"dense_deep_before_mean_mm", r.dense_deep_before_mean
+                                        ? nlohmann::json(*r.dense_deep_before_mean)
+                                        : nlohmann::json(nullptr)},
+      {"dense_deep_points", r.dense_deep_points},
       {"max_displacement_mm", r.max_displacement_mm},
       {"fixed_base_moved_mm", r.fixed_base_moved_mm},
       {"ok", r.ok},
