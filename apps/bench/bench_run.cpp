@@ -192,13 +192,16 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
   row.tre_p95 = after.p95;
   row.tre_max = after.max;
   row.corrected_pct = imaging::percent_shift_corrected(before.mean, after.mean);
+  // Distance from an intra-operative position to the nearest vessel point of the sweep (mm).
+  const auto to_vessels = [&](const auto& p) {
+    return (data.vessel_points.rowwise() - p).rowwise().norm().minCoeff();
+  };
   {
     const std::vector<double> err = imaging::landmark_errors(predicted, c.truth.b);
     double near = 0, far = 0;
     row.landmarks_near = row.landmarks_far = 0;
     for (Eigen::Index i = 0; i < c.truth.b.rows() && data.vessel_points.rows() > 0; ++i) {
-      const double d =
-          (data.vessel_points.rowwise() - c.truth.b.row(i)).rowwise().norm().minCoeff();
+      const double d = to_vessels(c.truth.b.row(i));
       if (d <= 5.0) near += err[static_cast<std::size_t>(i)], ++row.landmarks_near;
       if (d > 10.0) far += err[static_cast<std::size_t>(i)], ++row.landmarks_far;
     }
@@ -210,18 +213,16 @@ void score(BenchRow& row, const constraints::RegistrationModel& model, const Reg
   if (c.dense.pre.rows() > 0) {
     const core::BarycentricMapping dense_map(model.mesh(), c.dense.pre, mo);
     const MatrixX3d mapped = to_intraop_frame(r, dense_map.apply(r.positions));
-    row.dense_error_mean =
-        imaging::error_stats(imaging::landmark_errors(mapped, c.dense.intra)).mean;
-    row.dense_before_mean =
-        imaging::error_stats(imaging::landmark_errors(c.dense.pre, c.dense.intra)).mean;
+    const std::vector<double> after_mm = imaging::landmark_errors(mapped, c.dense.intra);
+    const std::vector<double> before_mm = imaging::landmark_errors(c.dense.pre, c.dense.intra);
+    row.dense_error_mean = imaging::error_stats(after_mm).mean;
+    row.dense_before_mean = imaging::error_stats(before_mm).mean;
     double deep_after = 0.0, deep_before = 0.0;
     index_t n = 0;
     for (Eigen::Index i = 0; i < c.dense.intra.rows() && data.vessel_points.rows() > 0; ++i) {
-      const double d =
-          (data.vessel_points.rowwise() - c.dense.intra.row(i)).rowwise().norm().minCoeff();
-      if (d <= kDeepFromVesselsMm) continue;
-      deep_after += (mapped.row(i) - c.dense.intra.row(i)).norm();
-      deep_before += (c.dense.pre.row(i) - c.dense.intra.row(i)).norm();
+      if (to_vessels(c.dense.intra.row(i)) <= kDeepFromVesselsMm) continue;
+      deep_after += after_mm[static_cast<std::size_t>(i)];
+      deep_before += before_mm[static_cast<std::size_t>(i)];
       ++n;
     }
     row.dense_deep_points = n;
