@@ -104,6 +104,11 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                               {"restricted", u.nodal.s2_restricted},
                               {"held_out_blocks", u.nodal.s2_heldout},
                               {"discrepancy", u.nodal.s2_discrepancy}};
+  using SE = constraints::UncertaintyOptions::ScaleEstimator;
+  const SE used = u.nodal.scale_estimator;
+  j["s2_estimator"] = used == SE::HELD_OUT      ? "held_out_blocks"
+                      : used == SE::DISCREPANCY ? "discrepancy"
+                                                : "maximum_likelihood";
   j["held_out_blocks"] = u.nodal.heldout_blocks;
   j["s2_effective_rows"] = u.nodal.scale_rows;
   j["s2_upper_bound_factor"] = u.nodal.scale_factor;

@@ -60,10 +60,12 @@ void run_start(const RegistrationModel& model, const IntraopData& data,
     res.start = initial->start;  // the pose and its origin (for the predicted error), not rerun
     res.start.bulk_accepted = false;
     res.start.bulk_message.clear();
+    res.start.pose_given = res.start.pose_given || data.pose.has_value();
   } else if (data.pose) {
     res.start = start_at_pose(model.skeleton(), data.vessel_points, *data.pose, basis_at,
                               options.global_start, vessels,
                               "given pose (navigation offset measured before the dura was opened)");
+    res.start.pose_given = true;
   } else if (options.start == RigidStart::RIGID && vessels) {
     res.start = global_start(model.skeleton(), data.vessel_points, basis_at, options.global_start,
                              outward_at_craniotomy(mesh, options));

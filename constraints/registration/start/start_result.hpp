@@ -19,6 +19,9 @@ struct StartResult {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
   Vector3d bulk_shift = Vector3d::Zero();  ///< s (mm): the rest point is at transform·p − B s
   bool accepted = false;  ///< a searched pose beat the identity (false when the pose was given)
+  /// The pose was given (IntraopData::pose: measured on another sweep, e.g. before the dura was
+  /// opened), not searched on this sweep; a warm start keeps its first frame's.
+  bool pose_given = false;
   /// The bulk shift was found: |s| ≥ bulk_min_mm after the pose search, or the bulk search's
   /// optimum beat s = 0 by its min_gain (else bulk_shift is zero).
   bool bulk_accepted = false;

@@ -414,7 +414,7 @@ Eigen::VectorXd free_violations(const ConstrainedModel& mech, const Registration
 /// s² from the data rows by the chosen estimator, at its upper confidence bound; into `out`,
 /// and the sentence that says how (empty when s² could not be estimated).
 std::string estimate_scale(const NodalVariance& nv, index_t m, const UncertaintyOptions& uo,
-                           UncertaintyResult& out) {
+                           bool pose_given, UncertaintyResult& out) {
   const double scale = nv.scale;
   char buf[1000] = "";
   const double md = static_cast<double>(m);
@@ -428,7 +428,9 @@ std::string estimate_scale(const NodalVariance& nv, index_t m, const Uncertainty
   using SE = UncertaintyOptions::ScaleEstimator;
   const char* how = "";
   double s2 = 0.0;
-  switch (uo.scale_estimator) {
+  SE estimator = uo.scale_estimator;
+  if (estimator == SE::BY_POSE) estimator = pose_given ? SE::HELD_OUT : SE::MAXIMUM_LIKELIHOOD;
+  switch (estimator) {
     case SE::DISCREPANCY:
       s2 = out.s2_discrepancy;
       how = "by the discrepancy principle (fitted rows' residual ‖r‖² = s² tr(A (W + A)⁻¹ A))";
@@ -438,6 +440,7 @@ std::string estimate_scale(const NodalVariance& nv, index_t m, const Uncertainty
       how = "by maximum likelihood (δ_free ~ N(0, s²(W + A)))";
       break;
     case SE::HELD_OUT:
+    case SE::BY_POSE:
       s2 = nv.heldout_rows > 0 ? out.s2_heldout : out.s2_restricted;
       how = nv.heldout_rows > 0
                 ? "from the residuals at held-out vessel blocks (closed-form leave-one-block-out "
@@ -445,6 +448,7 @@ std::string estimate_scale(const NodalVariance& nv, index_t m, const Uncertainty
                 : "by restricted maximum likelihood (no vessel blocks to hold out)";
       break;
   }
+  out.scale_estimator = estimator;
   // The sampling uncertainty of s² with few effectively independent rows: an upper bound.
   out.scale_rows = nv.heldout_blocks > 0 ? static_cast<double>(nv.heldout_blocks) : md;
   out.scale_factor = uo.scale_confidence > 0
@@ -528,7 +532,8 @@ UncertaintyResult predict_uncertainty(const RegistrationModel& model, const Regi
   out.vessel_ratio = std::isfinite(r.vessel_compliance_ratio) ? r.vessel_compliance_ratio
                                                               : options.noise.max_ratio;
   out.vessel_alpha = out.vessel_ratio * scale;
-  std::string estimation = usable ? estimate_scale(nv, m, uo, out) : std::string();
+  std::string estimation =
+      usable ? estimate_scale(nv, m, uo, r.start.pose_given, out) : std::string();
   char buf[1000];
   if (!out.estimated) {
     std::vector<double> free_prior;

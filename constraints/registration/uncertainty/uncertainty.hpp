@@ -50,15 +50,18 @@
 /// (UncertaintyOptions::scale_estimator): the discrepancy principle; the restricted ML
 /// δᵀ P δ / (m − rank M), P = S⁻¹ − S⁻¹ Gr M⁺ Grᵀ S⁻¹ (pose projected out); and the scale from
 /// held-out vessel blocks (vessel_blocks.hpp; closed-form leave-one-block-out of the linear-
-/// Gaussian fit: w = P δ, Σ_b w_bᵀ (P_bb)⁺ w_b / Σ_b rank P_bb). On the phantoms ML with the
-/// rigid term measured best (docs/history/BENCHMARKS_NOTEBOOK.md, "Predicted error"): the held-out
-/// scale matches ML where the model fits and is lower on deep_tumour_one_side_vessels, where it
-/// under-predicts. `calibration` (dimensionless, default 1) multiplies s². The chosen estimate is
-/// then raised to its one-sided upper confidence bound (`scale_confidence`, default 0.95): k ŝ² /
-/// χ²_{1−c}(k), k the held-out vessel blocks (else the rows): few vessels, a wider map. The stated
-/// tracking accuracy (uncertainty_options.hpp; default 0) adds a rigid-pose covariance about the
-/// rows' centroid that no row can show: tracking_variance(), not scaled. Positions in mm, model
-/// (pre-operative, world RAS) frame.
+/// Gaussian fit: w = P δ, Σ_b w_bᵀ (P_bb)⁺ w_b / Σ_b rank P_bb). The default (BY_POSE) takes ML
+/// when the pose was searched on this sweep and the held-out scale when it was given (a pre-dura
+/// sweep's): with a searched pose ML with the rigid term measured best
+/// (docs/history/BENCHMARKS_NOTEBOOK.md, "Predicted error": the held-out scale matches ML where
+/// the model fits and is lower on deep_tumour_one_side_vessels, where it under-predicts); with a
+/// given pose δ_free holds the whole sag and ML measures its size, not the fit's error
+/// (UncertaintyOptions::ScaleEstimator). `calibration` (dimensionless, default 1) multiplies s².
+/// The chosen estimate is then raised to its one-sided upper confidence bound (`scale_confidence`,
+/// default 0.95): k ŝ² / χ²_{1−c}(k), k the held-out vessel blocks (else the rows): few vessels, a
+/// wider map. The stated tracking accuracy (uncertainty_options.hpp; default 0) adds a rigid-pose
+/// covariance about the rows' centroid that no row can show: tracking_variance(), not scaled.
+/// Positions in mm, model (pre-operative, world RAS) frame.
 
 #include "constraints/registration/registration_types.hpp"
 #include "constraints/registration/uncertainty/uncertainty_options.hpp"
@@ -152,6 +155,9 @@ struct UncertaintyResult {
   double s2_restricted = 0.0;
   double s2_heldout = 0.0;
   index_t heldout_blocks = 0;  ///< vessel blocks behind s2_heldout
+  /// The estimator s² came from (BY_POSE resolved; MAXIMUM_LIKELIHOOD when not estimated).
+  UncertaintyOptions::ScaleEstimator scale_estimator =
+      UncertaintyOptions::ScaleEstimator::MAXIMUM_LIKELIHOOD;
   /// The effective number of rows of s² (the held-out vessel blocks, else the rows) and the
   /// factor its upper confidence bound (UncertaintyOptions::scale_confidence) applied.
   double scale_rows = 0.0;

@@ -35,10 +35,20 @@ struct UncertaintyOptions {
   /// Multiplies the estimated s² (dimensionless).
   double calibration = 1.0;
   /// How s² is estimated from the rows: DISCREPANCY (the fitted rows' residual against its
-  /// expectation: the scatter the data show about the answer sets the scale) or MAXIMUM_LIKELIHOOD
-  /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it).
-  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD, HELD_OUT };
-  ScaleEstimator scale_estimator = ScaleEstimator::MAXIMUM_LIKELIHOOD;
+  /// expectation: the scatter the data show about the answer sets the scale), MAXIMUM_LIKELIHOOD
+  /// (δ_free ~ N(0, s²(W + A)): the size of the shift sets it), HELD_OUT (the residuals at
+  /// held-out vessel blocks, pose projected out: how well the fit predicts data it did not use),
+  /// or BY_POSE (the default): MAXIMUM_LIKELIHOOD when the pose was searched on this sweep (or
+  /// is the identity), HELD_OUT when it was given (StartResult::pose_given, a pre-dura sweep's).
+  /// Why: a pose searched on the sweep it registers may have absorbed part of the sag, which no
+  /// held-out block of the same field of view can show, and the size of what is left (ML) is the
+  /// conservative scale. With a given pose δ_free holds the whole sag, the model's own load
+  /// response rather than a draw of the isotropic prior, so ML measures the sag's size: on the
+  /// 13 bench cases with a pre-dura pose it is 1.5-30 × the held-out scale and the map
+  /// over-predicts the landmarks' error 2-7 × (docs/BENCHMARKS.md, "The predicted error with a
+  /// pre-dura pose").
+  enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD, HELD_OUT, BY_POSE };
+  ScaleEstimator scale_estimator = ScaleEstimator::BY_POSE;
   /// The pose of the rigid start is an unknown with a flat prior (adds the rigid term).
   bool rigid_term = true;
   int solve_block = 192;  ///< right-hand sides per solve when computing the prior term

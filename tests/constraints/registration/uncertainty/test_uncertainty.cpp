@@ -446,6 +446,42 @@ TEST(Uncertainty, TheScaleBoundIsThePointEstimateTimesItsChiSquareFactor) {
   EXPECT_NEAR(p.s2, p.s2_ml, 1e-12 * p.s2);  // the default estimator, unraised
 }
 
+// The default estimator follows the pose's origin: maximum likelihood for a pose searched on
+// the sweep (or the identity), the held-out blocks' scale for a pose given by another sweep
+// (UncertaintyOptions::ScaleEstimator::BY_POSE). The same registration read both ways: each
+// s² is its candidate times the same χ² factor (1e-12 relative: the same numbers), and the map
+// scales with √s² where the tracking and pose terms are zero (no tracking prior, no searched
+// pose accepted).
+TEST(Uncertainty, TheDefaultScaleFollowsWhetherThePoseWasGiven) {
+  const Scene scene;
+  RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;
+  IntraopData data;
+  data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11);
+  data.pose = Eigen::Isometry3d::Identity();
+  const RegistrationResult given = register_model(*scene.model, data, o);
+  ASSERT_TRUE(given.start.pose_given);
+  RegistrationResult searched = given;
+  searched.start.pose_given = false;
+  const UncertaintyResult ug = predict_uncertainty(*scene.model, given, o);
+  const UncertaintyResult us = predict_uncertainty(*scene.model, searched, o);
+  ASSERT_TRUE(ug.estimated && us.estimated) << ug.estimation;
+  ASSERT_GT(ug.heldout_blocks, 0);
+  EXPECT_EQ(ug.scale_estimator, UncertaintyOptions::ScaleEstimator::HELD_OUT);
+  EXPECT_EQ(us.scale_estimator, UncertaintyOptions::ScaleEstimator::MAXIMUM_LIKELIHOOD);
+  EXPECT_NEAR(ug.s2, ug.s2_heldout * ug.scale_factor, 1e-12 * ug.s2);
+  EXPECT_NEAR(us.s2, us.s2_ml * us.scale_factor, 1e-12 * us.s2);
+  EXPECT_NE(ug.estimation.find("held-out"), std::string::npos) << ug.estimation;
+  const double root = std::sqrt(ug.s2 / us.s2);
+  for (index_t i = 0; i < ug.node_sigma_mm.size(); ++i)
+    ASSERT_NEAR(ug.node_sigma_mm[i], root * us.node_sigma_mm[i], 1e-9 + 1e-9 * ug.node_sigma_mm[i]);
+  // A pose given and the identity searched from are the same frame: one registration.
+  IntraopData searched_data = data;
+  searched_data.pose.reset();
+  const RegistrationResult identity = register_model(*scene.model, searched_data, o);
+  EXPECT_FALSE(identity.start.pose_given);
+}
+
 TEST(Uncertainty, BadOptionsAreRefused) {
   UncertaintyOptions o;
   o.scale_confidence = 1.0;
