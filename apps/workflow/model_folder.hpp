@@ -7,7 +7,7 @@
 ///                   mesh boundary is not: then its alpha wrap is decimated)
 ///   vessels.vtp     pre-operative vessel skeleton from the MRA (polylines, `radius`), in the mesh:
 ///                   points up to 5 mm outside moved onto it, farther ones dropped
-///   fixed.csv       fixed nodes: the inferior part (brain stem, lower cerebellum)
+///   fixed.csv       fixed nodes: the part on the skull base (kFixedBaseFraction)
 ///   compliance.bin  cached compliance block K0⁻¹ on the constrained nodes
 ///                   (apps/workflow/compliance_cache.hpp); optional, checked before use
 ///   model.json      manifest: format name and version, the inputs (path, size, FNV-1a hash), the

@@ -28,8 +28,8 @@ FixedRegion default_fixed_region(const MeshSurface& outer, const Vector3d& down,
   s << "boundary nodes within " << r.height_mm << " mm of the lowest point along (" << r.down.x()
     << ", " << r.down.y() << ", " << r.down.z() << ") (max(" << min_height_mm << " mm, "
     << fraction * 100.0 << " % of the " << r.extent_mm
-    << " mm extent)): the inferior part of the brain (on an adult brain the "
-       "brain stem and the lower cerebellum)";
+    << " mm extent)): the part of the brain on the skull base (on an adult brain the "
+       "brain stem, the cerebellum and the inferior temporal and frontal lobes)";
   r.rule = s.str();
   return r;
 }

@@ -168,15 +168,26 @@ TEST(PrepareReal, Icbm152GivesAClosedDecimatedSurfaceAFixedBaseAndMappedVessels)
             << m["mesh"]["volume_ml"] << " mL)\n";
   EXPECT_EQ(m["surface"]["vertices"].get<index_t>(), surface.vertices.rows());
 
-  // The fixed region: the inferior part only (max(15 mm, 16 % of the extent) of a 150 mm brain
-  // is 24 mm: the brain stem and the lower cerebellum), at least 3 non-collinear nodes.
+  // The fixed region: the part on the skull base only (max(15 mm, 30 % of the extent) of a
+  // 150 mm brain is 45 mm: the brain stem, the cerebellum, the inferior temporal lobes and the
+  // lowest frontal cortex), at least 3 non-collinear nodes.
   const std::vector<index_t> fixed = imaging::read_node_list(model / "fixed.csv");
   EXPECT_GE(fixed.size(), 20u);
   const double lowest = mesh.nodes().col(2).minCoeff(), highest = mesh.nodes().col(2).maxCoeff();
   EXPECT_NEAR(m["fixed"]["height_mm"].get<double>(),
               imaging::kFixedBaseFraction * (highest - lowest), 2.0);
-  for (index_t n : fixed)
+  double front = -1e9, back = 1e9;
+  for (index_t n : fixed) {
     EXPECT_LE(mesh.nodes()(n, 2), lowest + m["fixed"]["height_mm"].get<double>() + 1e-9);
+    front = std::max(front, mesh.nodes()(n, 1));
+    back = std::min(back, mesh.nodes()(n, 1));
+  }
+  // What rests on the skull base reaches from the cerebellum at the back (the labels: y below
+  // −70 mm from z = −60 mm) to the frontal base at the front (y above 50 mm from z = −30 mm;
+  // the temporal poles reach y = 20 mm at z = −45 mm, the 16 % slab's top, so a slab that stops
+  // there fails). Bounds: 10-20 mm inside the labels' extents, for the 3-4 mm mesh.
+  EXPECT_GE(front, 30.0) << "the fixed region does not reach the frontal base";
+  EXPECT_LE(back, -60.0) << "the fixed region does not reach the cerebellum's back";
   // The craniotomy: no tumour in ICBM152, so the top of the brain (within a facet of it).
   EXPECT_GE(m["craniotomy"]["centre_mm"][2].get<double>(), highest - 9.0);
 

@@ -14,8 +14,8 @@ namespace {
 
 using tests::expect_error;
 
-TEST(DefaultFixedRegion, IsFifteenMillimetresOnSmallBrainsAndSixteenPercentOnTallOnes) {
-  // 30 mm tall: 16 % is 4.8 mm, so the 15 mm floor holds (node planes z = 0, 7.5, 15, ...).
+TEST(DefaultFixedRegion, IsFifteenMillimetresOnSmallBrainsAndThirtyPercentOnTallOnes) {
+  // 30 mm tall: 30 % is 9 mm, so the 15 mm floor holds (node planes z = 0, 7.5, 15, ...).
   const core::TetMesh short_box =
       data_synth::make_box_mesh(Vector3d(10, 20, 30), Eigen::Vector3i(2, 3, 4));
   const FixedRegion a = default_fixed_region(outer_boundary_surface(short_box));
@@ -23,16 +23,16 @@ TEST(DefaultFixedRegion, IsFifteenMillimetresOnSmallBrainsAndSixteenPercentOnTal
   EXPECT_DOUBLE_EQ(a.height_mm, 15.0);
   EXPECT_EQ(a.nodes,
             fixed_region_nodes(outer_boundary_surface(short_box), Vector3d(0, 0, -1), 15.0));
-  // 150 mm tall (an adult brain from the brain stem's end to the vertex): 24 mm.
+  // 160 mm tall (an adult brain from the brain stem's end to the vertex is 150-155 mm): 48 mm.
   // Node planes every 5 mm, so none lies at the slab's top.
   const core::TetMesh tall_box =
-      data_synth::make_box_mesh(Vector3d(10, 20, 150), Eigen::Vector3i(2, 2, 30));
+      data_synth::make_box_mesh(Vector3d(10, 20, 160), Eigen::Vector3i(2, 2, 32));
   const FixedRegion b = default_fixed_region(outer_boundary_surface(tall_box));
-  EXPECT_NEAR(b.height_mm, 24.0, 1e-9);
-  for (index_t n : b.nodes) EXPECT_LE(tall_box.nodes()(n, 2), 24.0);
+  EXPECT_NEAR(b.height_mm, 48.0, 1e-9);
+  for (index_t n : b.nodes) EXPECT_LE(tall_box.nodes()(n, 2), 48.0);
   EXPECT_EQ(b.nodes.size(),
-            3u * 3u + 4u * 8u);  // the bottom plane, then 4 planes of 8 rim nodes (z = 5 … 20)
-  EXPECT_NE(b.rule.find("24 mm"), std::string::npos) << b.rule;
+            3u * 3u + 9u * 8u);  // the bottom plane, then 9 planes of 8 rim nodes (z = 5 … 45)
+  EXPECT_NE(b.rule.find("48 mm"), std::string::npos) << b.rule;
   expect_error(
       [&] { (void)default_fixed_region(outer_boundary_surface(tall_box), Vector3d::Zero()); },
       {"down direction"});
