@@ -41,6 +41,14 @@ mean moves with the whole pose (9-15 mm lever arms against the landmarks' 5-40 m
 about 10x that TRE spread and about 3 % of the whole-brain error (8-15 mm). This script refuses a
 run whose whole-brain gap at the test's seed exceeds it.
 
+The main path, a pose from the pre-dura sweep (bench's pre_dura run, in the same results.json):
+its mean TRE at the landmarks and over the whole brain are recorded too (pre_dura_tre_mean_mm,
+pre_dura_dense_error_mean_mm), the worst over the runs at the test's seed, and the test allows
+the same x 1.1 + 0.15 mm at the landmarks and x 1.1 + dense_add_mm (0.3 mm, the whole-brain
+margin above) over the brain. Measured on 2026-12-07: two seed-1 runs of all 13 cases gave
+identical pre-dura figures on one machine (the meshing noise between machines is the TRE spread
+above).
+
 The block-CV noise model at its CV minimum (`bench` variant block_cv) was bimodal with the mesh:
 deep_tumour_one_side_vessels 1.92 or 3.13 mm and tracking_error 3.08 or 3.42 mm from the same
 seed, because its CV curve has two nearly equal minima and CGAL's meshing is not
@@ -80,6 +88,8 @@ for path in args.results:
              if r["suite"] == "cases" and r["method"] == "rigid_only" and r["ok"]}
     rigid_dense = {(r["case"], r["seed"]): r.get("dense_error_mean_mm") for r in rows
                    if r["suite"] == "cases" and r["method"] == "rigid_only" and r["ok"]}
+    pre_dura = {(r["case"], r["seed"]): r for r in rows
+                if r["suite"] == "cases" and r["method"] == "pre_dura" and r["ok"]}
     for r in rows:
         if r["suite"] != "cases" or r["method"] != "constraint_icp":
             continue
@@ -97,6 +107,7 @@ for path in args.results:
                           and rigid_dense.get((r["case"], r["seed"])) is not None else None),
             "stop": r["stop"],
             "file": path,
+            "pre_dura": pre_dura.get((r["case"], r["seed"])),
         })
 if not samples:
     sys.exit("record_thresholds.py: no successful constraint_icp run of the cases suite in the given files")
@@ -129,6 +140,13 @@ for case, by_seed in samples.items():
         "tre_before_mean_mm": befores[0],
         "rigid_gap_mm": max(s["gap"] for s in at),
     }
+    # The main path (a pre-dura pose; issue 32): its landmarks and whole brain, the worst runs.
+    pd = [s["pre_dura"] for s in at if s["pre_dura"] is not None]
+    if pd:
+        cases[case]["pre_dura_tre_mean_mm"] = max(p["tre_mean_mm"] for p in pd)
+        dense_pd = [p["dense_error_mean_mm"] for p in pd if p.get("dense_error_mean_mm") is not None]
+        if dense_pd:
+            cases[case]["pre_dura_dense_error_mean_mm"] = max(dense_pd)
     dense = [s["dense_gap"] for s in at if s["dense_gap"] is not None]
     if dense:
         cases[case]["dense_gap_to_rigid_mm"] = max(dense)
@@ -146,7 +164,7 @@ runs = {"machine": {"date": ", ".join(sorted(dates)), "build_type": build_types.
 per_case_runs = {c: {str(seed): len(v) for seed, v in sorted(by_seed.items())} for c, by_seed in samples.items()}
 
 MARGIN = {"tre_factor": 1.1, "tre_add_mm": 0.15, "corrected_pct_drop": 5.0, "rigid_gap_mm": 0.1,
-          "dense_rigid_gap_mm": 0.3}
+          "dense_rigid_gap_mm": 0.3, "dense_add_mm": 0.3}
 # The suite asserts a gap to rigid alone of 0 plus the margin (issue 14 item 3): a run behind it
 # at the test's seed is not a figure to record but a failure to fix.
 for name, c in sorted(cases.items()):
@@ -164,6 +182,9 @@ for c in cases.values():
         "shift_corrected_pct": round(c["shift_corrected_pct"], 1),
         "tre_before_mean_mm": round(c["tre_before_mean_mm"], 3),
     })
+    for key in ("pre_dura_tre_mean_mm", "pre_dura_dense_error_mean_mm"):
+        if key in c:
+            c[key] = round(c[key], 3)
 skipped -= set(cases)
 if skipped:
     kept = json.load(open(args.keep))["cases"] if args.keep else {}
