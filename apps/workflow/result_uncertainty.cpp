@@ -106,7 +106,8 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                               {"discrepancy", u.nodal.s2_discrepancy}};
   using SE = constraints::UncertaintyOptions::ScaleEstimator;
   const SE used = u.nodal.scale_estimator;
-  j["s2_estimator"] = used == SE::HELD_OUT      ? "held_out_blocks"
+  j["s2_estimator"] = used == SE::HELD_OUT
+                          ? (u.nodal.heldout_blocks > 0 ? "held_out_blocks" : "restricted")
                       : used == SE::DISCREPANCY ? "discrepancy"
                                                 : "maximum_likelihood";
   j["held_out_blocks"] = u.nodal.heldout_blocks;

@@ -45,8 +45,8 @@ struct UncertaintyOptions {
   /// conservative scale. With a given pose δ_free holds the whole sag, the model's own load
   /// response rather than a draw of the isotropic prior, so ML measures the sag's size: on the
   /// 13 bench cases with a pre-dura pose it is 1.5-30 × the held-out scale and the map
-  /// over-predicts the landmarks' error 2-7 × (docs/BENCHMARKS.md, "The predicted error with a
-  /// pre-dura pose").
+  /// over-predicted the landmarks' error 1.4-9 ×, 3-4 × in the median (docs/BENCHMARKS.md, "The
+  /// predicted error with a pre-dura pose").
   enum class ScaleEstimator { DISCREPANCY, MAXIMUM_LIKELIHOOD, HELD_OUT, BY_POSE };
   ScaleEstimator scale_estimator = ScaleEstimator::BY_POSE;
   /// The pose of the rigid start is an unknown with a flat prior (adds the rigid term).
