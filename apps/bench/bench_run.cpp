@@ -48,6 +48,7 @@ void score_uncertainty(BenchRow& row, const constraints::RegistrationModel& mode
   row.unc_s2_ml = u.s2_ml;
   row.unc_s2_restricted = u.s2_restricted;
   row.unc_s2_heldout = u.s2_heldout;
+  row.unc_s2_estimator = constraints::scale_estimator_name(u);
   row.unc_rows = static_cast<double>(u.rows);
   row.unc_heldout_blocks = static_cast<double>(u.heldout_blocks);
   row.unc_landmark_points =

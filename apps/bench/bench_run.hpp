@@ -93,6 +93,7 @@ struct BenchRow {
   /// The map's prior scale and its candidates (mN·mm), and the data rows it used.
   std::optional<double> unc_s2, unc_s2_ml, unc_s2_restricted, unc_s2_heldout, unc_rows,
       unc_heldout_blocks;
+  std::string unc_s2_estimator;  ///< which candidate s² is (scale_estimator_name(); empty: none)
   /// The tracking prior the run used (the case's declared spec; uncertainty.tracking_*).
   double unc_tracking_mm = 0.0, unc_tracking_deg = 0.0;
   /// Dense calibration (bench_dense.hpp) at the case's dense points, and the same per-point

@@ -129,6 +129,8 @@ nlohmann::json row_json(const BenchRow& r) {
   j["uncertainty_s2_ml_mn_mm"] = opt(r.unc_s2_ml);
   j["uncertainty_s2_restricted_mn_mm"] = opt(r.unc_s2_restricted);
   j["uncertainty_s2_heldout_mn_mm"] = opt(r.unc_s2_heldout);
+  j["uncertainty_s2_estimator"] =
+      r.unc_s2_estimator.empty() ? nlohmann::json(nullptr) : nlohmann::json(r.unc_s2_estimator);
   j["uncertainty_rows"] = opt(r.unc_rows);
   j["uncertainty_heldout_blocks"] = opt(r.unc_heldout_blocks);
   j["uncertainty_tracking_mm"] = r.unc_tracking_mm;

@@ -104,12 +104,7 @@ nlohmann::json uncertainty_report(const Session& s, const ResultUncertainty& u,
                               {"restricted", u.nodal.s2_restricted},
                               {"held_out_blocks", u.nodal.s2_heldout},
                               {"discrepancy", u.nodal.s2_discrepancy}};
-  using SE = constraints::UncertaintyOptions::ScaleEstimator;
-  const SE used = u.nodal.scale_estimator;
-  j["s2_estimator"] = used == SE::HELD_OUT
-                          ? (u.nodal.heldout_blocks > 0 ? "held_out_blocks" : "restricted")
-                      : used == SE::DISCREPANCY ? "discrepancy"
-                                                : "maximum_likelihood";
+  j["s2_estimator"] = constraints::scale_estimator_name(u.nodal);
   j["held_out_blocks"] = u.nodal.heldout_blocks;
   j["s2_effective_rows"] = u.nodal.scale_rows;
   j["s2_upper_bound_factor"] = u.nodal.scale_factor;

@@ -201,6 +201,7 @@ TEST(Bench, PredictedErrorIsCalibratedOnAPhantomCase) {
     // measuring the size of the sag rather than the fit's error.
     const auto& u = *pre_dura;
     SCOPED_TRACE(u.dump());
+    EXPECT_EQ(u["uncertainty_s2_estimator"], "held_out_blocks");
     EXPECT_GT(u["uncertainty_rms_ratio"].get<double>(), 0.5);
     EXPECT_LT(u["uncertainty_rms_ratio"].get<double>(), 2.0);
     EXPECT_GE(u["uncertainty_within_2_sigma_pct"].get<double>(), 70.0);
@@ -219,6 +220,7 @@ TEST(Bench, PredictedErrorIsCalibratedOnAPhantomCase) {
   // over the dense points, where 500 points measure the calibration, the two-sided bars.
   const auto& u = *ours;
   SCOPED_TRACE(u.dump());
+  EXPECT_EQ(u["uncertainty_s2_estimator"], "maximum_likelihood");
   EXPECT_GE(u["uncertainty_spearman"].get<double>(), 0.3);
   EXPECT_GE(u["uncertainty_within_2_sigma_pct"].get<double>(), 70.0);
   EXPECT_GT(u["uncertainty_far_mean_mm"].get<double>(),

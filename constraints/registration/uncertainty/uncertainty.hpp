@@ -172,6 +172,11 @@ struct UncertaintyResult {
   double cpu_seconds = 0.0;  ///< process CPU time over the same span (all threads)
 };
 
+/// The name of the estimator s² came from (report.json's `s2_estimator`, bench's
+/// `uncertainty_s2_estimator`): "maximum_likelihood", "held_out_blocks", "restricted" (held out
+/// without a vessel block to hold out) or "discrepancy".
+const char* scale_estimator_name(const UncertaintyResult& u);
+
 /// Predicted error at every node of a registration result (uses r.positions, r.data_rows,
 /// r.vessel_compliance_ratio and options.step's compliance ratios). Never throws on bad data:
 /// non-finite intermediate values give the no-data answer with the reason in `estimation`.

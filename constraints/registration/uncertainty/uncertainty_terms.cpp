@@ -46,6 +46,20 @@ double chi2_quantile(double k, double p) {
   return 0.5 * (lo + hi);
 }
 
+const char* scale_estimator_name(const UncertaintyResult& u) {
+  using SE = UncertaintyOptions::ScaleEstimator;
+  switch (u.scale_estimator) {
+    case SE::HELD_OUT:
+    case SE::BY_POSE:
+      return u.heldout_blocks > 0 ? "held_out_blocks" : "restricted";
+    case SE::DISCREPANCY:
+      return "discrepancy";
+    case SE::MAXIMUM_LIKELIHOOD:
+      break;
+  }
+  return "maximum_likelihood";
+}
+
 std::string UncertaintyOptions::validate() const {
   if (!(coarse_spacing_mm >= 0)) return "uncertainty: coarse_spacing_mm must be ≥ 0";
   if (!(hard_row_ratio > 0)) return "uncertainty: hard_row_ratio must be > 0";
