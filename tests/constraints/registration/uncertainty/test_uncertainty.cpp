@@ -482,6 +482,64 @@ TEST(Uncertainty, TheDefaultScaleFollowsWhetherThePoseWasGiven) {
   EXPECT_FALSE(identity.start.pose_given);
 }
 
+// Against the analytic sag (sag_scene.hpp: a truth field not made by the model), with the pose
+// given: the held-out scale follows the fit and ML follows the sag's size. The same sag at half
+// and at full size, the same 0.3 mm noise draw; the map's calibration read at the 72 free nodes
+// within 5 mm of a vessel (where the rows inform it), actual |x − (X + u_truth(X))| against
+// predicted σ, with the point estimates of s² (no χ² bound: 6 blocks would widen both × 3.7).
+// Measured (2026-12-07): ML / held-out 1.80 at half size and 2.78 at full; RMS actual /
+// predicted 0.72 and 1.02 with the held-out scale, 0.54 and 0.61 with ML. Asked: the held-out
+// map within a factor 2 of calibrated at both sizes (the bar); closer to calibrated than
+// ML's in log terms at both; and ML outgrowing the held-out scale as the sag doubles (× 1.2 at
+// least: measured × 1.54; the fit's error grows with the sag too, this being no model response).
+TEST(Uncertainty, WithAGivenPoseTheScaleFollowsTheFitNotTheSagsSize) {
+  const Scene scene;
+  RegistrationOptions o;
+  o.start = RigidStart::IDENTITY;
+  o.uncertainty.scale_confidence = 0.0;  // the point estimates, to compare the estimators
+  RegistrationOptions ml = o;
+  ml.uncertainty.scale_estimator = UncertaintyOptions::ScaleEstimator::MAXIMUM_LIKELIHOOD;
+  // RMS of actual / predicted at the free nodes within 5 mm of a vessel.
+  auto rms_ratio = [&](const RegistrationResult& r, const UncertaintyResult& u, double size) {
+    const MatrixX3d& X = scene.mesh.nodes();
+    double sum = 0.0;
+    int k = 0;
+    for (index_t i = 0; i < X.rows(); ++i) {
+      if (scene.model->mechanics().dofs().is_fixed_node(i)) continue;
+      const Vector3d x0 = X.row(i).transpose();
+      double near = 1e9;
+      for (index_t j = 0; j < scene.skeleton.points.rows(); ++j)
+        near = std::min(near, (scene.skeleton.points.row(j).transpose() - x0).norm());
+      if (near > 5.0) continue;
+      const double actual = (r.positions.row(i).transpose() - (x0 + size * truth(x0))).norm();
+      sum += std::pow(actual / u.node_sigma_mm[i], 2), ++k;
+    }
+    EXPECT_GT(k, 20);
+    return std::sqrt(sum / std::max(k, 1));
+  };
+  std::vector<double> ml_over_heldout;
+  for (double size : {0.5, 1.0}) {
+    IntraopData data;
+    data.vessel_points = sample_deformed(scene.skeleton, 0.3, 11, size);
+    data.pose = Eigen::Isometry3d::Identity();
+    const RegistrationResult r = register_model(*scene.model, data, o);
+    const UncertaintyResult u = predict_uncertainty(*scene.model, r, o);
+    const UncertaintyResult v = predict_uncertainty(*scene.model, r, ml);
+    ASSERT_TRUE(u.estimated && v.estimated) << u.estimation;
+    EXPECT_EQ(u.scale_estimator, UncertaintyOptions::ScaleEstimator::HELD_OUT);
+    const double ru = rms_ratio(r, u, size), rv = rms_ratio(r, v, size);
+    std::printf(
+        "sag x %.1f: s2 ML %.4g, held-out %.4g (%lld blocks); rms actual/predicted "
+        "held-out %.3f, ML %.3f\n",
+        size, u.s2_ml, u.s2_heldout, static_cast<long long>(u.heldout_blocks), ru, rv);
+    EXPECT_GT(ru, 0.5) << "sag x " << size;
+    EXPECT_LT(ru, 2.0) << "sag x " << size;
+    EXPECT_LT(std::abs(std::log(ru)), std::abs(std::log(rv))) << "sag x " << size;
+    ml_over_heldout.push_back(u.s2_ml / u.s2_heldout);
+  }
+  EXPECT_GT(ml_over_heldout[1], 1.2 * ml_over_heldout[0]);
+}
+
 TEST(Uncertainty, BadOptionsAreRefused) {
   UncertaintyOptions o;
   o.scale_confidence = 1.0;
