@@ -154,6 +154,9 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
   EXPECT_GE(report["uncertainty"]["p95_mm"].get<double>(),
             report["uncertainty"]["median_mm"].get<double>());
   EXPECT_GT(report["uncertainty"]["at_tumour_mm"].get<double>(), 0.0) << "the phantom has a tumour";
+  // One sweep, the pose searched on it: s² by maximum likelihood (ScaleEstimator::BY_POSE).
+  EXPECT_EQ(report["uncertainty"]["s2_estimator"], "maximum_likelihood")
+      << report["uncertainty"].dump();
   EXPECT_EQ(report["converged"].get<bool>(), r.exit_code == 0);
   // prepare's compliance block is reloaded, not recomputed.
   EXPECT_EQ(report["model"]["compliance"]["strategy"], "dense_block") << report["model"].dump();
@@ -454,6 +457,8 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
       EXPECT_TRUE(p.contains(k)) << k;
     EXPECT_NE(rpt["rigid"]["stop_reason"].get<std::string>().find("given pose"), std::string::npos)
         << rpt["rigid"].dump();
+    // The pose given: s² from the held-out vessel blocks (ScaleEstimator::BY_POSE).
+    EXPECT_EQ(rpt["uncertainty"]["s2_estimator"], "held_out_blocks") << rpt["uncertainty"].dump();
     // The standard phantom has no navigation offset: the pose is the identity up to what the
     // Doppler centrelines' bias allows (vessels cut by the sector's side sit ≈ 1.5 mm inside it
     // along the beam; docs/history/BENCHMARKS_NOTEBOOK.md): < 2 mm at the centroid and < 5°
@@ -497,6 +502,8 @@ TEST(Workflow, PhantomPrepareRegisterEvaluateReplayAndBadInputs) {
     EXPECT_EQ(rep_pose["intraop"]["pre_dura"]["model_from_intraop"], p["model_from_intraop"]);
     EXPECT_EQ(rep_pose["rigid"]["model_from_intraop"], rpt["rigid"]["model_from_intraop"]);
     EXPECT_EQ(rep_pose["iterations"], rpt["iterations"]);
+    EXPECT_EQ(rep_pose["uncertainty"]["s2_estimator"], "held_out_blocks");
+    EXPECT_EQ(rep_pose["uncertainty"]["s2_mn_mm"], rpt["uncertainty"]["s2_mn_mm"]);
     EXPECT_FALSE(std::filesystem::exists(res_pose / "pre_dura_pose.json"))
         << "a given pose is not stored again";
     const auto rep_stored = dir / "replay_stored";
