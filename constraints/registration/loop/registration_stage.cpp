@@ -381,6 +381,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
                                                    : std::numeric_limits<double>::infinity();
   loop.radius = loop.max_radius;
 
+  int inverted_run = 0;  // consecutive steps that left elements inverted
   for (int it = 1; it <= stage.max_iterations; ++it) {
     const auto t_it = Clock::now();
     IterationRecord rec;
@@ -441,6 +442,15 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     }
     if (loop.radius < options.increment_tolerance_mm) {
       record.stop = StageStop::NOT_SETTLING;
+      break;
+    }
+    inverted_run = rec.inverted_elements > 0 ? inverted_run + 1 : 0;
+    if (stage.stop_when_stalled && inverted_run >= stall_window) {
+      record.stop = StageStop::STALLED;
+      logger().debug(
+          "registration iteration {}: {} stage stalled ({} elements inverted on each "
+          "of the last {} steps)",
+          state.history.size(), to_string(stage.kind), rec.inverted_elements, stall_window);
       break;
     }
     if (stage.stop_when_stalled &&

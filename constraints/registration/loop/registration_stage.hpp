@@ -84,8 +84,11 @@ struct StageOptions {
   double vessel_compliance_ratio = 0.2;
   bool keep_system = false;  ///< keep the last step's W and δ_free in the state (noise model)
   /// End the stage STALLED when stage_stalled() says its clean steps cannot reach the tolerance
-  /// within the cap: for a stage whose unsettled answer is discarded (SMOOTH), where running on
-  /// to the cap would only cost time.
+  /// within the cap, or when each of its last stall_window steps left elements inverted (the
+  /// rows pulling elements through themselves, each step cut by the trust region: at 20.8k
+  /// nodes a SMOOTH stage at a stiff chosen compliance held 1-6 inverted elements on each of
+  /// its 40 steps to the cap; docs/BENCHMARKS.md): for a stage whose unsettled answer is
+  /// discarded (SMOOTH), where running on to the cap would only cost time.
   bool stop_when_stalled = false;
 };
 
