@@ -331,14 +331,26 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
     smooth.vessel_compliance_ratio = res.noise.ratio;
     smooth.stop_when_stalled = options.stop_stalled_smoothing;
     const StageRecord sm = run_stage(in, smooth, state);
-    if (sm.stop != StageStop::SETTLED) {
+    // A smoothing stage that settled with elements inverted (at the start of its last step, a
+    // step under the tolerance) folds the field where the free stage's answer did not: the
+    // latter is kept then too.
+    const auto inverted_at_end = [](const LoopState& s) {
+      return s.history.empty() ? index_t{0} : s.history.back().inverted_elements;
+    };
+    const index_t folded =
+        sm.stop == StageStop::SETTLED && sm.iterations > 0 && inverted_at_end(settled) == 0
+            ? inverted_at_end(state)
+            : 0;
+    if (sm.stop != StageStop::SETTLED || folded > 0) {
       settled.history = std::move(state.history);  // keep the record of what was tried
       settled.stages = state.stages;
       settled.seconds = state.seconds;
       state = std::move(settled);
       state.stages.push_back(sm);
-      notes +=
-          "; the smoothing stage ended " + to_string(sm.stop) + ": the free stage's answer is kept";
+      notes += folded > 0 ? "; the smoothing stage settled with " + std::to_string(folded) +
+                                " elements inverted: the free stage's answer is kept"
+                          : "; the smoothing stage ended " + to_string(sm.stop) +
+                                ": the free stage's answer is kept";
       if (sm.stop == StageStop::DIVERGED) last = sm;  // a non-finite step never ends converged
     } else {
       state.stages.push_back(sm);

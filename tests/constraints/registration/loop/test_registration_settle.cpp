@@ -193,5 +193,48 @@ TEST(RegistrationSettle, ASmoothingStageThatKeepsElementsInvertedEndsStalledWith
       << stalled.stop_reason;
 }
 
+TEST(RegistrationSettle, ASmoothingStageThatSettlesWithElementsInvertedGivesTheFreeStagesAnswer) {
+  // offset_20mm at seed 1 with a pre-dura pose: the SMOOTH stage settled with 2 elements inverted
+  // and its folded answer was kept. Fault injection: 2 elements reported inverted on the SMOOTH
+  // stage's last 3 steps (fewer than the stall window; the count does not steer the loop, so the
+  // stage takes the clean run's steps). The answer must be the FREE stage's, which the creep of
+  // the tests above gives to the bit (a SMOOTH stage that cannot settle), and the stop reason
+  // must say why.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o = settle_options();
+  o.noise.enabled = true;
+  o.noise.change_factor = 1.0;
+  const RegistrationResult clean = register_model(*s.model, d, o);
+  ASSERT_EQ(clean.stages.back().kind, StageKind::SMOOTH) << clean.stop_reason;
+  ASSERT_EQ(clean.stages.back().stop, StageStop::SETTLED) << clean.stop_reason;
+  const int smooth_steps = clean.stages.back().iterations;
+  ASSERT_GE(smooth_steps, 3);
+  const int before_smooth = clean.stages.back().first_iteration - 1;
+  const index_t node = farthest_free_node(s).first;
+  ASSERT_GE(node, 0);
+  o.inspect_step = [node, before_smooth, k = 0](StepResult& step) mutable {
+    if (++k > before_smooth) step.x(node, 2) += 0.05 * (k - before_smooth);
+  };
+  o.stop_stalled_smoothing = false;
+  const RegistrationResult free_answer = register_model(*s.model, d, o);
+  ASSERT_NE(free_answer.stages.back().stop, StageStop::SETTLED);
+  o.inspect_step = [last = before_smooth + smooth_steps, k = 0](StepResult& step) mutable {
+    if (++k > last - 3) step.inverted_elements = 2;
+  };
+  o.stop_stalled_smoothing = true;
+  const RegistrationResult folded = register_model(*s.model, d, o);
+  EXPECT_EQ(folded.stages.back().stop, StageStop::SETTLED);
+  EXPECT_EQ(folded.stages.back().iterations, smooth_steps);
+  // The smoothing moved the answer (else the check below would not tell the two apart) ...
+  EXPECT_GT((clean.positions - free_answer.positions).cwiseAbs().maxCoeff(), 1e-6);
+  // ... and with the fold the free stage's answer is the one returned, to the bit.
+  EXPECT_EQ((folded.positions - free_answer.positions).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(folded.converged, clean.converged);
+  EXPECT_NE(folded.stop_reason.find("settled with 2 elements inverted"), std::string::npos)
+      << folded.stop_reason;
+}
+
 }  // namespace
 }  // namespace brainshift::constraints
