@@ -320,6 +320,11 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
     last = keep;
     notes += "; the start is kept (no deformation)";
   } else if (options.noise.enabled && res.noise.valid &&
+             res.noise.ratio <= options.noise.min_ratio * (1.0 + 1e-9)) {
+    // No minimum inside the range (a shared error, which every branch predicts for the others,
+    // as a tracking offset): the data did not choose a compliance; the free stage's stays.
+    notes += "; the stiffest weighed, no minimum inside the range: the free stage's is kept";
+  } else if (options.noise.enabled && res.noise.valid &&
              (change > options.noise.change_factor || change < 1.0 / options.noise.change_factor)) {
     LoopState settled = state;  // the FREE stage's answer, kept if smoothing does not settle
     StageOptions smooth;
@@ -331,16 +336,13 @@ std::string choose_compliance_and_smooth(const LoopInputs& in, const Registratio
     smooth.vessel_compliance_ratio = res.noise.ratio;
     smooth.stop_when_stalled = options.stop_stalled_smoothing;
     const StageRecord sm = run_stage(in, smooth, state);
-    // A smoothing stage that settled with elements inverted (at the start of its last step, a
-    // step under the tolerance) folds the field where the free stage's answer did not: the
-    // latter is kept then too.
-    const auto inverted_at_end = [](const LoopState& s) {
-      return s.history.empty() ? index_t{0} : s.history.back().inverted_elements;
-    };
-    const index_t folded =
-        sm.stop == StageStop::SETTLED && sm.iterations > 0 && inverted_at_end(settled) == 0
-            ? inverted_at_end(state)
-            : 0;
+    // A smoothing stage that settled with elements inverted (at the start of its last step, one
+    // under the tolerance) folds the field where the free stage's answer did not: keep the latter.
+    const bool free_unfolded =
+        settled.history.empty() || settled.history.back().inverted_elements == 0;
+    const index_t folded = sm.stop == StageStop::SETTLED && sm.iterations > 0 && free_unfolded
+                               ? state.history.back().inverted_elements
+                               : 0;
     if (sm.stop != StageStop::SETTLED || folded > 0) {
       settled.history = std::move(state.history);  // keep the record of what was tried
       settled.stages = state.stages;

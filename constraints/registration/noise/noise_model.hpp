@@ -110,7 +110,11 @@ struct NoiseOptions {
   /// compares).
   double paired_test_z_with_pose = 0.0;
   /// Search range of the ratio ε / median(diag W) (dimensionless, as
-  /// StepOptions::compliance_ratio).
+  /// StepOptions::compliance_ratio). A choice at min_ratio, the stiff end, is no choice (the
+  /// held-out error still falls there): the registration then keeps the FREE stage's ratio and
+  /// runs no smoothing stage. With a pre-dura pose that was 7 of 39 phantom runs (13 cases ×
+  /// seeds 1-3), 5 of them behind the start alone with the smoothing (docs/BENCHMARKS.md, "A
+  /// compliance at the end of the range").
   double min_ratio = 0.02;
   double max_ratio = 1000.0;
   int grid = 64;  ///< log-spaced candidates in [min_ratio, max_ratio]

@@ -236,5 +236,37 @@ TEST(RegistrationSettle, ASmoothingStageThatSettlesWithElementsInvertedGivesTheF
       << folded.stop_reason;
 }
 
+TEST(RegistrationSettle, AComplianceChosenAtTheStiffEndOfTheRangeIsNoChoiceAndTheFreeStageStays) {
+  // The noise model's choice at min_ratio is no choice (the held-out error still falls there):
+  // no smoothing stage, the FREE stage's answer. Made deterministic by raising min_ratio above
+  // the scene's own interior choice, so that the end of the range is the best it can weigh; the
+  // paired test is off so that it cannot keep the start instead.
+  Scene s;
+  IntraopData d;
+  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
+  RegistrationOptions o = settle_options();
+  o.noise.enabled = true;
+  o.noise.change_factor = 1.0;
+  o.noise.paired_test = false;
+  const RegistrationResult chosen = register_model(*s.model, d, o);
+  ASSERT_EQ(chosen.stages.back().kind, StageKind::SMOOTH) << chosen.stop_reason;
+  ASSERT_GT(chosen.noise.ratio, o.noise.min_ratio * (1 + 1e-6));  // inside the range: smoothed
+  ASSERT_LT(chosen.noise.ratio, 5.0);
+  RegistrationOptions no_noise = o;
+  no_noise.noise.enabled = false;
+  const RegistrationResult free_only = register_model(*s.model, d, no_noise);
+  ASSERT_EQ(free_only.stages.back().kind, StageKind::FREE);
+  o.noise.min_ratio = 5.0;
+  const RegistrationResult edge = register_model(*s.model, d, o);
+  EXPECT_NEAR(edge.noise.ratio, 5.0, 5.0 * 1e-9);
+  EXPECT_EQ(edge.stages.back().kind, StageKind::FREE) << edge.stop_reason;
+  EXPECT_EQ(edge.stages.size(), free_only.stages.size());
+  EXPECT_EQ(edge.converged, free_only.converged);
+  EXPECT_EQ((edge.positions - free_only.positions).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_GT((chosen.positions - free_only.positions).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_NE(edge.stop_reason.find("the stiffest weighed, no minimum inside"), std::string::npos)
+      << edge.stop_reason;
+}
+
 }  // namespace
 }  // namespace brainshift::constraints
