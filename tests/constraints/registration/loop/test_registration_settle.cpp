@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <vector>
 
@@ -20,6 +21,42 @@ RegistrationOptions settle_options() {
   o.max_iterations = 60;
   o.global_start.bulk_search.enabled = false;  // one FREE stage (no held-pairs stage before it)
   return o;
+}
+
+/// The smoothing-stage tests' scene: noisy sagged vessels, the noise model on, smoothing at the
+/// data's compliance even when it is close to the default; `clean` is the run without injection.
+struct Smoothing {
+  Scene s;
+  IntraopData d;
+  RegistrationOptions o = settle_options();
+  RegistrationResult clean;
+  int before_smooth = 0;  ///< iterations before the SMOOTH stage
+  index_t node = -1;      ///< the free node farthest from the vessels
+  [[nodiscard]] RegistrationResult run() const { return register_model(*s.model, d, o); }
+};
+
+/// Fills `m` from its options (which a test may set first); the clean run must end in SMOOTH.
+void prepare(Smoothing& m) {
+  m.d.vessel_points = sample_deformed(m.s.skeleton, 0.3, 1);
+  m.o.noise.enabled = true;
+  m.o.noise.change_factor = 1.0;  // smooth at the data's compliance even when close to the default
+  m.clean = m.run();
+  ASSERT_GE(m.clean.stages.size(), 2U) << m.clean.stop_reason;
+  ASSERT_EQ(m.clean.stages.back().kind, StageKind::SMOOTH) << m.clean.stop_reason;
+  m.before_smooth = m.clean.stages.back().first_iteration - 1;
+  m.node = farthest_free_node(m.s).first;
+  ASSERT_GE(m.node, 0);
+}
+
+/// Fault injection from the SMOOTH stage on: `node` pushed 0.05 mm further along z after each
+/// step (the fine meshes' flipping elements creep at 0.025-0.03 mm per step), and `inverted`
+/// elements reported inverted on each step.
+std::function<void(StepResult&)> creep(const Smoothing& m, index_t inverted = 0) {
+  return [node = m.node, before = m.before_smooth, inverted, k = 0](StepResult& step) mutable {
+    if (++k <= before) return;
+    step.x(node, 2) += 0.05 * (k - before);
+    if (inverted > 0) step.inverted_elements = inverted;
+  };
 }
 
 /// Every settled non-HELD stage ended on an iteration whose pairing did not change (or was frozen).
@@ -100,30 +137,15 @@ TEST(RegistrationSettle, ASmoothingStageThatCreepsEndsStalledWithTheAnswerOfTheC
   // as the fine meshes' flipping elements creep at 0.025-0.03 mm per step): it cannot settle, so
   // with the rule it ends STALLED after the window of clean steps, and the registration's answer
   // is the one it gives when the stage runs on to its cap (the FREE stage's), to the bit.
-  Scene s;
-  IntraopData d;
-  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = settle_options();
-  o.noise.enabled = true;
-  o.noise.change_factor = 1.0;  // smooth at the data's compliance even when close to the default
-  const RegistrationResult clean = register_model(*s.model, d, o);
-  ASSERT_GE(clean.stages.size(), 2U) << clean.stop_reason;
-  ASSERT_EQ(clean.stages.back().kind, StageKind::SMOOTH) << clean.stop_reason;
-  const int before_smooth = clean.stages.back().first_iteration - 1;
-  const index_t node = farthest_free_node(s).first;
-  ASSERT_GE(node, 0);
-  const auto creep = [&] {
-    return [node, before_smooth, k = 0](StepResult& step) mutable {
-      if (++k <= before_smooth) return;
-      step.x(node, 2) += 0.05 * (k - before_smooth);
-    };
-  };
-  o.inspect_step = creep();
+  Smoothing m;
+  ASSERT_NO_FATAL_FAILURE(prepare(m));
+  RegistrationOptions& o = m.o;
+  o.inspect_step = creep(m);
   o.stop_stalled_smoothing = false;
-  const RegistrationResult to_cap = register_model(*s.model, d, o);
-  o.inspect_step = creep();
+  const RegistrationResult to_cap = m.run();
+  o.inspect_step = creep(m);
   o.stop_stalled_smoothing = true;
-  const RegistrationResult stalled = register_model(*s.model, d, o);
+  const RegistrationResult stalled = m.run();
   std::cout << "[ stall ] to the cap: " << to_cap.iterations << " iterations ("
             << to_string(to_cap.stages.back().stop) << "); with the rule: " << stalled.iterations
             << " (" << to_string(stalled.stages.back().stop) << ")\n";
@@ -150,31 +172,14 @@ TEST(RegistrationSettle, ASmoothingStageThatKeepsElementsInvertedEndsStalledWith
   // SMOOTH step. The rule ends the stage STALLED on the window's last step, before the creep's
   // own rule could read its window of clean steps, and the answer is the one the stage gives at
   // its cap (the FREE stage's), to the bit.
-  Scene s;
-  IntraopData d;
-  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = settle_options();
-  o.noise.enabled = true;
-  o.noise.change_factor = 1.0;
-  const RegistrationResult clean = register_model(*s.model, d, o);
-  ASSERT_GE(clean.stages.size(), 2U) << clean.stop_reason;
-  ASSERT_EQ(clean.stages.back().kind, StageKind::SMOOTH) << clean.stop_reason;
-  const int before_smooth = clean.stages.back().first_iteration - 1;
-  const index_t node = farthest_free_node(s).first;
-  ASSERT_GE(node, 0);
-  const auto inverting = [&] {
-    return [node, before_smooth, k = 0](StepResult& step) mutable {
-      if (++k <= before_smooth) return;
-      step.x(node, 2) += 0.05 * (k - before_smooth);
-      step.inverted_elements = 2;
-    };
-  };
-  o.inspect_step = inverting();
-  o.stop_stalled_smoothing = false;
-  const RegistrationResult to_cap = register_model(*s.model, d, o);
-  o.inspect_step = inverting();
-  o.stop_stalled_smoothing = true;
-  const RegistrationResult stalled = register_model(*s.model, d, o);
+  Smoothing m;
+  ASSERT_NO_FATAL_FAILURE(prepare(m));
+  m.o.inspect_step = creep(m, 2);
+  m.o.stop_stalled_smoothing = false;
+  const RegistrationResult to_cap = m.run();
+  m.o.inspect_step = creep(m, 2);
+  m.o.stop_stalled_smoothing = true;
+  const RegistrationResult stalled = m.run();
   std::cout << "[ stall ] inverted, to the cap: " << to_cap.iterations << " iterations ("
             << to_string(to_cap.stages.back().stop) << "); with the rule: " << stalled.iterations
             << " (" << to_string(stalled.stages.back().stop) << ")\n";
@@ -200,31 +205,21 @@ TEST(RegistrationSettle, ASmoothingStageThatSettlesWithElementsInvertedGivesTheF
   // stage takes the clean run's steps). The answer must be the FREE stage's, which the creep of
   // the tests above gives to the bit (a SMOOTH stage that cannot settle), and the stop reason
   // must say why.
-  Scene s;
-  IntraopData d;
-  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = settle_options();
-  o.noise.enabled = true;
-  o.noise.change_factor = 1.0;
-  const RegistrationResult clean = register_model(*s.model, d, o);
-  ASSERT_EQ(clean.stages.back().kind, StageKind::SMOOTH) << clean.stop_reason;
+  Smoothing m;
+  ASSERT_NO_FATAL_FAILURE(prepare(m));
+  const RegistrationResult& clean = m.clean;
   ASSERT_EQ(clean.stages.back().stop, StageStop::SETTLED) << clean.stop_reason;
   const int smooth_steps = clean.stages.back().iterations;
   ASSERT_GE(smooth_steps, 3);
-  const int before_smooth = clean.stages.back().first_iteration - 1;
-  const index_t node = farthest_free_node(s).first;
-  ASSERT_GE(node, 0);
-  o.inspect_step = [node, before_smooth, k = 0](StepResult& step) mutable {
-    if (++k > before_smooth) step.x(node, 2) += 0.05 * (k - before_smooth);
-  };
-  o.stop_stalled_smoothing = false;
-  const RegistrationResult free_answer = register_model(*s.model, d, o);
+  m.o.inspect_step = creep(m);
+  m.o.stop_stalled_smoothing = false;
+  const RegistrationResult free_answer = m.run();
   ASSERT_NE(free_answer.stages.back().stop, StageStop::SETTLED);
-  o.inspect_step = [last = before_smooth + smooth_steps, k = 0](StepResult& step) mutable {
+  m.o.inspect_step = [last = m.before_smooth + smooth_steps, k = 0](StepResult& step) mutable {
     if (++k > last - 3) step.inverted_elements = 2;
   };
-  o.stop_stalled_smoothing = true;
-  const RegistrationResult folded = register_model(*s.model, d, o);
+  m.o.stop_stalled_smoothing = true;
+  const RegistrationResult folded = m.run();
   EXPECT_EQ(folded.stages.back().stop, StageStop::SETTLED);
   EXPECT_EQ(folded.stages.back().iterations, smooth_steps);
   // The smoothing moved the answer (else the check below would not tell the two apart) ...
@@ -241,23 +236,19 @@ TEST(RegistrationSettle, AComplianceChosenAtTheStiffEndOfTheRangeIsNoChoiceAndTh
   // no smoothing stage, the FREE stage's answer. Made deterministic by raising min_ratio above
   // the scene's own interior choice, so that the end of the range is the best it can weigh; the
   // paired test is off so that it cannot keep the start instead.
-  Scene s;
-  IntraopData d;
-  d.vessel_points = sample_deformed(s.skeleton, 0.3, 1);
-  RegistrationOptions o = settle_options();
-  o.noise.enabled = true;
-  o.noise.change_factor = 1.0;
-  o.noise.paired_test = false;
-  const RegistrationResult chosen = register_model(*s.model, d, o);
-  ASSERT_EQ(chosen.stages.back().kind, StageKind::SMOOTH) << chosen.stop_reason;
+  Smoothing m;
+  m.o.noise.paired_test = false;
+  ASSERT_NO_FATAL_FAILURE(prepare(m));
+  const RegistrationResult& chosen = m.clean;
+  RegistrationOptions& o = m.o;
   ASSERT_GT(chosen.noise.ratio, o.noise.min_ratio * (1 + 1e-6));  // inside the range: smoothed
   ASSERT_LT(chosen.noise.ratio, 5.0);
   RegistrationOptions no_noise = o;
   no_noise.noise.enabled = false;
-  const RegistrationResult free_only = register_model(*s.model, d, no_noise);
+  const RegistrationResult free_only = register_model(*m.s.model, m.d, no_noise);
   ASSERT_EQ(free_only.stages.back().kind, StageKind::FREE);
   o.noise.min_ratio = 5.0;
-  const RegistrationResult edge = register_model(*s.model, d, o);
+  const RegistrationResult edge = m.run();
   EXPECT_NEAR(edge.noise.ratio, 5.0, 5.0 * 1e-9);
   EXPECT_EQ(edge.stages.back().kind, StageKind::FREE) << edge.stop_reason;
   EXPECT_EQ(edge.stages.size(), free_only.stages.size());
