@@ -72,6 +72,12 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
       m_block_nodes(std::move(block_nodes)),
       m_fingerprint(fingerprint) {
   BS_VERIFY(factor.ok(), "compliance operator needs a factorised K0: " << factor.message());
+  if (options.single_precision_solves && factor.rows() > 0 &&
+      factor.factor_nonzeros() * sizeof(double) >= options.single_precision_min_bytes)
+    m_single = std::make_unique<const core::SingleFactor>(factor);
+  logger().debug("K0's factor: nnz(L) {} ({} MiB in double); the steps solve in {}",
+                 factor.factor_nonzeros(), (factor.factor_nonzeros() * sizeof(double)) >> 20,
+                 m_single ? "float" : "double");
   std::sort(m_block_nodes.begin(), m_block_nodes.end());
   m_block_nodes.erase(std::unique(m_block_nodes.begin(), m_block_nodes.end()), m_block_nodes.end());
   for (index_t n : m_block_nodes)
@@ -244,7 +250,8 @@ Eigen::VectorXd ComplianceOperator::apply(ConstRef<Eigen::VectorXd> v,
     for (std::size_t n = 0; n < R.size(); ++n)
       w.segment<3>(3 * static_cast<Eigen::Index>(n)) =
           R[n].transpose() * v.segment<3>(3 * static_cast<Eigen::Index>(n));
-  Eigen::VectorXd out = m_dofs->expand(m_factor->solve(m_dofs->restrict(w)));
+  const Eigen::VectorXd rhs = m_dofs->restrict(w);
+  Eigen::VectorXd out = m_dofs->expand(m_single ? m_single->solve(rhs) : m_factor->solve(rhs));
   if (!R.empty())
     for (std::size_t n = 0; n < R.size(); ++n) {
       const Vector3d a = out.segment<3>(3 * static_cast<Eigen::Index>(n));

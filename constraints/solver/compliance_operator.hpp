@@ -84,6 +84,20 @@ struct ComplianceOptions {
   int precompute_threads = 2;
   /// A block saved by an earlier preparation of the same model (checked before it is used).
   std::shared_ptr<const ComplianceBlock> precomputed;
+  /// apply(v, R), the registration's free motion and correction, solves with a float copy of L
+  /// (core::SingleFactor) when L's values in double take at least `single_precision_min_bytes`:
+  /// such a solve is bound by reading L, and float halves that traffic (20,841 nodes, 293 MiB:
+  /// 4.96 → 3.06 s a registration; 4,126 nodes, 22 MiB: 0.467 → 0.361 s). A small L stays in
+  /// the caches and its solve is a small share of a step (1,614 nodes, 5 MiB: 0.136 s either
+  /// way), so the double solve is kept there. The float error is about
+  /// 1e-6 relative; each step's residual, W and the block stay in double, so the loop's fixed
+  /// points are the double solve's and the error moves the path only (docs/BENCHMARKS.md,
+  /// "Single-precision solves"). Not scene keys (a numerical method, like the precompute
+  /// method); false: CHOLMOD's double solve everywhere.
+  bool single_precision_solves = true;
+  /// 16 MiB: half the 2-core VM's 32 MiB L3, which its two cores and the step's vectors share;
+  /// between the sizes measured without a gain (5 MiB) and with one (22 MiB). 0: always.
+  std::size_t single_precision_min_bytes = std::size_t{16} << 20;
 };
 
 /// The options' names, ranges and documentation (core/option_fields.hpp); in the scene under
@@ -141,9 +155,12 @@ class ComplianceOperator {
 
   /// R K0⁻¹ Rᵀ v (full 3N vectors; mN → mm), one solve with the factor, with the stored rotations.
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v) const;
-  /// Same with the nodal rotations `R` (#N, or empty for the identity) given per call.
+  /// Same with the nodal rotations `R` (#N, or empty for the identity) given per call, solved
+  /// in single precision unless ComplianceOptions::single_precision_solves is off.
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v,
                                       const std::vector<Matrix3d>& R) const;
+  /// Whether apply(v, R) solves in single precision.
+  [[nodiscard]] bool single_precision() const { return m_single != nullptr; }
 
   /// R K0⁻¹ Rᵀ V for the columns of V (3N × k; mN → mm) with one multi-right-hand-side solve:
   /// the factor is read once for all columns, so k = 2 costs little more than one apply().
@@ -187,6 +204,7 @@ class ComplianceOperator {
   const core::CholmodFactor* m_factor;  // not owned
   const core::DofMap* m_dofs;           // not owned
   core::WarpedCompliance m_warp;
+  std::unique_ptr<const core::SingleFactor> m_single;  // apply(v, R)'s factor when not null
   ComplianceStrategy m_strategy = ComplianceStrategy::SPARSE_SOLVE;
   std::vector<index_t> m_block_nodes;
   std::vector<index_t> m_block_pos;  // node → position in the block, −1 outside

@@ -5,8 +5,19 @@
 
 #include <cholmod.h>
 
+#include <algorithm>
 #include <sstream>
 #include <utility>
+#include <vector>
+
+extern "C" {
+// Fortran BLAS (served by the process's BLAS: OpenBLAS, see cmake/deps/blas.cmake).
+void strsv_(const char* uplo, const char* trans, const char* diag, const int* n, const float* a,
+            const int* lda, float* x, const int* incx);
+void sgemv_(const char* trans, const int* m, const int* n, const float* alpha, const float* a,
+            const int* lda, const float* x, const int* incx, const float* beta, float* y,
+            const int* incy);
+}
 
 namespace brainshift::core {
 
@@ -195,6 +206,72 @@ Eigen::MatrixXd CholmodFactor::solve_concurrent(ConstRef<Eigen::MatrixXd> B) con
   cholmod_free_dense(&X, &common);
   cholmod_finish(&common);
   return out;
+}
+
+namespace {
+
+/// x = Pᵀ L⁻ᵀ L⁻¹ P b over CHOLMOD's supernodal L, its values `Lx` in float. Supernode s holds
+/// columns super[s] … super[s+1]−1, its rows Ls[pi[s] … pi[s+1]) (the diagonal block's first),
+/// its values column-major from Lx[px[s]] with leading dimension nsrow (CHOLMOD's layout).
+Eigen::VectorXd supernodal_solve(const cholmod_factor& L, const float* Lx,
+                                 ConstRef<Eigen::VectorXd> b) {
+  const auto* perm = static_cast<const int*>(L.Perm);
+  const auto* super = static_cast<const int*>(L.super);
+  const auto* pi = static_cast<const int*>(L.pi);
+  const auto* px = static_cast<const int*>(L.px);
+  const auto* Ls = static_cast<const int*>(L.s);
+  const auto n = static_cast<int>(L.n);
+  const auto nsuper = static_cast<int>(L.nsuper);
+  std::vector<float> y(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) y[k] = static_cast<float>(b[perm[k]]);  // y = P b
+  std::vector<float> t(std::max<std::size_t>(L.maxesize, 1));         // a supernode's rows below
+  const int one = 1;
+  const float plus = 1.0F, zero = 0.0F, minus = -1.0F;
+  // L y = P b: each diagonal block, then the rows below it updated.
+  for (int s = 0; s < nsuper; ++s) {
+    const int k1 = super[s], nscol = super[s + 1] - k1;
+    const int nsrow = pi[s + 1] - pi[s], below = nsrow - nscol;
+    const float* A = Lx + px[s];
+    strsv_("L", "N", "N", &nscol, A, &nsrow, &y[k1], &one);
+    if (below == 0) continue;
+    sgemv_("N", &below, &nscol, &plus, A + nscol, &nsrow, &y[k1], &one, &zero, t.data(), &one);
+    const int* rows = Ls + pi[s] + nscol;
+    for (int i = 0; i < below; ++i) y[rows[i]] -= t[i];
+  }
+  // Lᵀ z = y, the supernodes in reverse order.
+  for (int s = nsuper - 1; s >= 0; --s) {
+    const int k1 = super[s], nscol = super[s + 1] - k1;
+    const int nsrow = pi[s + 1] - pi[s], below = nsrow - nscol;
+    const float* A = Lx + px[s];
+    if (below > 0) {
+      const int* rows = Ls + pi[s] + nscol;
+      for (int i = 0; i < below; ++i) t[i] = y[rows[i]];
+      sgemv_("T", &below, &nscol, &minus, A + nscol, &nsrow, t.data(), &one, &plus, &y[k1], &one);
+    }
+    strsv_("L", "T", "N", &nscol, A, &nsrow, &y[k1], &one);
+  }
+  Eigen::VectorXd x(n);
+  for (int k = 0; k < n; ++k) x[perm[k]] = static_cast<double>(y[k]);  // x = Pᵀ z
+  return x;
+}
+
+}  // namespace
+
+SingleFactor::SingleFactor(const CholmodFactor& factor) : m_factor(&factor) {
+  BS_VERIFY(factor.ok(),
+            "single-precision copy of a factor that is not usable: " << factor.message());
+  const cholmod_factor& L = *factor.m_impl->factor;
+  BS_VERIFY(L.is_super && L.is_ll && L.xtype == CHOLMOD_REAL,
+            "single-precision copy needs a supernodal real LLᵀ factor");
+  const auto* x = static_cast<const double*>(L.x);
+  m_values.assign(x, x + L.xsize);  // each value rounded to the nearest float
+  m_rows = factor.rows();
+}
+
+Eigen::VectorXd SingleFactor::solve(ConstRef<Eigen::VectorXd> b) const {
+  BS_VERIFY(b.size() == m_rows,
+            "right-hand side has " << b.size() << " rows, the factor " << m_rows);
+  return supernodal_solve(*m_factor->m_impl->factor, m_values.data(), b);
 }
 
 SparseMatrix CholmodFactor::solve_lower_permuted(const SparseMatrix& B) const {

@@ -7,6 +7,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace brainshift::core {
 
@@ -61,10 +62,38 @@ class CholmodFactor {
   [[nodiscard]] SparseMatrix solve_lower_permuted(const SparseMatrix& B) const;
 
  private:
+  friend class SingleFactor;
   struct Impl;
   std::unique_ptr<Impl> m_impl;
   FactorStatus m_status = FactorStatus::FAILED;
   std::string m_message = "not factorised";
+  index_t m_rows = 0;
+};
+
+/// A single-precision copy of a supernodal CholmodFactor's L, for solves whose factor is
+/// larger than the caches: such a solve is bound by reading L (twice, forward and back), and
+/// float halves that traffic (the 19.7k-node box, nnz(L) = 46 M: 37 → 22 ms; bench_core
+/// `BM_CholmodSolve*`, docs/BENCHMARKS.md). The solve is exact for a matrix within float
+/// round-off of A, so its relative error is about cond(A) · 6e-8 (1.5e-6 on that box;
+/// tests/core/test_cholmod_single.cpp). Used where the solve is one step of a fixed-point
+/// iteration that recomputes its residual in double (the registration's free motion and
+/// correction), so the error moves the path, never the fixed point.
+class SingleFactor {
+ public:
+  /// Copies L's values (rounded to the nearest float). \pre factor.ok(), and factor is not
+  /// analysed or factorised again while this copy is used (it reads factor's structure).
+  /// \throws brainshift::Error when the factor is not usable or not supernodal LLᵀ.
+  explicit SingleFactor(const CholmodFactor& factor);
+  /// x ≈ A⁻¹ b: b rounded to float, L y = P b and Lᵀ z = y by BLAS strsv / sgemv over the
+  /// supernodes, x = Pᵀ z widened to double.
+  [[nodiscard]] Eigen::VectorXd solve(ConstRef<Eigen::VectorXd> b) const;
+  [[nodiscard]] index_t rows() const { return m_rows; }
+  /// Bytes of the copy.
+  [[nodiscard]] std::size_t bytes() const { return m_values.size() * sizeof(float); }
+
+ private:
+  const CholmodFactor* m_factor;  // not owned
+  std::vector<float> m_values;
   index_t m_rows = 0;
 };
 

@@ -45,9 +45,15 @@ double max_node_difference(const MatrixX3d& a, const MatrixX3d& b) {
 TEST(ComplianceOperator, SeveralColumnsAtOnceAndTheBlockCorrectionMatchApply) {
   const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {3, 3, 6});
   const std::vector<index_t> block = tests::nodes_above(mesh, 20);
-  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), block);
+  // The three paths in double (apply's float solve on large factors has its own test,
+  // ApplySolvesInSinglePrecisionAboveTheCacheSizeWithFloatsBackwardError): here they must agree
+  // to double rounding, whatever the size threshold.
+  ComplianceOptions in_double;
+  in_double.single_precision_solves = false;
+  ConstrainedModel model(mesh, tests::nodes_below(mesh, 0), block, in_double);
   const ComplianceOperator& C = model.compliance();
   ASSERT_EQ(C.strategy(), ComplianceStrategy::DENSE_BLOCK);
+  ASSERT_FALSE(C.single_precision());
   const std::vector<Matrix3d> R = folded_step_rotations(mesh.num_nodes(), 3);
   std::mt19937 rng(4);
   std::normal_distribution<double> g;

@@ -7,6 +7,7 @@
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>
 
+#include <iostream>
 #include <random>
 #include <string>
 #include <utility>
@@ -127,6 +128,49 @@ TEST(CholmodFactor, RefactorisingAndMovingKeepTheFactorUsable) {
   EXPECT_LE((A2 * x - b).norm(), 1e-12 * b.norm() * 1e2);
   EXPECT_THROW(assigned.analyze(SparseMatrix(3, 4)), Error);
   EXPECT_THROW((void)assigned.solve(Eigen::VectorXd(Eigen::VectorXd::Ones(7))), Error);
+}
+
+/// Float's unit round-off (2⁻²⁴): L and the triangular solves of SingleFactor are in float.
+constexpr double kFloatRoundOff = 0x1p-24;
+
+TEST(SingleFactor, SolvesWithTheBackwardErrorOfFloatAndAForwardErrorBoundedByTheCondition) {
+  // 600 rows, ≈ 7 entries a row: CHOLMOD makes supernodes with rows below their diagonal
+  // blocks and a fill-reducing permutation, every path of the float solve.
+  const SparseMatrix A = random_spd(600, 3, 0.5, 11);
+  const double cond = condition_number(A);
+  CholmodFactor factor;
+  ASSERT_EQ(factor.compute(A), FactorStatus::OK) << factor.message();
+  const SingleFactor single(factor);
+  EXPECT_EQ(single.rows(), 600);
+  EXPECT_EQ(single.bytes(), factor.factor_nonzeros() * sizeof(float));
+  const Eigen::MatrixXd B = random_dense(600, 3, 13);
+  const Eigen::MatrixXd X_dense = Eigen::LLT<Eigen::MatrixXd>{Eigen::MatrixXd(A)}.solve(B);
+  for (Eigen::Index j = 0; j < B.cols(); ++j) {
+    const Eigen::VectorXd b = B.col(j);
+    const Eigen::VectorXd x = single.solve(b);
+    // Backward error, independent of the condition: x solves (A + E) x = b with ‖E‖ a few
+    // float round-offs of ‖A‖ times the entries a row of L (L rounded, then two triangular
+    // solves in float); 100 u ‖A‖ ‖x‖ covers it with the rows of this matrix (≤ 60 in L).
+    EXPECT_LE((A * x - b).norm(), 100 * kFloatRoundOff * A.norm() * x.norm());
+    // Forward error ≤ cond · (backward error); the same 100 u.
+    const double diff = tests::relative_difference(x, X_dense.col(j));
+    EXPECT_LE(diff, 100 * kFloatRoundOff * cond) << "cond " << cond;
+    // And it is float's, not double's: far above what CHOLMOD's double solve leaves (≈ 1e-15
+    // · cond), so a solve that silently ran in double would show here.
+    EXPECT_GT(diff, 1e3 * tests::eps * cond);
+    std::cout << "[ measured ] single-precision solve: relative error " << diff << ", cond " << cond
+              << "\n";
+  }
+}
+
+TEST(SingleFactor, RefusesAFactorThatIsNotUsableAndAWrongSize) {
+  const SparseMatrix A = random_spd(40, 2, 1.0, 3);
+  CholmodFactor factor;
+  EXPECT_THROW(SingleFactor{factor}, Error);  // not factorised
+  ASSERT_EQ(factor.compute(A), FactorStatus::OK);
+  const SingleFactor single(factor);
+  EXPECT_THROW((void)single.solve(Eigen::VectorXd(Eigen::VectorXd::Ones(7))), Error);
+  EXPECT_TRUE(single.solve(Eigen::VectorXd(Eigen::VectorXd::Ones(40))).allFinite());
 }
 
 }  // namespace
