@@ -156,7 +156,8 @@ class ComplianceOperator {
   /// R K0⁻¹ Rᵀ v (full 3N vectors; mN → mm), one solve with the factor, with the stored rotations.
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v) const;
   /// Same with the nodal rotations `R` (#N, or empty for the identity) given per call, solved
-  /// in single precision unless ComplianceOptions::single_precision_solves is off.
+  /// in single precision when the factor is large (ComplianceOptions::single_precision_solves,
+  /// single_precision_min_bytes; single_precision() says which).
   [[nodiscard]] Eigen::VectorXd apply(ConstRef<Eigen::VectorXd> v,
                                       const std::vector<Matrix3d>& R) const;
   /// Whether apply(v, R) solves in single precision.

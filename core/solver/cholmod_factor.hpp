@@ -75,9 +75,9 @@ class CholmodFactor {
 /// float halves that traffic (the 19.7k-node box, nnz(L) = 46 M: 37 → 22 ms; bench_core
 /// `BM_CholmodSolve*`, docs/BENCHMARKS.md). The solve is exact for a matrix within float
 /// round-off of A, so its relative error is about cond(A) · 6e-8 (1.5e-6 on that box;
-/// tests/core/test_cholmod_single.cpp). Used where the solve is one step of a fixed-point
-/// iteration that recomputes its residual in double (the registration's free motion and
-/// correction), so the error moves the path, never the fixed point.
+/// tests/core/solver/test_cholmod_factor.cpp, `SingleFactor.*`). Used where the solve is one step
+/// of a fixed-point iteration that recomputes its residual in double (the registration's free
+/// motion and correction), so the error moves the path, never the fixed point.
 class SingleFactor {
  public:
   /// Copies L's values (rounded to the nearest float). \pre factor.ok(), and factor is not
