@@ -227,24 +227,29 @@ Eigen::VectorXd supernodal_solve(const cholmod_factor& L, const float* Lx,
   std::vector<float> t(std::max<std::size_t>(L.maxesize, 1));         // a supernode's rows below
   const int one = 1;
   const float plus = 1.0F, zero = 0.0F, minus = -1.0F;
+  // Supernode s: its first column k1, its nscol columns, nsrow rows of which `below` under the
+  // diagonal block (their indices `rows`), its values A.
+  struct Block {
+    int k1, nscol, nsrow, below;
+    const float* A;
+    const int* rows;
+  };
+  const auto block = [&](int s) {
+    const int nscol = super[s + 1] - super[s], nsrow = pi[s + 1] - pi[s];
+    return Block{super[s], nscol, nsrow, nsrow - nscol, Lx + px[s], Ls + pi[s] + nscol};
+  };
   // L y = P b: each diagonal block, then the rows below it updated.
   for (int s = 0; s < nsuper; ++s) {
-    const int k1 = super[s], nscol = super[s + 1] - k1;
-    const int nsrow = pi[s + 1] - pi[s], below = nsrow - nscol;
-    const float* A = Lx + px[s];
+    const auto [k1, nscol, nsrow, below, A, rows] = block(s);
     strsv_("L", "N", "N", &nscol, A, &nsrow, &y[k1], &one);
     if (below == 0) continue;
     sgemv_("N", &below, &nscol, &plus, A + nscol, &nsrow, &y[k1], &one, &zero, t.data(), &one);
-    const int* rows = Ls + pi[s] + nscol;
     for (int i = 0; i < below; ++i) y[rows[i]] -= t[i];
   }
   // Lᵀ z = y, the supernodes in reverse order.
   for (int s = nsuper - 1; s >= 0; --s) {
-    const int k1 = super[s], nscol = super[s + 1] - k1;
-    const int nsrow = pi[s + 1] - pi[s], below = nsrow - nscol;
-    const float* A = Lx + px[s];
+    const auto [k1, nscol, nsrow, below, A, rows] = block(s);
     if (below > 0) {
-      const int* rows = Ls + pi[s] + nscol;
       for (int i = 0; i < below; ++i) t[i] = y[rows[i]];
       sgemv_("T", &below, &nscol, &minus, A + nscol, &nsrow, t.data(), &one, &plus, &y[k1], &one);
     }
