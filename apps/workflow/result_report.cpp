@@ -162,6 +162,8 @@ nlohmann::json registration_report(const constraints::RegistrationResult& r) {
                             {"vessel_compliance_ratio", h.vessel_compliance_ratio},
                             {"diagnosis", h.diagnosis},
                             {"inverted_elements", h.inverted_elements},
+                            {"max_increment_node", h.max_increment_node},
+                            {"increment_beyond_mm", h.increment_beyond_mm},
                             {"extrapolated_mm", h.extrapolated_mm}});
   j["stages"] = nlohmann::json::array();
   for (const auto& st : r.stages)

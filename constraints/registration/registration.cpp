@@ -168,9 +168,11 @@ RegistrationStop stop_of(StageStop s) {
 
 /// One line on why the registration stopped.
 std::string stop_reason(const RegistrationResult& res, const RegistrationOptions& options,
-                        const std::string& notes) {
+                        const StageRecord& stage, const std::string& notes) {
   char buf[512];
-  const IterationRecord last = res.history.empty() ? IterationRecord{} : res.history.back();
+  // The last step of the stage whose stop this is (a discarded SMOOTH stage's steps come after).
+  const auto at = std::size_t(stage.first_iteration + stage.iterations - 2);
+  const IterationRecord last = at < res.history.size() ? res.history[at] : IterationRecord{};
   int held = 0;
   for (const StageRecord& s : res.stages)
     if (s.kind == StageKind::HELD) held += s.iterations;
@@ -202,20 +204,17 @@ std::string stop_reason(const RegistrationResult& res, const RegistrationOptions
     default:
       std::snprintf(buf, sizeof buf,
                     "increment below %.3g mm with a %s pairing set after %d iterations (%d on the "
-                    "pairs of the "
-                    "bulk shift)",
+                    "pairs of the bulk shift)",
                     options.increment_tolerance_mm,
                     last.pairing_frozen ? "frozen (it cycled)" : "stable", res.iterations, held);
   }
   std::string reason = buf;
+  if (res.stop == RegistrationStop::NOT_SETTLING || res.stop == RegistrationStop::MAX_ITERATIONS)
+    reason += describe_increment(last);  // where it did not settle: one node, or the mesh
   if (!notes.empty()) reason += "; " + notes;
   if (!res.start.bulk_message.empty()) reason += "; bulk shift: " + res.start.bulk_message;
   return reason;
 }
-
-}  // namespace
-
-namespace {
 
 /// register_model's argument checks: one clear error per problem.
 void verify_registration_inputs(const core::TetMesh& mesh, const IntraopData& data,
@@ -381,7 +380,7 @@ void collect_result(const LoopInputs& in, const RegistrationOptions& options, do
   for (const auto& [k, l] : state.warm) res.lambda.emplace_back(k, l);
   res.stop = res.stages.empty() ? RegistrationStop::MAX_ITERATIONS : stop_of(last.stop);
   res.converged = res.stop == RegistrationStop::CONVERGED;
-  res.stop_reason = stop_reason(res, options, notes);
+  res.stop_reason = stop_reason(res, options, last, notes);
 }
 
 /// Whether a converged answer can be trusted: vessels alone, too few or too scattered

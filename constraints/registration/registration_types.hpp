@@ -269,6 +269,15 @@ struct IterationRecord {
   index_t landmark_rows = 0;
   index_t rows = 0;
   double max_increment_mm = 0.0;
+  /// Where that largest nodal increment was (locate_increment(), registration_stage.hpp): the
+  /// node (-1: no step), its position after the step (mm, model frame), its share of the step's
+  /// squared length, and the largest increment of the nodes that share no element with it (mm).
+  /// A failure to settle that is one node's (an element pulled through itself) reads as a share
+  /// near 1 and a remainder below the tolerance.
+  index_t max_increment_node = -1;
+  Vector3d max_increment_at = Vector3d::Zero();
+  double max_increment_share = 0.0;
+  double increment_beyond_mm = 0.0;
   int pgs_iterations = 0;
   double pgs_residual = 0.0;
   PgsStop pgs_stop = PgsStop::NO_ROWS;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <optional>
 
@@ -410,6 +411,7 @@ StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState
     }
     keep_step(in, stage, rows, keys_of_rows, step, state);
     const MatrixX3d dx = step.x - state.positions;
+    locate_increment(in.model->mesh(), dx, step.x, rec);
     state.positions = std::move(step.x);
     // A cycle of the pairing set (it changed, to one seen before): freeze it from now on.
     if (!loop.frozen && stage.kind != StageKind::HELD && rec.pairing_changed &&
@@ -479,6 +481,44 @@ bool stage_stalled(const std::vector<double>& clean_increments, double tolerance
   const double rate = std::pow(last / first, 1.0 / double(w - 1));
   if (!(rate < 1.0)) return true;
   return std::log(tolerance / last) / std::log(rate) > double(remaining);
+}
+
+void locate_increment(const core::TetMesh& mesh, const MatrixX3d& dx, const MatrixX3d& x,
+                      IterationRecord& rec) {
+  rec.max_increment_node = -1;
+  rec.max_increment_share = 0.0;
+  rec.increment_beyond_mm = 0.0;
+  const double total = dx.squaredNorm();
+  if (dx.rows() == 0 || !(total > 0.0) || !std::isfinite(total)) return;
+  Eigen::Index node = 0;
+  const Eigen::VectorXd length = dx.rowwise().norm();
+  length.maxCoeff(&node);
+  rec.max_increment_node = static_cast<index_t>(node);
+  rec.max_increment_at = x.row(node).transpose();
+  rec.max_increment_share = dx.row(node).squaredNorm() / total;
+  std::vector<bool> near(static_cast<std::size_t>(dx.rows()), false);
+  const MatrixX4i& tets = mesh.tets();
+  for (Eigen::Index t = 0; t < tets.rows(); ++t)
+    if ((tets.row(t).array() == static_cast<int>(node)).any())
+      for (int k = 0; k < 4; ++k) near[static_cast<std::size_t>(tets(t, k))] = true;
+  near[static_cast<std::size_t>(node)] = true;
+  for (Eigen::Index i = 0; i < dx.rows(); ++i)
+    if (!near[static_cast<std::size_t>(i)])
+      rec.increment_beyond_mm = std::max(rec.increment_beyond_mm, length[i]);
+}
+
+std::string describe_increment(const IterationRecord& last) {
+  if (last.max_increment_node < 0) return "";
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "; the last step was largest at node %lld ((%.1f, %.1f, %.1f) mm, %.0f %% of its "
+                "squared length, %lld elements inverted); beyond that node's elements the mesh "
+                "moved at most %.3g mm",
+                static_cast<long long>(last.max_increment_node), last.max_increment_at.x(),
+                last.max_increment_at.y(), last.max_increment_at.z(),
+                100.0 * last.max_increment_share, static_cast<long long>(last.inverted_elements),
+                last.increment_beyond_mm);
+  return buf;
 }
 
 ConstraintRows data_rows_at(const LoopInputs& in, const LoopState& state) {

@@ -97,6 +97,16 @@ struct StageOptions {
 /// iterate and returns DIVERGED.
 StageRecord run_stage(const LoopInputs& in, const StageOptions& stage, LoopState& state);
 
+/// Into `rec`: the node of the largest nodal increment of the step `dx` (#N×3, mm) that ended
+/// at `x`, its position there, its share of ‖dx‖², and the largest increment of the nodes that
+/// share no tetrahedron with it (0 when every node does). Node -1 for an empty or zero step.
+void locate_increment(const core::TetMesh& mesh, const MatrixX3d& dx, const MatrixX3d& x,
+                      IterationRecord& rec);
+
+/// One clause for a stop reason: where the last step moved most and how much the mesh moved
+/// beyond that node's elements ("" without a located step).
+std::string describe_increment(const IterationRecord& last);
+
 /// The data rows (vessels, footprint, landmarks; no dura) of a loop state at its final
 /// positions: what predict_uncertainty() (uncertainty.hpp) conditions on, as
 /// RegistrationResult::data_rows.

@@ -14,6 +14,7 @@
 #include <iostream>
 #include <limits>
 #include <optional>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -364,6 +365,44 @@ TEST(RegistrationLoop, AnOscillationNothingDampsEndsNotSettlingBeforeTheIteratio
   EXPECT_GE(shrinks, 5);
   EXPECT_LT(r.iterations, o.max_iterations);
   EXPECT_TRUE(r.positions.allFinite());
+  // The stop reason says where it did not settle: the pushed node (its 2 mm turn-back is the
+  // last step's largest by far: the other nodes' steps are cut to the collapsed radius).
+  EXPECT_EQ(r.history.back().max_increment_node, node);
+  EXPECT_NE(r.stop_reason.find("largest at node " + std::to_string(node) + " "), std::string::npos)
+      << r.stop_reason;
+  EXPECT_LT(r.history.back().increment_beyond_mm, r.history.back().max_increment_mm);
+}
+
+TEST(RegistrationLoop, LocateIncrementNamesTheNodeItsShareAndTheMotionBeyondItsElements) {
+  // Two tetrahedra sharing the face (1, 2, 3); node 4 shares no element with node 0. A step of
+  // (3, 4, 0) mm at node 0 and (0, 0, 1) mm at node 4: by hand, node 0 (length 5), share
+  // 25 / 26, and beyond node 0's elements node 4's 1 mm. Exact up to round-off (1e-12).
+  MatrixX3d x(5, 3);
+  x << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1;
+  MatrixX4i tets(2, 4);
+  tets << 0, 1, 2, 3, 1, 2, 3, 4;
+  const core::TetMesh mesh(x, tets);
+  MatrixX3d dx = MatrixX3d::Zero(5, 3);
+  dx.row(0) << 3, 4, 0;
+  dx.row(4) << 0, 0, 1;
+  IterationRecord rec;
+  locate_increment(mesh, dx, x + dx, rec);
+  EXPECT_EQ(rec.max_increment_node, 0);
+  EXPECT_NEAR((rec.max_increment_at - Vector3d(3, 4, 0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(rec.max_increment_share, 25.0 / 26.0, 1e-12);
+  EXPECT_NEAR(rec.increment_beyond_mm, 1.0, 1e-12);
+  EXPECT_NE(describe_increment(rec).find("largest at node 0 ((3.0, 4.0, 0.0) mm, 96 %"),
+            std::string::npos)
+      << describe_increment(rec);
+  // The largest step at node 4 instead: node 0 shares no element with it, its 5 mm is beyond.
+  dx.row(4) << 0, 0, 6;
+  locate_increment(mesh, dx, x + dx, rec);
+  EXPECT_EQ(rec.max_increment_node, 4);
+  EXPECT_NEAR(rec.increment_beyond_mm, 5.0, 1e-12);  // node 0 shares no element with node 4
+  // No step: no node, and no clause in a stop reason.
+  locate_increment(mesh, MatrixX3d::Zero(5, 3), x, rec);
+  EXPECT_EQ(rec.max_increment_node, -1);
+  EXPECT_EQ(describe_increment(rec), "");
 }
 
 TEST(RegistrationLoop, AFreeStageThatDoesNotSettleStillGetsTheNoiseModel) {
