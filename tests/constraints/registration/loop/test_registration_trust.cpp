@@ -375,8 +375,9 @@ TEST(RegistrationLoop, AnOscillationNothingDampsEndsNotSettlingBeforeTheIteratio
 
 TEST(RegistrationLoop, LocateIncrementNamesTheNodeItsShareAndTheMotionBeyondItsElements) {
   // Two tetrahedra sharing the face (1, 2, 3); node 4 shares no element with node 0. A step of
-  // (3, 4, 0) mm at node 0 and (0, 0, 1) mm at node 4: by hand, node 0 (length 5), share
-  // 25 / 26, and beyond node 0's elements node 4's 1 mm. Exact up to round-off (1e-12).
+  // (3, 4, 0) mm at node 0, (0, 2, 0) mm at its neighbour 1 and (0, 0, 1) mm at node 4: by hand,
+  // node 0 (length 5), share 25 / 30, and beyond node 0's elements node 4's 1 mm (node 1's 2 mm
+  // is within them). Exact up to round-off (1e-12).
   MatrixX3d x(5, 3);
   x << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1;
   MatrixX4i tets(2, 4);
@@ -384,14 +385,15 @@ TEST(RegistrationLoop, LocateIncrementNamesTheNodeItsShareAndTheMotionBeyondItsE
   const core::TetMesh mesh(x, tets);
   MatrixX3d dx = MatrixX3d::Zero(5, 3);
   dx.row(0) << 3, 4, 0;
+  dx.row(1) << 0, 2, 0;
   dx.row(4) << 0, 0, 1;
   IterationRecord rec;
   locate_increment(mesh, dx, x + dx, rec);
   EXPECT_EQ(rec.max_increment_node, 0);
   EXPECT_NEAR((rec.max_increment_at - Vector3d(3, 4, 0)).norm(), 0.0, 1e-12);
-  EXPECT_NEAR(rec.max_increment_share, 25.0 / 26.0, 1e-12);
+  EXPECT_NEAR(rec.max_increment_share, 25.0 / 30.0, 1e-12);
   EXPECT_NEAR(rec.increment_beyond_mm, 1.0, 1e-12);
-  EXPECT_NE(describe_increment(rec).find("largest at node 0 ((3.0, 4.0, 0.0) mm, 96 %"),
+  EXPECT_NE(describe_increment(rec).find("largest at node 0 ((3.0, 4.0, 0.0) mm, 83 %"),
             std::string::npos)
       << describe_increment(rec);
   // The largest step at node 4 instead: node 0 shares no element with it, its 5 mm is beyond.
