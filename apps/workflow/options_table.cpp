@@ -19,7 +19,8 @@ std::string range_of(const OptionField& f) {
   switch (f.kind) {
     case OptionField::Kind::NUMBER:
     case OptionField::Kind::INTEGER:
-      return "[" + number(f.range.lo) + ", " + number(f.range.hi) + "]";
+      // std::string first: GCC 12 warns falsely (-Wrestrict) on "[" + std::string&&.
+      return std::string("[") + number(f.range.lo) + ", " + number(f.range.hi) + "]";
     case OptionField::Kind::BOOLEAN:
       return "true|false";
     case OptionField::Kind::ENUM: {

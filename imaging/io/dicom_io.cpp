@@ -366,7 +366,10 @@ void write_dicom_series(const std::filesystem::path& dir, const VolumeF& volume,
   const std::string series_number = std::to_string(source.series_number + 1000);
   const auto ds_list = [](std::initializer_list<double> values) {
     std::string s;
-    for (double v : values) s += (s.empty() ? "" : "\\") + ds_value(v);
+    for (double v : values) {
+      if (!s.empty()) s += '\\';  // appended, not "" + std::string&& (GCC 12's false -Wrestrict)
+      s += ds_value(v);
+    }
     return s;
   };
   const int nx = g.size[0], ny = g.size[1], nz = g.size[2];

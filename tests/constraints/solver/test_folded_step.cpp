@@ -37,11 +37,6 @@ ConstraintRows top_rows(const core::TetMesh& mesh, const MatrixX3d& x, unsigned 
   return rows;
 }
 
-/// Max over nodes of |a − b| (mm).
-double max_node_difference(const MatrixX3d& a, const MatrixX3d& b) {
-  return (a - b).rowwise().norm().maxCoeff();
-}
-
 TEST(ComplianceOperator, SeveralColumnsAtOnceAndTheBlockCorrectionMatchApply) {
   const auto mesh = data_synth::make_box_mesh({20, 20, 40}, {3, 3, 6});
   const std::vector<index_t> block = tests::nodes_above(mesh, 20);

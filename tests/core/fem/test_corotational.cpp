@@ -216,8 +216,9 @@ TEST_F(CorotationalTest, AnInvertedElementOfAPreStrainedRestKeepsTheMeshsRest) {
       for (int k = 0; k < 4; ++k) touches[static_cast<std::size_t>(mesh.tets()(t, k))] = true;
   EXPECT_TRUE(touches[0]);
   for (index_t i = 0; i < mesh.num_nodes(); ++i)
-    if (!touches[static_cast<std::size_t>(i)])
+    if (!touches[static_cast<std::size_t>(i)]) {
       ASSERT_LE(f.segment<3>(3 * i).norm(), 1e-9 * f.norm());
+    }
   EXPECT_THROW((void)model.rest_shape(y.topRows(4)), Error);
 }
 
