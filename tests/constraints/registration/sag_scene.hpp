@@ -60,8 +60,8 @@ core::Skeleton make_skeleton() {
 }
 
 /// Intra-operative points every 2.5 mm along the deformed skeleton, with Gaussian noise.
-MatrixX3d sample_deformed(const core::Skeleton& s, double noise, unsigned seed,
-                          double shift_scale = 1.0) {
+inline MatrixX3d sample_deformed(const core::Skeleton& s, double noise, unsigned seed,
+                                 double shift_scale = 1.0) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> g(0.0, noise);
   std::vector<Vector3d> out;
