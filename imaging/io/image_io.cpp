@@ -8,6 +8,7 @@
 #include "imaging/io/gzip_file.hpp"
 #include "imaging/io/header_checks.hpp"
 #include "imaging/io/image_frame.hpp"
+#include "imaging/io/nifti_voxels.hpp"
 #include "imaging/io/nifti_write.hpp"
 #include "imaging/io/nrrd_io.hpp"
 #include "imaging/io/vtk_error_capture.hpp"
@@ -16,6 +17,7 @@
 #include <vtkDataArray.h>
 #include <vtkFloatArray.h>
 #include <vtkImageData.h>
+#include <vtkInformation.h>
 #include <vtkMatrix3x3.h>
 #include <vtkMatrix4x4.h>
 #include <vtkNIFTIImageHeader.h>
@@ -24,6 +26,7 @@
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkUnsignedCharArray.h>
 #include <vtkXMLImageDataReader.h>
 #include <vtkXMLImageDataWriter.h>
@@ -83,22 +86,43 @@ void copy_scalars(vtkImageData* image, VolumeF& volume, const std::string& file)
       volume.data[std::size_t(t * c + k)] = static_cast<float>(scalars->GetComponent(t, k));
 }
 
-VolumeF read_nifti(const std::filesystem::path& path) {
+/// The voxels of `reader`'s file by read_nifti_voxels() where it reads them (a single file, VTK's
+/// slice order the file's, one component), else false. \pre the reader's information updated.
+bool read_voxels_directly(vtkNIFTIImageReader* reader, const std::filesystem::path& path,
+                          const ImageGeometry& g, VolumeF& volume) {
+  vtkNIFTIImageHeader* header = reader->GetNIFTIHeader();
+  const std::string name = lower_name(path);
+  if (!(ends_with(name, ".nii") || ends_with(name, ".nii.gz"))) return false;
+  if (reader->GetQFac() != 1.0 || !nifti_voxels_readable(header->GetDataType())) return false;
+  for (int d = 4; d <= 7; ++d)
+    if (header->GetDim(d) > 1) return false;
+  NiftiVoxelLayout layout;
+  layout.offset = header->GetVoxOffset();
+  layout.datatype = header->GetDataType();
+  layout.count = static_cast<std::size_t>(g.voxel_count());
+  if (!read_nifti_voxels(path, layout, volume.data)) return false;
+  volume.components = 1;
+  return true;
+}
+
+VolumeF read_nifti(const std::filesystem::path& path, bool direct_voxels = true) {
   const std::string file = path.string();
   verify_nifti_header(file);
   const VtkErrorCapture errors;
   vtkNew<vtkNIFTIImageReader> reader;
   BS_VERIFY(reader->CanReadFile(file.c_str()) != 0, file << ": not a NIfTI-1 file");
   reader->SetFileName(file.c_str());
-  update_reader(reader, file);
+  reader->UpdateInformation();  // the header: geometry, datatype, scaling
   BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
-  vtkImageData* image = reader->GetOutput();
   vtkNIFTIImageHeader* header = reader->GetNIFTIHeader();
-  int dims[3];
+  int extent[6];
   double spacing[3], origin[3];
-  image->GetDimensions(dims);
-  image->GetSpacing(spacing);
-  image->GetOrigin(origin);
+  vtkInformation* info = reader->GetOutputInformation(0);
+  info->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent);
+  info->Get(vtkDataObject::SPACING(), spacing);
+  info->Get(vtkDataObject::ORIGIN(), origin);
+  const int dims[3] = {extent[1] - extent[0] + 1, extent[3] - extent[2] + 1,
+                       extent[5] - extent[4] + 1};
 
   // VTK data coordinates x = origin + spacing·ijk map to the world by the 4×4 matrix.
   Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
@@ -127,7 +151,11 @@ VolumeF read_nifti(const std::filesystem::path& path) {
 
   VolumeF volume;
   volume.geometry = g;
-  copy_scalars(image, volume, file);
+  if (!direct_voxels || !read_voxels_directly(reader, path, g, volume)) {
+    update_reader(reader, file);
+    BS_VERIFY(!errors.failed(), file << ": cannot read: " << errors.message());
+    copy_scalars(reader->GetOutput(), volume, file);
+  }
   const double slope = reader->GetRescaleSlope(), intercept = reader->GetRescaleIntercept();
   if (slope != 0.0 && std::isfinite(slope) && std::isfinite(intercept) &&
       (slope != 1.0 || intercept != 0.0))
@@ -397,6 +425,14 @@ ImageFormat image_format(const std::filesystem::path& path) {
   if (ends_with(name, ".vti")) return ImageFormat::VTI;
   BS_THROW(path.string() << ": unknown image file extension (supported: .nii, .nii.gz, .mha, "
                             ".mhd, .nrrd, .vti)");
+}
+
+VolumeF read_nifti_by_vtk(const std::filesystem::path& path) {
+  BS_VERIFY(image_format(path) == ImageFormat::NIFTI, path.string() << ": not a NIfTI file name");
+  verify_readable(path);
+  VolumeF volume = read_nifti(path, false);
+  (void)orthonormalise_direction(volume.geometry, path.string());
+  return volume;
 }
 
 VolumeF read_volume(const std::filesystem::path& path, std::string* header_note) {

@@ -5,7 +5,7 @@
 ///
 /// | extension        | format     | frame of the file | read / write                         |
 /// |------------------|------------|-------------------|--------------------------------------|
-/// | .nii, .nii.gz    | NIfTI-1    | RAS (sform/qform) | VTK vtkNIFTIImageReader/Writer       |
+/// | .nii, .nii.gz    | NIfTI-1    | RAS (sform/qform) | VTK's header; voxels nifti_voxels.hpp|
 /// | .mha, .mhd       | MetaImage  | LPS (ITK physical)| VTK's metaio; writes .mha only       |
 /// | .nrrd            | NRRD       | its `space` field | nrrd_io.hpp (writes RAS)             |
 /// | .vti             | VTK XML    | RAS (our choice)  | vtkXMLImageDataReader/Writer         |
@@ -49,6 +49,11 @@ ImageFormat image_format(const std::filesystem::path& path);
 /// extension, corrupt or truncated data, zero size, non-finite or non-positive spacing,
 /// non-finite, singular or sheared direction.
 VolumeF read_volume(const std::filesystem::path& path, std::string* header_note = nullptr);
+
+/// read_volume() of a NIfTI file (.nii, .nii.gz) with its voxels read and copied by VTK's
+/// reader, as read_volume() did before it read them directly (nifti_voxels.hpp): the reference
+/// the tests compare the direct read with. \throws brainshift::Error as read_volume().
+VolumeF read_nifti_by_vtk(const std::filesystem::path& path);
 
 /// Reads a label volume: one component, every value in {0, 1, 2, 3} (see Label).
 /// \throws brainshift::Error as read_volume(), and naming the first other value and its voxel.
