@@ -4,6 +4,7 @@
 #include "core/hash.hpp"
 #include "imaging/io/atomic_write.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <cstdint>
 #include <cstring>
@@ -39,15 +40,23 @@ class HashingWriter {
   std::uint64_t m_hash = core::fnv1a_offset;
 };
 
-/// Reads from an in-memory copy of the file with bounds checks.
+/// Reads the file in order, hashing every byte it hands out (FNV-1a 64, as HashingWriter), with
+/// bounds checks against the file's size: the block's values go from the file straight into the
+/// matrix, without a copy of the whole file.
 class Reader {
  public:
-  Reader(const std::filesystem::path& path, std::vector<char> bytes)
-      : m_path(path), m_bytes(std::move(bytes)) {}
+  explicit Reader(const std::filesystem::path& path)
+      : m_path(path), m_in(path, std::ios::binary | std::ios::ate) {
+    BS_VERIFY(m_in.good(), path.string() << ": cannot read");
+    m_size = static_cast<std::size_t>(m_in.tellg());
+    m_in.seekg(0);
+  }
   void get(void* data, std::size_t bytes) {
-    BS_VERIFY(bytes <= m_bytes.size() - m_pos,
+    BS_VERIFY(bytes <= remaining(),
               m_path.string() << ": truncated compliance cache (run prepare again)");
-    std::memcpy(data, m_bytes.data() + m_pos, bytes);
+    m_in.read(static_cast<char*>(data), static_cast<std::streamsize>(bytes));
+    BS_VERIFY(m_in.good(), m_path.string() << ": cannot read");
+    m_hash = core::fnv1a(data, bytes, m_hash);
     m_pos += bytes;
   }
   template <typename T>
@@ -56,17 +65,28 @@ class Reader {
     get(&v, sizeof v);
     return v;
   }
-  [[nodiscard]] std::size_t position() const { return m_pos; }
-  [[nodiscard]] std::size_t remaining() const { return m_bytes.size() - m_pos; }
-  [[nodiscard]] std::uint64_t hash_before(std::size_t end) const {
-    return core::fnv1a(m_bytes.data(), end);
-  }
+  [[nodiscard]] std::size_t size() const { return m_size; }
+  [[nodiscard]] std::size_t remaining() const { return m_size - m_pos; }
+  /// FNV-1a of every byte read so far.
+  [[nodiscard]] std::uint64_t hash() const { return m_hash; }
 
  private:
   std::filesystem::path m_path;
-  std::vector<char> m_bytes;
-  std::size_t m_pos = 0;
+  std::ifstream m_in;
+  std::size_t m_size = 0, m_pos = 0;
+  std::uint64_t m_hash = core::fnv1a_offset;
 };
+
+/// The upper triangle of a square matrix set from its lower one, in tiles (a column-major
+/// transpose touches a new cache line per entry otherwise).
+void mirror_lower(Eigen::MatrixXd& m) {
+  constexpr Eigen::Index tile = 64;
+  const Eigen::Index n = m.rows();
+  for (Eigen::Index j0 = 0; j0 < n; j0 += tile)
+    for (Eigen::Index i0 = j0; i0 < n; i0 += tile)
+      for (Eigen::Index i = i0; i < std::min(i0 + tile, n); ++i)  // row i of the upper part
+        for (Eigen::Index j = j0; j < std::min({j0 + tile, n, i}); ++j) m(j, i) = m(i, j);
+}
 
 }  // namespace
 
@@ -96,14 +116,8 @@ void write_compliance_cache(const std::filesystem::path& path,
 }
 
 constraints::ComplianceBlock read_compliance_cache(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  BS_VERIFY(in.good(), path.string() << ": cannot read");
-  const auto size = static_cast<std::size_t>(in.tellg());
-  std::vector<char> bytes(size);
-  in.seekg(0);
-  in.read(bytes.data(), static_cast<std::streamsize>(size));
-  BS_VERIFY(in.good(), path.string() << ": cannot read");
-  Reader r(path, std::move(bytes));
+  Reader r(path);
+  const std::size_t size = r.size();
 
   char m[8];
   BS_VERIFY(size >= sizeof m, path.string() << ": not a brainshift compliance cache (too short)");
@@ -132,11 +146,10 @@ constraints::ComplianceBlock read_compliance_cache(const std::filesystem::path& 
                           << values * sizeof(double) + sizeof(std::uint64_t)
                           << "; run prepare again)");
   b.matrix.resize(nb, nb);
-  for (Eigen::Index j = 0; j < nb; ++j) {
+  for (Eigen::Index j = 0; j < nb; ++j)
     r.get(b.matrix.col(j).data() + j, sizeof(double) * static_cast<std::size_t>(nb - j));
-    for (Eigen::Index i = j + 1; i < nb; ++i) b.matrix(j, i) = b.matrix(i, j);
-  }
-  const std::uint64_t expected = r.hash_before(r.position());
+  mirror_lower(b.matrix);
+  const std::uint64_t expected = r.hash();
   BS_VERIFY(r.get<std::uint64_t>() == expected,
             path.string() << ": corrupted compliance cache (checksum mismatch; run prepare again)");
   return b;

@@ -116,7 +116,7 @@ ComplianceOperator::ComplianceOperator(const core::CholmodFactor& factor, const 
   if (options.precomputed) {
     const std::string why = check_precomputed(*options.precomputed, free_of_block);
     if (why.empty()) {
-      m_block = options.precomputed->matrix;
+      m_adopted = options.precomputed;  // shared, not copied: the cache's matrix is the block
       m_cache_status = "adopted";
       logger().info("compliance block: {} nodes adopted from the precomputed cache",
                     m_block_nodes.size());
@@ -219,15 +219,15 @@ std::string ComplianceOperator::check_precomputed(const ComplianceBlock& b,
 }
 
 double ComplianceOperator::block_trace(index_t node) const {
-  if (m_block.size() == 0 || node < 0 || node >= static_cast<index_t>(m_block_pos.size()))
-    return -1.0;
+  const Eigen::MatrixXd& C = block_matrix();
+  if (C.size() == 0 || node < 0 || node >= static_cast<index_t>(m_block_pos.size())) return -1.0;
   const index_t b = m_block_pos[static_cast<std::size_t>(node)];
   if (b < 0) return -1.0;
-  return m_block(3 * b, 3 * b) + m_block(3 * b + 1, 3 * b + 1) + m_block(3 * b + 2, 3 * b + 2);
+  return C(3 * b, 3 * b) + C(3 * b + 1, 3 * b + 1) + C(3 * b + 2, 3 * b + 2);
 }
 
 std::size_t ComplianceOperator::block_bytes() const {
-  return static_cast<std::size_t>(m_block.size()) * sizeof(double);
+  return static_cast<std::size_t>(block_matrix().size()) * sizeof(double);
 }
 
 void ComplianceOperator::set_rotations(std::vector<Matrix3d> nodal_rotations) {
@@ -306,7 +306,7 @@ Eigen::VectorXd ComplianceOperator::apply_block(ConstRef<Eigen::VectorXd> v,
     if (f.isZero()) continue;
     const Vector3d w = R.empty() ? f : Vector3d(R[static_cast<std::size_t>(n)].transpose() * f);
     for (int c = 0; c < 3; ++c)
-      if (w[c] != 0.0) out_b += w[c] * m_block.col(3 * static_cast<Eigen::Index>(b) + c);
+      if (w[c] != 0.0) out_b += w[c] * block_matrix().col(3 * static_cast<Eigen::Index>(b) + c);
   }
   Eigen::VectorXd out = Eigen::VectorXd::Zero(v.size());
   for (std::size_t b = 0; b < m_block_nodes.size(); ++b) {
@@ -395,7 +395,8 @@ Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H,
   const auto m = H.rows();
   // Per row: list of (block dof, coefficient) of H R restricted to the block.
   std::vector<std::vector<std::pair<index_t, double>>> g(static_cast<std::size_t>(m));
-  std::vector<char> used(static_cast<std::size_t>(m_block.rows()), 0);
+  const Eigen::MatrixXd& C = block_matrix();
+  std::vector<char> used(static_cast<std::size_t>(C.rows()), 0);
   for_each_row_node(H, [&](index_t i, index_t node, const Vector3d& h) {
     const index_t b = m_block_pos[node];
     if (b < 0) {
@@ -423,7 +424,7 @@ Eigen::MatrixXd ComplianceOperator::delassus_dense_block(const SparseMatrix& H,
   for (Eigen::Index i = 0; i < m; ++i) {
     double* t = T.col(i).data();
     for (const auto& [dof, coef] : g[i]) {
-      const double* c = m_block.col(dof).data();
+      const double* c = C.col(dof).data();
       for (Eigen::Index u = 0; u < nu; ++u) t[u] += coef * c[u_dofs[u]];
     }
   }

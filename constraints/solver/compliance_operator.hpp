@@ -142,7 +142,9 @@ class ComplianceOperator {
   /// prior term (registration/uncertainty.hpp) uses it instead of solving.
   [[nodiscard]] double block_trace(index_t node) const;
   /// The dense block with its fingerprint, for saving (matrix empty for SPARSE_SOLVE).
-  [[nodiscard]] ComplianceBlock block() const { return {m_fingerprint, m_block_nodes, m_block}; }
+  [[nodiscard]] ComplianceBlock block() const {
+    return {m_fingerprint, m_block_nodes, block_matrix()};
+  }
   /// Where the block came from: "computed", "adopted" (from ComplianceOptions::precomputed),
   /// "rejected (<why>); computed", or "none (sparse_solve)".
   [[nodiscard]] const std::string& cache_status() const { return m_cache_status; }
@@ -209,7 +211,12 @@ class ComplianceOperator {
   ComplianceStrategy m_strategy = ComplianceStrategy::SPARSE_SOLVE;
   std::vector<index_t> m_block_nodes;
   std::vector<index_t> m_block_pos;  // node → position in the block, −1 outside
-  Eigen::MatrixXd m_block;           // (3|S|)², column-major, zero on fixed DOFs
+  Eigen::MatrixXd m_block;           // (3|S|)², column-major, zero on fixed DOFs (computed)
+  std::shared_ptr<const ComplianceBlock> m_adopted;  // the cache's block when adopted
+  /// The dense block: the adopted cache's matrix, else the computed one.
+  [[nodiscard]] const Eigen::MatrixXd& block_matrix() const {
+    return m_adopted ? m_adopted->matrix : m_block;
+  }
   std::uint64_t m_fingerprint = 0;
   std::string m_cache_status = "none (sparse_solve)";
   // Statistics of the calls (the operator is used through const references during a
