@@ -52,8 +52,8 @@ class Reader {
     m_in.seekg(0);
   }
   void get(void* data, std::size_t bytes) {
-    BS_VERIFY(bytes <= remaining(),
-              m_path.string() << ": truncated compliance cache (run prepare again)");
+    BS_VERIFY(bytes <= remaining(), m_path.string()
+                                        << ": truncated compliance cache (run prepare again)");
     m_in.read(static_cast<char*>(data), static_cast<std::streamsize>(bytes));
     BS_VERIFY(m_in.good(), m_path.string() << ": cannot read");
     m_hash = core::fnv1a(data, bytes, m_hash);

@@ -70,8 +70,8 @@ void inflate_into(const std::vector<unsigned char>& in, const std::vector<Part>&
           std::min<std::size_t>(p.size - done, std::numeric_limits<std::uint32_t>::max()));
       const std::uint32_t asked = s.avail_out, had = s.avail_in;
       const int status = isal_inflate(&s);
-      BS_VERIFY(status == ISAL_DECOMP_OK, file << ": not a valid gzip stream (igzip status "
-                                               << status << ")");
+      BS_VERIFY(status == ISAL_DECOMP_OK,
+                file << ": not a valid gzip stream (igzip status " << status << ")");
       BS_VERIFY(asked != s.avail_out || had != s.avail_in || s.block_state == ISAL_BLOCK_FINISH,
                 file << ": ends before its voxels (truncated file?)");  // no progress
       done += asked - s.avail_out;
@@ -195,10 +195,11 @@ bool read_nifti_voxels(const std::filesystem::path& path, const NiftiVoxelLayout
   } else {  // read in place: the header's bytes, then the voxels straight into the buffer
     std::ifstream in(path, std::ios::binary);
     BS_VERIFY(in, file << ": cannot open");
-    BS_VERIFY(in.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(offset)) &&
-                  in.read(reinterpret_cast<char*>(target), static_cast<std::streamsize>(data_bytes)),
-              file << ": shorter than its header and " << data_bytes
-                   << " bytes of voxels (truncated file?)");
+    BS_VERIFY(
+        in.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(offset)) &&
+            in.read(reinterpret_cast<char*>(target), static_cast<std::streamsize>(data_bytes)),
+        file << ": shorter than its header and " << data_bytes
+             << " bytes of voxels (truncated file?)");
   }
   std::int32_t sizeof_hdr = 0;
   std::memcpy(&sizeof_hdr, head.data(), 4);

@@ -66,8 +66,8 @@ std::string hand_nifti(const HandNifti& f, const std::vector<double>& values) {
   for (int a = 0; a < 3; ++a) put(42 + 2 * a, dims[std::size_t(a)]);
   for (int a = 4; a < 8; ++a) put(40 + 2 * a, std::int16_t(1));
   put(70, f.datatype);
-  const std::map<int, int> bits = {{2, 8},   {256, 8},  {4, 16}, {512, 16},
-                                   {8, 32},  {768, 32}, {16, 32}, {64, 64}};
+  const std::map<int, int> bits = {{2, 8},  {256, 8},  {4, 16},  {512, 16},
+                                   {8, 32}, {768, 32}, {16, 32}, {64, 64}};
   put(72, std::int16_t(bits.at(f.datatype)));
   put(76, f.qfac);
   const std::array<float, 3> spacing = {0.8F, 0.9F, 1.2F};
@@ -130,10 +130,9 @@ TEST(ImageIo, NiftiVoxelsReadDirectlyAreVtksToTheBit) {
   files.push_back({16, 0.0F, 0.0F, 1.0F, true});  // the other byte order
   for (const HandNifti& f : files)
     for (const bool gz : {false, true}) {
-      const std::string name = "dt" + std::to_string(f.datatype) + "_s" +
-                               std::to_string(int(f.slope * 10)) + "_q" +
-                               std::to_string(int(f.qfac)) + (f.swapped ? "_swap" : "") +
-                               (gz ? ".nii.gz" : ".nii");
+      const std::string name =
+          "dt" + std::to_string(f.datatype) + "_s" + std::to_string(int(f.slope * 10)) + "_q" +
+          std::to_string(int(f.qfac)) + (f.swapped ? "_swap" : "") + (gz ? ".nii.gz" : ".nii");
       SCOPED_TRACE(name);
       const std::vector<double> values = values_of(f.datatype);
       const std::string bytes = hand_nifti(f, values);
