@@ -167,7 +167,8 @@ bool read_nifti_voxels(const std::filesystem::path& path, const NiftiVoxelLayout
                        std::vector<float>& out) {
   const std::string file = path.string();
   const std::size_t bytes_per = datatype_bytes(layout.datatype);
-  if (bytes_per == 0 || layout.offset < 4) return false;
+  // A header with extensions past 1 MiB is left to VTK, which seeks to it, rather than held here.
+  if (bytes_per == 0 || layout.offset < 4 || layout.offset > (std::int64_t(1) << 20)) return false;
   const auto offset = static_cast<std::size_t>(layout.offset);
   BS_VERIFY(layout.count <= std::numeric_limits<std::size_t>::max() / 8,
             file << ": " << layout.count << " voxels is more than can be read");

@@ -29,7 +29,8 @@ bool nifti_voxels_readable(int datatype);
 
 /// Reads layout.count voxels into `out` (float; integers and doubles converted as VTK's reader
 /// and static_cast<float> do). Returns false, with `out` untouched, where the file is not one it
-/// reads: a datatype nifti_voxels_readable() refuses, or a header in the other byte order (the
+/// reads: a datatype nifti_voxels_readable() refuses, voxels more than 1 MiB into the file (a
+/// header's extensions, or a corrupt vox_offset), or a header in the other byte order (the
 /// caller then reads it with VTK).
 /// \throws brainshift::Error naming the file when it cannot be read, is not a valid gzip stream,
 /// or ends before its voxels (truncated).

@@ -174,6 +174,15 @@ TEST(ImageIoErrors, ACompressedNiftiEndingBeforeItsVoxelsIsNamedTruncated) {
   std::filesystem::copy_file(dir / "whole.nii.gz", dir / "cut.nii.gz");
   std::filesystem::resize_file(dir / "cut.nii.gz", size - 12);
   expect_error([&] { read_volume(dir / "cut.nii.gz"); }, {"cut.nii.gz"});
+  // A vox_offset of 10¹² bytes in a small .nii.gz: left to VTK, which finds the file too short
+  // (no terabyte buffer for the header's bytes).
+  std::string far = bytes;
+  const float offset = 1e12F;
+  std::memcpy(far.data() + 108, &offset, 4);
+  write_gzip(dir / "far.nii.gz", far);
+  std::vector<float> raw;
+  EXPECT_FALSE(read_nifti_voxels(dir / "far.nii.gz", {std::int64_t(1e12), 16, 60}, raw));
+  expect_error([&] { read_volume(dir / "far.nii.gz"); }, {"far.nii.gz", "truncated"});
 }
 
 }  // namespace
