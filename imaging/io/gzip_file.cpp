@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <fstream>
 #include <limits>
+#include <string>
 #include <vector>
 #include <zlib.h>
 
@@ -216,5 +217,84 @@ void gzip_file(const std::filesystem::path& source, const std::filesystem::path&
   BS_VERIFY(n == 0 || f.read(data.data(), n), source.string() << ": cannot read");
   gzip_buffer(data.data(), data.size(), target, options);
 }
+
+#ifdef BS_HAVE_ISAL
+void gunzip_into(const std::vector<unsigned char>& in, const std::vector<GunzipPart>& parts,
+                 const std::string& file) {
+  inflate_state s;
+  isal_inflate_init(&s);
+  s.crc_flag = ISAL_GZIP;
+  s.next_in = const_cast<unsigned char*>(in.data());  // NOLINT: ISA-L's API is not const
+  s.avail_in = static_cast<std::uint32_t>(in.size());
+  for (const GunzipPart& p : parts) {
+    std::size_t done = 0;
+    while (done < p.size) {
+      s.next_out = p.data + done;
+      s.avail_out = static_cast<std::uint32_t>(
+          std::min<std::size_t>(p.size - done, std::numeric_limits<std::uint32_t>::max()));
+      const std::uint32_t asked = s.avail_out, had = s.avail_in;
+      const int status = isal_inflate(&s);
+      BS_VERIFY(status == ISAL_DECOMP_OK,
+                file << ": not a valid gzip stream (igzip status " << status << ")");
+      BS_VERIFY(
+          asked != s.avail_out || had != s.avail_in || s.block_state == ISAL_BLOCK_FINISH,
+          file << ": ends before the data its header claims (truncated file?)");  // no progress
+      done += asked - s.avail_out;
+      if (done < p.size && s.block_state == ISAL_BLOCK_FINISH) {
+        // The end of a member: another may follow (as in concatenated gzip files).
+        BS_VERIFY(s.avail_in > 0,
+                  file << ": ends before the data its header claims (truncated file?)");
+        const std::uint8_t* rest = s.next_in;
+        const std::uint32_t left = s.avail_in;
+        isal_inflate_init(&s);
+        s.crc_flag = ISAL_GZIP;
+        s.next_in = const_cast<std::uint8_t*>(rest);  // NOLINT: as above
+        s.avail_in = left;
+      } else {
+        BS_VERIFY(done == p.size || s.avail_in > 0,
+                  file << ": ends before the data its header claims (truncated file?)");
+      }
+    }
+  }
+}
+#else
+void gunzip_into(const std::vector<unsigned char>& in, const std::vector<GunzipPart>& parts,
+                 const std::string& file) {
+  z_stream z{};
+  BS_VERIFY(inflateInit2(&z, 15 + 16) == Z_OK, file << ": cannot start inflating");
+  z.next_in = const_cast<Bytef*>(in.data());  // NOLINT: zlib's API is not const
+  z.avail_in = static_cast<uInt>(in.size());
+  try {
+    for (const GunzipPart& p : parts) {
+      std::size_t done = 0;
+      while (done < p.size) {
+        z.next_out = p.data + done;
+        z.avail_out = static_cast<uInt>(
+            std::min<std::size_t>(p.size - done, std::numeric_limits<uInt>::max()));
+        const uInt asked = z.avail_out, had = z.avail_in;
+        const int status = inflate(&z, Z_NO_FLUSH);
+        BS_VERIFY(
+            status != Z_BUF_ERROR || asked != z.avail_out || had != z.avail_in,
+            file << ": ends before the data its header claims (truncated file?)");  // no progress
+        done += asked - z.avail_out;
+        if (status == Z_STREAM_END && done < p.size) {
+          BS_VERIFY(z.avail_in > 0,
+                    file << ": ends before the data its header claims (truncated file?)");
+          BS_VERIFY(inflateReset(&z) == Z_OK, file << ": cannot inflate");
+          continue;
+        }
+        BS_VERIFY(status == Z_OK || status == Z_STREAM_END,
+                  file << ": not a valid gzip stream (zlib status " << status << ")");
+        BS_VERIFY(done == p.size || z.avail_in > 0,
+                  file << ": ends before the data its header claims (truncated file?)");
+      }
+    }
+  } catch (...) {
+    inflateEnd(&z);
+    throw;
+  }
+  inflateEnd(&z);
+}
+#endif
 
 }  // namespace brainshift::imaging

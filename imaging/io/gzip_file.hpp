@@ -5,12 +5,14 @@
 /// one finished, the others ended on a byte boundary by a sync flush), the streams concatenated
 /// and the CRC-32s combined, so any gzip reader (zlib's gzread, Python's gzip, ITK, Slicer)
 /// reads one ordinary member. The bytes written depend only on the data and the options, not
-/// on thread timing.
+/// on thread timing. And gzip data inflated into given buffers (gunzip_into()), for readers that
+/// place the bytes themselves (nifti_voxels.hpp).
 
 #include <cstddef>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace brainshift::imaging {
 
@@ -57,5 +59,20 @@ void gzip_source(std::size_t size, const ByteSource& source, const std::filesyst
 /// \throws brainshift::Error naming the file that cannot be read or written.
 void gzip_file(const std::filesystem::path& source, const std::filesystem::path& target,
                const GzipOptions& options = {});
+
+/// One output of gunzip_into(): `size` bytes at `data`.
+struct GunzipPart {
+  unsigned char* data;
+  std::size_t size;
+};
+
+/// Inflates the gzip data `in` (one member or several, as concatenated gzip files) into the
+/// consecutive outputs `parts`, each filled completely in order, and stops when the last is full
+/// (what follows is not read, nor the CRC checked). By ISA-L's igzip where the build has it
+/// (gzip_has_fast_deflate()), else by zlib; the same bytes either way.
+/// \throws brainshift::Error naming `file` when the data is not gzip or ends before the parts
+/// are full (truncated).
+void gunzip_into(const std::vector<unsigned char>& in, const std::vector<GunzipPart>& parts,
+                 const std::string& file);
 
 }  // namespace brainshift::imaging

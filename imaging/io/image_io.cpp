@@ -86,13 +86,12 @@ void copy_scalars(vtkImageData* image, VolumeF& volume, const std::string& file)
       volume.data[std::size_t(t * c + k)] = static_cast<float>(scalars->GetComponent(t, k));
 }
 
-/// The voxels of `reader`'s file by read_nifti_voxels() where it reads them (a single file, VTK's
-/// slice order the file's, one component), else false. \pre the reader's information updated.
+/// The voxels of `reader`'s file by read_nifti_voxels() where it reads them (VTK's slice order
+/// the file's, one component), else false. A single file (.nii, .nii.gz) by then: image_format()
+/// and verify_nifti_header()'s magic. \pre the reader's information updated.
 bool read_voxels_directly(vtkNIFTIImageReader* reader, const std::filesystem::path& path,
                           const ImageGeometry& g, VolumeF& volume) {
   vtkNIFTIImageHeader* header = reader->GetNIFTIHeader();
-  const std::string name = lower_name(path);
-  if (!(ends_with(name, ".nii") || ends_with(name, ".nii.gz"))) return false;
   if (reader->GetQFac() != 1.0 || !nifti_voxels_readable(header->GetDataType())) return false;
   for (int d = 4; d <= 7; ++d)
     if (header->GetDim(d) > 1) return false;

@@ -16,7 +16,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <string>
 #include <vector>
 #include <zlib.h>
@@ -39,26 +38,39 @@ struct HandNifti {
   bool swapped = false;
 };
 
-template <class T>
-std::string voxel_bytes(const std::vector<double>& values, bool swapped) {
-  std::string out;
-  for (double v : values) {
-    T t = static_cast<T>(v);
-    char b[sizeof(T)];
-    std::memcpy(b, &t, sizeof(T));
-    if (swapped) std::reverse(b, b + sizeof(T));
-    out.append(b, sizeof(T));
+/// Calls f(T{}) with the C++ type of a NIfTI datatype code (the eight the tests write).
+template <class F>
+void with_type(std::int16_t datatype, F&& f) {
+  switch (datatype) {
+    case 2:
+      return f(std::uint8_t{});
+    case 256:
+      return f(std::int8_t{});
+    case 4:
+      return f(std::int16_t{});
+    case 512:
+      return f(std::uint16_t{});
+    case 8:
+      return f(std::int32_t{});
+    case 768:
+      return f(std::uint32_t{});
+    case 16:
+      return f(float{});
+    default:
+      return f(double{});
   }
-  return out;
 }
 
 std::string hand_nifti(const HandNifti& f, const std::vector<double>& values) {
+  const auto bytes_of = [&](auto v) {  // in the file's byte order
+    std::string b(sizeof v, '\0');
+    std::memcpy(b.data(), &v, sizeof v);
+    if (f.swapped) std::reverse(b.begin(), b.end());
+    return b;
+  };
   std::string h(352, '\0');
   const auto put = [&](int at, auto v) {
-    char b[sizeof v];
-    std::memcpy(b, &v, sizeof v);
-    if (f.swapped) std::reverse(b, b + sizeof v);
-    std::memcpy(h.data() + at, b, sizeof v);
+    std::memcpy(h.data() + at, bytes_of(v).data(), sizeof v);
   };
   const std::array<std::int16_t, 3> dims = {5, 4, 3};
   put(0, std::int32_t(348));
@@ -66,9 +78,7 @@ std::string hand_nifti(const HandNifti& f, const std::vector<double>& values) {
   for (int a = 0; a < 3; ++a) put(42 + 2 * a, dims[std::size_t(a)]);
   for (int a = 4; a < 8; ++a) put(40 + 2 * a, std::int16_t(1));
   put(70, f.datatype);
-  const std::map<int, int> bits = {{2, 8},  {256, 8},  {4, 16},  {512, 16},
-                                   {8, 32}, {768, 32}, {16, 32}, {64, 64}};
-  put(72, std::int16_t(bits.at(f.datatype)));
+  with_type(f.datatype, [&](auto t) { put(72, std::int16_t(8 * sizeof t)); });  // bitpix
   put(76, f.qfac);
   const std::array<float, 3> spacing = {0.8F, 0.9F, 1.2F};
   for (int a = 0; a < 3; ++a) put(80 + 4 * a, spacing[std::size_t(a)]);
@@ -80,24 +90,10 @@ std::string hand_nifti(const HandNifti& f, const std::vector<double>& values) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c) put(280 + 16 * r + 4 * c, srow[r][c]);
   std::memcpy(h.data() + 344, "n+1", 4);
-  switch (f.datatype) {
-    case 2:
-      return h + voxel_bytes<std::uint8_t>(values, f.swapped);
-    case 256:
-      return h + voxel_bytes<std::int8_t>(values, f.swapped);
-    case 4:
-      return h + voxel_bytes<std::int16_t>(values, f.swapped);
-    case 512:
-      return h + voxel_bytes<std::uint16_t>(values, f.swapped);
-    case 8:
-      return h + voxel_bytes<std::int32_t>(values, f.swapped);
-    case 768:
-      return h + voxel_bytes<std::uint32_t>(values, f.swapped);
-    case 16:
-      return h + voxel_bytes<float>(values, f.swapped);
-    default:
-      return h + voxel_bytes<double>(values, f.swapped);
-  }
+  with_type(f.datatype, [&](auto t) {
+    for (double v : values) h += bytes_of(static_cast<decltype(t)>(v));
+  });
+  return h;
 }
 
 void write_gzip(const std::filesystem::path& path, const std::string& bytes) {
